@@ -1,0 +1,201 @@
+"""Skeleton: joint names, parent indices, rest offsets, channel layout and End Sites.
+
+Conventions (used throughout mocapkit):
+- Joints are indexed 0..J-1 in file order; ``parents[j] < j`` for every non-root joint and the
+  root has parent -1 (parents before children), so a single forward pass does forward kinematics.
+- ``offsets`` is (J, 3): each joint's rest translation relative to its parent, in file units.
+- ``channels[j]`` is the tuple of BVH channel names of joint j in file order (e.g.
+  ``("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")``); it fixes
+  the rotation order (intrinsic, "ZXY" here: R = Rz @ Rx @ Ry) and whether the joint animates
+  its translation.
+- End Sites are leaves without channels: ``end_site_parents`` (E,) and ``end_site_offsets``
+  (E, 3), plus the optional trailing token some tools write (``End Site Head_end``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+VALID_CHANNELS = frozenset(POSITION_CHANNELS + ROTATION_CHANNELS)
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """A joint hierarchy.
+
+    Attributes:
+        names: J joint names, unique.
+        parents: (J,) int array, -1 for the root, ``parents[j] < j`` otherwise.
+        offsets: (J, 3) float64 rest offsets from the parent (file units).
+        channels: J tuples of channel names in file order (0, 3 or 6 channels, any order).
+        end_site_parents: (E,) int array, the joint each End Site hangs from.
+        end_site_offsets: (E, 3) float64 End Site offsets.
+        end_site_names: E strings, the token written after ``End Site`` ("" if none).
+    """
+
+    names: tuple[str, ...]
+    parents: np.ndarray
+    offsets: np.ndarray
+    channels: tuple[tuple[str, ...], ...]
+    end_site_parents: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    end_site_offsets: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    end_site_names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        names = tuple(str(n) for n in self.names)
+        parents = np.asarray(self.parents, dtype=np.int64).reshape(-1)
+        offsets = np.asarray(self.offsets, dtype=np.float64).reshape(-1, 3)
+        channels = tuple(tuple(str(c) for c in ch) for ch in self.channels)
+        ep = np.asarray(self.end_site_parents, dtype=np.int64).reshape(-1)
+        eo = np.asarray(self.end_site_offsets, dtype=np.float64).reshape(-1, 3)
+        en = tuple(self.end_site_names) if self.end_site_names else ("",) * len(ep)
+        J = len(names)
+        if J == 0:
+            raise ValueError("a skeleton needs at least one joint")
+        if len(parents) != J or len(offsets) != J or len(channels) != J:
+            raise ValueError(
+                f"names ({J}), parents ({len(parents)}), offsets ({len(offsets)}) and "
+                f"channels ({len(channels)}) must have the same length"
+            )
+        if len(set(names)) != J:
+            dup = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(f"duplicate joint names: {dup}")
+        if parents[0] != -1 or np.any(parents[1:] < 0) or np.any(parents[1:] >= np.arange(1, J)):
+            raise ValueError("parents must be -1 for joint 0 and < j for every other joint j")
+        for j, ch in enumerate(channels):
+            bad = [c for c in ch if c not in VALID_CHANNELS]
+            if bad or len(set(ch)) != len(ch):
+                raise ValueError(f"joint {names[j]!r}: invalid channels {ch}")
+            nrot = sum(c in ROTATION_CHANNELS for c in ch)
+            if nrot not in (0, 3):
+                raise ValueError(f"joint {names[j]!r}: needs 0 or 3 rotation channels, got {ch}")
+        if len(ep) != len(eo) or len(en) != len(ep):
+            raise ValueError(
+                "end_site_parents, end_site_offsets and end_site_names differ in length"
+            )
+        if np.any((ep < 0) | (ep >= J)):
+            raise ValueError("end_site_parents must index joints")
+        for name, arr in (("offsets", offsets), ("end_site_offsets", eo)):
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} contain NaN or inf")
+        for arr in (parents, offsets, ep, eo):
+            arr.setflags(write=False)
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "parents", parents)
+        object.__setattr__(self, "offsets", offsets)
+        object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "end_site_parents", ep)
+        object.__setattr__(self, "end_site_offsets", eo)
+        object.__setattr__(self, "end_site_names", en)
+
+    # ---- derived views -------------------------------------------------------------------
+    @property
+    def num_joints(self) -> int:
+        return len(self.names)
+
+    @property
+    def num_channels(self) -> int:
+        return sum(len(c) for c in self.channels)
+
+    def index(self, name: str) -> int:
+        """Index of the joint called ``name`` (KeyError naming the joint otherwise)."""
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no joint named {name!r}") from None
+
+    def rotation_order(self, j: int) -> str:
+        """Intrinsic rotation order of joint j as written in the file, e.g. "ZXY".
+
+        Joints without rotation channels report "ZXY" (their rotation is always identity).
+        """
+        order = "".join(c[0] for c in self.channels[j] if c in ROTATION_CHANNELS)
+        return order or "ZXY"
+
+    @property
+    def rotation_orders(self) -> tuple[str, ...]:
+        return tuple(self.rotation_order(j) for j in range(self.num_joints))
+
+    @property
+    def has_rotation(self) -> np.ndarray:
+        """(J,) bool: joint j has rotation channels."""
+        return np.array([any(c in ROTATION_CHANNELS for c in ch) for ch in self.channels])
+
+    @property
+    def has_position(self) -> np.ndarray:
+        """(J,) bool: joint j has position channels (animated translation)."""
+        return np.array([any(c in POSITION_CHANNELS for c in ch) for ch in self.channels])
+
+    def children(self, j: int) -> list[int]:
+        return [int(c) for c in np.flatnonzero(self.parents == j)]
+
+    def depth(self) -> np.ndarray:
+        """(J,) number of ancestors of each joint."""
+        d = np.zeros(self.num_joints, dtype=np.int64)
+        for j in range(1, self.num_joints):
+            d[j] = d[self.parents[j]] + 1
+        return d
+
+    def with_channels(self, channels: Sequence[Sequence[str]]) -> Skeleton:
+        """Same hierarchy with another channel layout (e.g. another rotation order)."""
+        return Skeleton(
+            self.names,
+            self.parents,
+            self.offsets,
+            tuple(tuple(c) for c in channels),
+            self.end_site_parents,
+            self.end_site_offsets,
+            self.end_site_names,
+        )
+
+    def with_rotation_order(self, order: str) -> Skeleton:
+        """Same layout with every joint's rotation channels in ``order`` (e.g. "ZYX")."""
+        order = order.upper()
+        if sorted(order) != ["X", "Y", "Z"]:
+            raise ValueError(f"rotation order must be a permutation of XYZ, got {order!r}")
+        new = []
+        for ch in self.channels:
+            pos = [c for c in ch if c in POSITION_CHANNELS]
+            if not any(c in ROTATION_CHANNELS for c in ch):
+                new.append(tuple(ch))
+                continue
+            rot = [f"{a}rotation" for a in order]
+            rot_first = ch[0] in ROTATION_CHANNELS and bool(pos)
+            new.append(tuple(rot + pos) if rot_first else tuple(pos + rot))
+        return self.with_channels(new)
+
+    def scaled(self, factor: float) -> Skeleton:
+        """Offsets (and End Site offsets) multiplied by ``factor``."""
+        return Skeleton(
+            self.names,
+            self.parents,
+            self.offsets * factor,
+            self.channels,
+            self.end_site_parents,
+            self.end_site_offsets * factor,
+            self.end_site_names,
+        )
+
+    def allclose(self, other: Skeleton, atol: float = 1e-9) -> bool:
+        """Same names, hierarchy, channels and End Sites; offsets equal within ``atol``."""
+        return (
+            self.names == other.names
+            and np.array_equal(self.parents, other.parents)
+            and self.channels == other.channels
+            and np.array_equal(self.end_site_parents, other.end_site_parents)
+            and np.allclose(self.offsets, other.offsets, rtol=0, atol=atol)
+            and np.allclose(self.end_site_offsets, other.end_site_offsets, rtol=0, atol=atol)
+        )
+
+    def height(self) -> float:
+        """Rough size of the character: extent of rest-pose joint positions (file units)."""
+        from mocapkit.core.kinematics import rest_positions
+
+        p = rest_positions(self)
+        ext = p.max(axis=0) - p.min(axis=0)
+        return float(ext.max()) if ext.max() > 0 else 1.0

@@ -1,0 +1,78 @@
+"""File formats: BVH, ASF/AMC (read) and mocapkit's .npz, behind one pair of entry points."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mocapkit.core.motion import Motion
+from mocapkit.io.bvh import read_bvh, write_bvh
+from mocapkit.io.errors import ASFAMCError, BVHError, MocapFileError, RepairWarning
+from mocapkit.io.npz import read_npz, write_npz
+
+__all__ = [
+    "ASFAMCError",
+    "BVHError",
+    "MocapFileError",
+    "RepairWarning",
+    "find_asf",
+    "read_bvh",
+    "read_motion",
+    "read_npz",
+    "write_bvh",
+    "write_motion",
+    "write_npz",
+]
+
+READABLE = (".bvh", ".npz", ".amc")
+WRITABLE = (".bvh", ".npz")
+
+
+def find_asf(amc: Path) -> Path:
+    """The ASF skeleton of a CMU-style AMC: ``<subject>.asf`` beside it (``01_02.amc`` ->
+    ``01.asf``), else the only ``.asf`` in its folder."""
+    subject = amc.stem.split("_")[0]
+    for cand in (amc.with_suffix(".asf"), amc.with_name(f"{subject}.asf")):
+        if cand.exists():
+            return cand
+    found = sorted(amc.parent.glob("*.asf"))
+    if len(found) == 1:
+        return found[0]
+    raise MocapFileError(
+        amc,
+        None,
+        "cannot find its ASF skeleton file; give it explicitly "
+        f"(looked for {subject}.asf and a single .asf in {amc.parent})",
+    )
+
+
+def read_motion(
+    path: str | Path, lenient: bool = False, asf: str | Path | None = None, fps: float = 120.0
+) -> Motion:
+    """Read a BVH, .npz or AMC (+ ASF) file by its extension.
+
+    ``asf`` and ``fps`` apply to AMC files only (AMC stores no frame rate; CMU's is 120).
+    """
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext == ".bvh":
+        return read_bvh(path, lenient=lenient)
+    if ext == ".npz":
+        return read_npz(path)
+    if ext == ".amc":
+        from mocapkit.io.asfamc import read_asfamc
+
+        return read_asfamc(Path(asf) if asf else find_asf(path), path, fps=fps)
+    raise MocapFileError(path, None, f"unknown file type {ext!r}; expected one of {READABLE}")
+
+
+def write_motion(motion: Motion, path: str | Path, order: str | None = None) -> Path:
+    """Write a motion as BVH or .npz by the extension (atomically)."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext == ".bvh":
+        return write_bvh(motion, path, order=order)
+    if ext == ".npz":
+        if order is not None:
+            motion = motion.with_skeleton(motion.skeleton.with_rotation_order(order))
+        return write_npz(motion, path)
+    raise ValueError(f"cannot write {path}: unknown file type {ext!r}; expected one of {WRITABLE}")

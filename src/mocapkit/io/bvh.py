@@ -1,0 +1,481 @@
+"""BVH reader and writer: lossless, fast, with clear errors.
+
+Conventions: BVH stores Euler angles in **degrees**, in each joint's channel order, composed
+intrinsically (``Zrotation Xrotation Yrotation`` means R = Rz @ Rx @ Ry). Inside mocapkit they
+become unit quaternions w,x,y,z (see :mod:`mocapkit.core.motion`). ``Frame Time`` is kept as the
+exact double parsed from the file and written back with the shortest text that round-trips.
+
+Reading tolerates what real exporters write (tabs, CRLF or mixed line endings, blank lines in the
+hierarchy, ``End Site`` with trailing tokens, 0/3/6 channels in any order per joint, exponents,
+missing final newline). Anything that would make the result wrong raises :class:`BVHError` with the
+file, the line and what was expected. ``lenient=True`` additionally repairs what is safe — a
+``Frames:`` count that disagrees with the rows present, blank lines inside the motion block, a
+truncated last row — and says so with a :class:`RepairWarning`.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion, fill_missing
+from mocapkit.core.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, VALID_CHANNELS, Skeleton
+from mocapkit.io import _numparse
+from mocapkit.io._atomic import atomic_write_text
+from mocapkit.io.errors import BVHError, RepairWarning
+
+_TOKEN = re.compile(r"[{}]|[^\s{}]+")
+_FRAMES = re.compile(r"frames\s*:\s*(\S*)\s*(.*)", re.IGNORECASE)
+_FRAME_TIME = re.compile(r"frame\s+time\s*:\s*(\S*)\s*(.*)", re.IGNORECASE)
+
+
+class _Lines:
+    """Lazy line reader over the file's bytes, so the motion block is never split into lines."""
+
+    def __init__(self, data: bytes, source: str) -> None:
+        self.data = data
+        self.source = source
+        self.pos = 0
+        self.lineno = 0
+        self.tokens: list[tuple[str, int]] = []
+
+    def next_line(self) -> tuple[int, str] | None:
+        if self.pos >= len(self.data):
+            return None
+        end = self.data.find(b"\n", self.pos)
+        if end < 0:
+            end = len(self.data)
+        raw = self.data[self.pos : end]
+        self.pos = end + 1
+        self.lineno += 1
+        return self.lineno, raw.decode("utf-8", errors="replace")
+
+    def _fill(self) -> bool:
+        while not self.tokens:
+            got = self.next_line()
+            if got is None:
+                return False
+            ln, text = got
+            self.tokens = [(t, ln) for t in _TOKEN.findall(text)]
+        return True
+
+    def peek(self, expected: str) -> tuple[str, int]:
+        if not self._fill():
+            raise BVHError(self.source, self.lineno, f"unexpected end of file, expected {expected}")
+        return self.tokens[0]
+
+    def take(self, expected: str) -> tuple[str, int]:
+        tok = self.peek(expected)
+        self.tokens.pop(0)
+        return tok
+
+    def rest_of_line(self, line: int) -> list[str]:
+        """Remaining tokens on ``line`` (consumed)."""
+        out = []
+        while self.tokens and self.tokens[0][1] == line and self.tokens[0][0] not in "{}":
+            out.append(self.tokens.pop(0)[0])
+        return out
+
+    def expect(self, word: str) -> int:
+        tok, ln = self.take(f"'{word}'")
+        if tok.upper() != word.upper():
+            raise BVHError(self.source, ln, f"expected '{word}', found {tok!r}")
+        return ln
+
+
+def _number(tok: str, source: str, line: int, what: str) -> float:
+    try:
+        v = float(tok)
+    except ValueError:
+        raise BVHError(source, line, f"expected a number for {what}, found {tok!r}") from None
+    if not np.isfinite(v):
+        raise BVHError(source, line, f"{what} is {tok!r}; only finite numbers are allowed")
+    return v
+
+
+class _Hierarchy:
+    def __init__(self) -> None:
+        self.names: list[str] = []
+        self.parents: list[int] = []
+        self.offsets: list[list[float]] = []
+        self.channels: list[tuple[str, ...]] = []
+        self.lines: list[int] = []
+        self.es_parents: list[int] = []
+        self.es_offsets: list[list[float]] = []
+        self.es_names: list[str] = []
+
+
+def _parse_offset(lx: _Lines, what: str) -> list[float]:
+    ln = lx.expect("OFFSET")
+    vals = []
+    for axis in "xyz":
+        tok, tln = lx.peek(f"{axis} of the OFFSET of {what}")
+        if tln != ln or tok in "{}":
+            raise BVHError(lx.source, ln, f"OFFSET of {what} needs 3 numbers")
+        lx.take("")
+        vals.append(_number(tok, lx.source, ln, f"the OFFSET of {what}"))
+    extra = lx.rest_of_line(ln)
+    if extra:
+        raise BVHError(lx.source, ln, f"OFFSET of {what} has more than 3 numbers: {extra}")
+    return vals
+
+
+def _parse_joint(lx: _Lines, h: _Hierarchy, parent: int, name_line: int, name: str) -> None:
+    src = lx.source
+    if not name:
+        raise BVHError(src, name_line, "joint without a name")
+    if name in h.names:
+        raise BVHError(src, name_line, f"duplicate joint name {name!r}")
+    j = len(h.names)
+    h.names.append(name)
+    h.parents.append(parent)
+    h.lines.append(name_line)
+    lx.expect("{")
+    h.offsets.append(_parse_offset(lx, f"joint {name!r}"))
+    tok, ln = lx.peek(f"CHANNELS or '}}' in joint {name!r}")
+    channels: tuple[str, ...] = ()
+    if tok.upper() == "CHANNELS":
+        lx.take("")
+        ntok, nln = lx.take("the channel count")
+        try:
+            n = int(ntok)
+        except ValueError:
+            raise BVHError(src, nln, f"expected the channel count, found {ntok!r}") from None
+        names = lx.rest_of_line(ln)
+        if n not in (0, 3, 6):
+            raise BVHError(src, ln, f"joint {name!r}: CHANNELS {n}; expected 0, 3 or 6")
+        if len(names) != n:
+            raise BVHError(
+                src, ln, f"joint {name!r}: CHANNELS {n} lists {len(names)} channel names"
+            )
+        canon = {c.lower(): c for c in VALID_CHANNELS}
+        fixed = []
+        for c in names:
+            if c.lower() not in canon:
+                raise BVHError(src, ln, f"joint {name!r}: unknown channel {c!r}")
+            fixed.append(canon[c.lower()])
+        channels = tuple(fixed)
+        if len(set(channels)) != n:
+            raise BVHError(src, ln, f"joint {name!r}: repeated channel in {channels}")
+        nrot = sum(c in ROTATION_CHANNELS for c in channels)
+        npos = sum(c in POSITION_CHANNELS for c in channels)
+        if nrot not in (0, 3) or npos not in (0, 3):
+            raise BVHError(
+                src,
+                ln,
+                f"joint {name!r}: channels {channels} need all three rotations "
+                "and/or all three positions",
+            )
+    h.channels.append(channels)
+    while True:
+        tok, ln = lx.take(f"JOINT, End Site or '}}' closing joint {name!r}")
+        key = tok.upper()
+        if key == "}":
+            return
+        if key == "JOINT":
+            child = " ".join(lx.rest_of_line(ln))
+            _parse_joint(lx, h, j, ln, child)
+        elif key == "END":
+            site = lx.rest_of_line(ln)
+            if not site or not site[0].upper().startswith("SITE"):
+                raise BVHError(src, ln, f"expected 'End Site', found 'End {' '.join(site)}'")
+            label = " ".join(site[1:])
+            lx.expect("{")
+            off = _parse_offset(lx, f"the End Site of {name!r}")
+            lx.expect("}")
+            h.es_parents.append(j)
+            h.es_offsets.append(off)
+            h.es_names.append(label)
+        else:
+            raise BVHError(
+                src, ln, f"expected JOINT, End Site or '}}' in joint {name!r}, found {tok!r}"
+            )
+
+
+def _channel_columns(
+    sk: Skeleton,
+) -> tuple[list[tuple[int, list[int]]], list[tuple[int, list[int]]]]:
+    """Per joint: column indices of its rotation channels (file order) and of X,Y,Z position."""
+    rot_cols, pos_cols = [], []
+    c = 0
+    for j, ch in enumerate(sk.channels):
+        cols = {name: c + i for i, name in enumerate(ch)}
+        c += len(ch)
+        r = [cols[n] for n in ch if n in ROTATION_CHANNELS]
+        if r:
+            rot_cols.append((j, r))
+        if "Xposition" in cols:
+            pos_cols.append((j, [cols["Xposition"], cols["Yposition"], cols["Zposition"]]))
+    return rot_cols, pos_cols
+
+
+def channels_to_motion(sk: Skeleton, values: np.ndarray, frame_time: float) -> Motion:
+    """Turn a (F, C) block of BVH channel values (degrees, file units) into a Motion."""
+    F = values.shape[0]
+    J = sk.num_joints
+    rotations = np.zeros((F, J, 4))
+    rotations[..., 0] = 1.0
+    rot_cols, pos_cols = _channel_columns(sk)
+    by_order: dict[str, list[tuple[int, list[int]]]] = {}
+    for j, cols in rot_cols:
+        by_order.setdefault(sk.rotation_order(j), []).append((j, cols))
+    for order, items in by_order.items():
+        joints = [j for j, _ in items]
+        cols = np.array([c for _, c in items])  # (Jg, 3)
+        angles = np.deg2rad(values[:, cols])  # (F, Jg, 3)
+        rotations[:, joints] = rot.euler_to_quat(angles, order)
+    root_positions = np.broadcast_to(sk.offsets[0], (F, 3)).copy()
+    translations = None
+    for j, cols in pos_cols:
+        if j == 0:
+            root_positions = values[:, cols].copy()
+        else:
+            if translations is None:
+                translations = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
+            translations[:, j] = values[:, cols]
+    if translations is not None:
+        translations[:, 0] = root_positions
+    return Motion(sk, rotations, root_positions, frame_time, translations)
+
+
+def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False) -> Motion:
+    """Parse BVH text (bytes or str) into a Motion; ``source`` names it in errors."""
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    lx = _Lines(data, source)
+    tok, ln = lx.take("'HIERARCHY'")
+    if tok.upper() != "HIERARCHY":
+        raise BVHError(
+            source, ln, f"expected 'HIERARCHY' at the start of a BVH file, found {tok!r}"
+        )
+    tok, ln = lx.take("'ROOT'")
+    if tok.upper() != "ROOT":
+        raise BVHError(source, ln, f"expected 'ROOT', found {tok!r}")
+    h = _Hierarchy()
+    _parse_joint(lx, h, -1, ln, " ".join(lx.rest_of_line(ln)))
+    tok, ln = lx.take("'MOTION' after the hierarchy")
+    if tok.upper() == "ROOT":
+        raise BVHError(source, ln, "a second ROOT: files with several skeletons are not supported")
+    if tok.upper() != "MOTION":
+        raise BVHError(source, ln, f"expected 'MOTION' after the hierarchy, found {tok!r}")
+    if lx.tokens:
+        raise BVHError(source, ln, f"unexpected text after MOTION: {lx.tokens[0][0]!r}")
+    try:
+        sk = Skeleton(
+            h.names, h.parents, h.offsets, h.channels, h.es_parents, h.es_offsets, h.es_names
+        )
+    except ValueError as e:  # pragma: no cover - the parser checks these first
+        raise BVHError(source, None, str(e)) from None
+
+    def header_line(pattern: re.Pattern[str], what: str) -> tuple[int, str, str]:
+        while True:
+            got = lx.next_line()
+            if got is None:
+                raise BVHError(source, lx.lineno, f"unexpected end of file, expected '{what}'")
+            n, text = got
+            if text.strip():
+                break
+        m = pattern.fullmatch(text.strip())
+        if not m or not m.group(1):
+            raise BVHError(source, n, f"expected '{what} <value>', found {text.strip()!r}")
+        if m.group(2):
+            raise BVHError(source, n, f"unexpected text after {what}: {m.group(2)!r}")
+        return n, m.group(1), text
+
+    fl, ftok, _ = header_line(_FRAMES, "Frames:")
+    try:
+        declared = int(ftok)
+        if declared < 0:
+            raise ValueError
+    except ValueError:
+        raise BVHError(source, fl, f"Frames: expects a whole number >= 0, found {ftok!r}") from None
+    tl, ttok, _ = header_line(_FRAME_TIME, "Frame Time:")
+    frame_time = _number(ttok, source, tl, "Frame Time")
+    if frame_time <= 0:
+        raise BVHError(source, tl, f"Frame Time must be positive, found {ttok!r}")
+
+    block = memoryview(data)[min(lx.pos, len(data)) :]
+    first_data_line = lx.lineno + 1
+    ncols = sk.num_channels
+    res = _numparse.parse_rows(block, ncols, allow_nan=lenient)
+    values = res.values
+    if res.status != _numparse.OK:
+        line = first_data_line + res.err_line
+        rest = bytes(block[res.err_offset :])
+        nl = rest.find(b"\n")
+        is_last_row = nl < 0 or not rest[nl + 1 :].strip()
+        truncated_tail = res.status == _numparse.BAD_COUNT and res.err_count < ncols and is_last_row
+        if lenient and truncated_tail:
+            warnings.warn(
+                f"{source}:{line}: dropped the incomplete last row ({res.err_count} of {ncols} "
+                "values)",
+                RepairWarning,
+                stacklevel=2,
+            )
+            res = _numparse.parse_rows(block[: res.err_offset], ncols, allow_nan=True)
+            values = res.values
+        elif res.status == _numparse.BAD_COUNT:
+            raise BVHError(
+                source,
+                line,
+                f"motion row {res.values.shape[0] + 1} has {res.err_count} values; "
+                f"the hierarchy declares {ncols} channels",
+            )
+        elif res.status == _numparse.NON_FINITE:
+            raise BVHError(
+                source,
+                line,
+                f"value {res.err_col + 1} is NaN or infinite (lenient "
+                "mode fills such gaps from the neighbouring frames)",
+            )
+        else:
+            bad = bytes(block[res.err_offset :]).split(b"\n", 1)[0].split()
+            tokv = bad[res.err_col].decode("utf-8", "replace") if res.err_col < len(bad) else "?"
+            raise BVHError(source, line, f"value {res.err_col + 1} is not a number: {tokv!r}")
+    if res.first_inner_blank_line >= 0:
+        line = first_data_line + res.first_inner_blank_line
+        if not lenient:
+            raise BVHError(
+                source,
+                line,
+                "blank line inside the motion data (use lenient mode to skip blank lines)",
+            )
+        warnings.warn(
+            f"{source}:{line}: skipped blank line(s) inside the motion data",
+            RepairWarning,
+            stacklevel=2,
+        )
+    rows = values.shape[0]
+    if rows != declared:
+        msg = f"'Frames: {declared}' but {rows} rows of motion data follow"
+        if not lenient:
+            raise BVHError(source, fl, msg + " (lenient mode reads the rows present)")
+        warnings.warn(f"{source}:{fl}: {msg}; read {rows} frames", RepairWarning, stacklevel=2)
+    motion = channels_to_motion(sk, values, frame_time)
+    if lenient and not np.all(np.isfinite(values)):
+        bad_rows = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+        motion, joints = fill_missing(motion)
+        warnings.warn(
+            f"{source}:{first_data_line}: {int(np.sum(~np.isfinite(values)))} NaN/inf values in "
+            f"{len(bad_rows)} rows (joints {', '.join(joints)}) filled from neighbouring frames",
+            RepairWarning,
+            stacklevel=2,
+        )
+    return motion
+
+
+def read_bvh(path: str | Path, lenient: bool = False) -> Motion:
+    """Read a BVH file. Raises :class:`BVHError` (file, line, problem) on malformed input."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise BVHError(path, None, f"cannot read file: {e.strerror or e}") from None
+    return parse_bvh(data, str(path), lenient=lenient)
+
+
+# ---------------------------------------------------------------------------------------------
+# writing
+
+
+def format_number(x: float) -> str:
+    """Shortest text that reads back as exactly ``x`` (used for Frame Time)."""
+    return repr(float(x))
+
+
+def motion_to_channels(motion: Motion) -> np.ndarray:
+    """The (F, C) channel block (degrees, file units) for the motion's skeleton layout."""
+    sk = motion.skeleton
+    F = motion.num_frames
+    out = np.zeros((F, sk.num_channels))
+    rot_cols, pos_cols = _channel_columns(sk)
+    by_order: dict[str, list[tuple[int, list[int]]]] = {}
+    for j, cols in rot_cols:
+        by_order.setdefault(sk.rotation_order(j), []).append((j, cols))
+    for order, items in by_order.items():
+        joints = [j for j, _ in items]
+        cols = np.array([c for _, c in items])
+        angles = np.rad2deg(rot.quat_to_euler(motion.rotations[:, joints], order))
+        out[:, cols] = angles
+    trans = motion.local_translations()
+    for j, cols in pos_cols:
+        out[:, cols] = trans[:, j]
+    return out
+
+
+def _with_root_position_channels(motion: Motion) -> Motion:
+    """Give the root position channels when its translation moves but the layout has none."""
+    sk = motion.skeleton
+    if sk.has_position[0] or motion.num_frames == 0:
+        return motion
+    if np.allclose(motion.root_positions, sk.offsets[0], rtol=0, atol=1e-12):
+        return motion
+    channels = list(sk.channels)
+    channels[0] = POSITION_CHANNELS + tuple(channels[0])
+    return motion.with_skeleton(sk.with_channels(channels))
+
+
+def _fmt_offset(v: np.ndarray, digits: int) -> str:
+    return " ".join(f"{x:.{digits}g}" for x in v)
+
+
+def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> str:
+    """BVH text for a motion; ``order`` (e.g. "ZYX") rewrites every joint's rotation order.
+
+    ``digits`` significant digits per value: 12 keeps rotations to ~1e-10 rad and positions to
+    1e-6 of values up to 1e6 units, which is what a read -> write -> read round trip needs.
+    """
+    motion.check_finite("cannot write BVH")
+    if order is not None:
+        motion = motion.with_skeleton(motion.skeleton.with_rotation_order(order))
+    motion = _with_root_position_channels(motion)
+    sk = motion.skeleton
+    out: list[str] = ["HIERARCHY"]
+    kids: dict[int, list[int]] = {}
+    for j, p in enumerate(sk.parents):
+        kids.setdefault(int(p), []).append(j)
+    sites: dict[int, list[int]] = {}
+    for e, p in enumerate(sk.end_site_parents):
+        sites.setdefault(int(p), []).append(e)
+    off_digits = max(digits, 15)
+
+    def joint(j: int, depth: int) -> None:
+        ind = "  " * depth
+        out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
+        out.append(f"{ind}{{")
+        out.append(f"{ind}  OFFSET {_fmt_offset(sk.offsets[j], off_digits)}")
+        ch = sk.channels[j]
+        out.append(f"{ind}  CHANNELS {len(ch)}" + "".join(f" {c}" for c in ch))
+        for c in kids.get(j, []):
+            joint(c, depth + 1)
+        for e in sites.get(j, []):
+            label = sk.end_site_names[e]
+            out.append(f"{ind}  End Site" + (f" {label}" if label else ""))
+            out.append(f"{ind}  {{")
+            out.append(f"{ind}    OFFSET {_fmt_offset(sk.end_site_offsets[e], off_digits)}")
+            out.append(f"{ind}  }}")
+        out.append(f"{ind}}}")
+
+    joint(0, 0)
+    out.append("MOTION")
+    out.append(f"Frames: {motion.num_frames}")
+    out.append(f"Frame Time: {format_number(motion.frame_time)}")
+    values = motion_to_channels(motion)
+    values[values == 0] = 0.0  # no "-0"
+    if values.shape[1]:
+        row_fmt = " ".join([f"%.{digits}g"] * values.shape[1])
+        out.extend(row_fmt % tuple(r) for r in values.tolist())
+    else:
+        out.extend("" for _ in range(values.shape[0]))
+    return "\n".join(out) + "\n"
+
+
+def write_bvh(motion: Motion, path: str | Path, order: str | None = None, digits: int = 12) -> Path:
+    """Write a motion as BVH atomically (temp file + rename). Returns the path."""
+    return atomic_write_text(path, format_bvh(motion, order=order, digits=digits))
