@@ -326,3 +326,29 @@ def _parse_or_bvherror(text: str, lenient: bool) -> None:
             return
     assert np.all(np.isfinite(m.rotations)) and np.all(np.isfinite(m.root_positions))
     np.testing.assert_allclose(np.linalg.norm(m.rotations, axis=-1), 1.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("order", ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"])
+def test_fast_channel_conversion_matches_reference_euler(order: str) -> None:
+    """The numba channels -> quaternion kernel against rotations.euler_to_quat."""
+    from mocapkit.core.skeleton import Skeleton
+    from mocapkit.io.bvh import channels_to_motion, motion_to_channels
+
+    rng = np.random.default_rng(7)
+    rot_ch = tuple(f"{a}rotation" for a in order)
+    sk = Skeleton(
+        ("a", "b", "c"),
+        [-1, 0, 1],
+        np.zeros((3, 3)),
+        (("Xposition", "Yposition", "Zposition", *rot_ch), rot_ch[::-1], ()),
+    )
+    values = rng.uniform(-360, 360, size=(50, 9))
+    values[:5, 4] = 90.0  # gimbal lock in the middle channel
+    m = channels_to_motion(sk, values, 0.01)
+    ref0 = rot.euler_to_quat(np.deg2rad(values[:, 3:6]), order)
+    ref1 = rot.euler_to_quat(np.deg2rad(values[:, 6:9]), order[::-1])
+    assert np.all(rot.quat_angle(m.rotations[:, 0], ref0) < 1e-12)
+    assert np.all(rot.quat_angle(m.rotations[:, 1], ref1) < 1e-12)
+    np.testing.assert_array_equal(m.rotations[:, 2], [[1, 0, 0, 0]] * 50)
+    back = channels_to_motion(sk, motion_to_channels(m), 0.01)
+    assert np.all(rot.quat_angle(back.rotations, m.rotations) < 1e-12)

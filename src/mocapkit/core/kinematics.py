@@ -4,35 +4,44 @@ Conventions: quaternions (..., 4) are w,x,y,z; positions are in file units; a jo
 rotation is ``G[j] = G[parent] * L[j]`` and its global position is
 ``P[j] = P[parent] + G[parent] (t[j])`` where ``t[j]`` is its local translation (the OFFSET, or the
 animated translation for joints with position channels, or the root translation for the root).
-Because parents come before children, one pass over joints suffices; each step is a batched
-operation over all frames, so the Python loop runs J times, not F*J times.
+Because parents come before children, one pass over joints per frame suffices. The fast path is
+a numba kernel; its readable reference twin is in tests/core/test_kinematics.py.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
 
 
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of (N, 4) arrays (inlined here because it is the FK hot loop)."""
-    aw, ax, ay, az = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
-    bw, bx, by, bz = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-    out = np.empty_like(a)
-    out[:, 0] = aw * bw - ax * bx - ay * by - az * bz
-    out[:, 1] = aw * bx + ax * bw + ay * bz - az * by
-    out[:, 2] = aw * by - ax * bz + ay * bw + az * bx
-    out[:, 3] = aw * bz + ax * by - ay * bx + az * bw
-    return out
-
-
-def _qrot(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate (N, 3) vectors by (N, 4) unit quaternions: v + 2w(u x v) + 2u x (u x v)."""
-    u = q[:, 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + q[:, :1] * t + np.cross(u, t)
+@numba.njit(cache=True, nogil=True)
+def _fk_kernel(parents, lrot, ltrans, gpos, grot):  # pragma: no cover - compiled
+    """Per frame, per joint: G[j] = G[p] L[j]; P[j] = P[p] + G[p] t[j] (scalar loops)."""
+    F, J = lrot.shape[0], lrot.shape[1]
+    for f in range(F):
+        for j in range(J):
+            lw, lx, ly, lz = lrot[f, j, 0], lrot[f, j, 1], lrot[f, j, 2], lrot[f, j, 3]
+            tx, ty, tz = ltrans[f, j, 0], ltrans[f, j, 1], ltrans[f, j, 2]
+            p = parents[j]
+            if p < 0:
+                grot[f, j, 0], grot[f, j, 1], grot[f, j, 2], grot[f, j, 3] = lw, lx, ly, lz
+                gpos[f, j, 0], gpos[f, j, 1], gpos[f, j, 2] = tx, ty, tz
+                continue
+            pw, px, py, pz = grot[f, p, 0], grot[f, p, 1], grot[f, p, 2], grot[f, p, 3]
+            grot[f, j, 0] = pw * lw - px * lx - py * ly - pz * lz
+            grot[f, j, 1] = pw * lx + px * lw + py * lz - pz * ly
+            grot[f, j, 2] = pw * ly - px * lz + py * lw + pz * lx
+            grot[f, j, 3] = pw * lz + px * ly - py * lx + pz * lw
+            # v' = v + 2w (u x v) + 2 u x (u x v)
+            cx = 2.0 * (py * tz - pz * ty)
+            cy = 2.0 * (pz * tx - px * tz)
+            cz = 2.0 * (px * ty - py * tx)
+            gpos[f, j, 0] = gpos[f, p, 0] + tx + pw * cx + (py * cz - pz * cy)
+            gpos[f, j, 1] = gpos[f, p, 1] + ty + pw * cy + (pz * cx - px * cz)
+            gpos[f, j, 2] = gpos[f, p, 2] + tz + pw * cz + (px * cy - py * cx)
 
 
 def fk_arrays(
@@ -48,23 +57,20 @@ def fk_arrays(
     Returns:
         positions (F, J, 3) and rotations (F, J, 4), both global.
     """
-    rotations = np.asarray(rotations, dtype=np.float64)
+    parents = np.asarray(parents, dtype=np.int64)
+    rotations = np.ascontiguousarray(rotations, dtype=np.float64)
+    if rotations.ndim != 3 or rotations.shape[2] != 4:
+        raise ValueError(f"rotations must be (F, J, 4), got {rotations.shape}")
     F, J = rotations.shape[:2]
-    translations = np.broadcast_to(np.asarray(translations, dtype=np.float64), (F, J, 3))
-    # Work joint-major so that each joint's frames are contiguous for the batched ops.
-    lr = np.ascontiguousarray(rotations.transpose(1, 0, 2))
-    lt = np.ascontiguousarray(translations.transpose(1, 0, 2))
-    gr = np.empty_like(lr)
-    gp = np.empty_like(lt)
-    for j in range(J):
-        p = parents[j]
-        if p < 0:
-            gr[j] = lr[j]
-            gp[j] = lt[j]
-        else:
-            gr[j] = _qmul(gr[p], lr[j])
-            gp[j] = gp[p] + _qrot(gr[p], lt[j])
-    return gp.transpose(1, 0, 2), gr.transpose(1, 0, 2)
+    if parents.shape != (J,) or (J and parents[0] != -1) or np.any(parents >= np.arange(J)):
+        raise ValueError("parents must be (J,) with -1 first and parents[j] < j")
+    translations = np.ascontiguousarray(
+        np.broadcast_to(np.asarray(translations, dtype=np.float64), (F, J, 3))
+    )
+    gpos = np.empty((F, J, 3))
+    grot = np.empty((F, J, 4))
+    _fk_kernel(parents, rotations, translations, gpos, grot)
+    return gpos, grot
 
 
 def forward_kinematics(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
@@ -76,6 +82,13 @@ def forward_kinematics(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
         t = np.broadcast_to(sk.offsets, (motion.num_frames, sk.num_joints, 3)).copy()
         t[:, 0] = motion.root_positions
     return fk_arrays(sk.parents, motion.rotations, t)
+
+
+def _qrot(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate (N, 3) vectors by (N, 4) unit quaternions: v + 2w(u x v) + 2u x (u x v)."""
+    u = q[:, 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + q[:, :1] * t + np.cross(u, t)
 
 
 def end_site_positions(

@@ -19,6 +19,7 @@ import re
 import warnings
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from mocapkit.core import rotations as rot
@@ -33,15 +34,24 @@ _FRAMES = re.compile(r"frames\s*:\s*(\S*)\s*(.*)", re.IGNORECASE)
 _FRAME_TIME = re.compile(r"frame\s+time\s*:\s*(\S*)\s*(.*)", re.IGNORECASE)
 
 
+_MOTION_LINE = re.compile(rb"^[ \t]*MOTION[ \t\r]*$", re.IGNORECASE | re.MULTILINE)
+
+
 class _Lines:
-    """Lazy line reader over the file's bytes, so the motion block is never split into lines."""
+    """Tokens of the hierarchy (tokenised once), then a lazy line reader for the MOTION header,
+    so the motion block itself is never split into Python lines."""
 
     def __init__(self, data: bytes, source: str) -> None:
         self.data = data
         self.source = source
-        self.pos = 0
-        self.lineno = 0
-        self.tokens: list[tuple[str, int]] = []
+        m = _MOTION_LINE.search(data)
+        end = len(data) if m is None else m.end()
+        header = data[:end].decode("utf-8", errors="replace")
+        lines = header.split("\n")
+        self.tokens = [(t, ln) for ln, line in enumerate(lines, 1) for t in _TOKEN.findall(line)]
+        self.i = 0
+        self.lineno = len(lines)  # line of the last hierarchy token (the MOTION line)
+        self.pos = end + 1 if data[end : end + 1] == b"\n" else end
 
     def next_line(self) -> tuple[int, str] | None:
         if self.pos >= len(self.data):
@@ -54,30 +64,27 @@ class _Lines:
         self.lineno += 1
         return self.lineno, raw.decode("utf-8", errors="replace")
 
-    def _fill(self) -> bool:
-        while not self.tokens:
-            got = self.next_line()
-            if got is None:
-                return False
-            ln, text = got
-            self.tokens = [(t, ln) for t in _TOKEN.findall(text)]
-        return True
-
     def peek(self, expected: str) -> tuple[str, int]:
-        if not self._fill():
+        if self.i >= len(self.tokens):
             raise BVHError(self.source, self.lineno, f"unexpected end of file, expected {expected}")
-        return self.tokens[0]
+        return self.tokens[self.i]
 
     def take(self, expected: str) -> tuple[str, int]:
         tok = self.peek(expected)
-        self.tokens.pop(0)
+        self.i += 1
         return tok
+
+    def more_tokens(self) -> bool:
+        return self.i < len(self.tokens)
 
     def rest_of_line(self, line: int) -> list[str]:
         """Remaining tokens on ``line`` (consumed)."""
         out = []
-        while self.tokens and self.tokens[0][1] == line and self.tokens[0][0] not in "{}":
-            out.append(self.tokens.pop(0)[0])
+        toks, i = self.tokens, self.i
+        while i < len(toks) and toks[i][1] == line and toks[i][0] not in "{}":
+            out.append(toks[i][0])
+            i += 1
+        self.i = i
         return out
 
     def expect(self, word: str) -> int:
@@ -213,6 +220,34 @@ def _channel_columns(
     return rot_cols, pos_cols
 
 
+@numba.njit(cache=True, nogil=True)
+def _euler_deg_to_quat_kernel(values, joints, cols, axes, out):  # pragma: no cover - compiled
+    """out[f, joints[k]] = q_axes[k,0](v0) * q_axes[k,1](v1) * q_axes[k,2](v2), v in degrees.
+
+    The fast twin of ``rotations.euler_to_quat`` (intrinsic composition, w,x,y,z).
+    """
+    half = np.pi / 360.0
+    for f in range(values.shape[0]):
+        for k in range(joints.shape[0]):
+            w, x, y, z = 1.0, 0.0, 0.0, 0.0
+            for i in range(3):
+                a = values[f, cols[k, i]] * half
+                c, s = np.cos(a), np.sin(a)
+                ax = axes[k, i]
+                # (w,x,y,z) * (c, s*e_ax)
+                if ax == 0:
+                    w, x, y, z = w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s
+                elif ax == 1:
+                    w, x, y, z = w * c - y * s, x * c - z * s, y * c + w * s, z * c + x * s
+                else:
+                    w, x, y, z = w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s
+            j = joints[k]
+            out[f, j, 0] = w
+            out[f, j, 1] = x
+            out[f, j, 2] = y
+            out[f, j, 3] = z
+
+
 def channels_to_motion(sk: Skeleton, values: np.ndarray, frame_time: float) -> Motion:
     """Turn a (F, C) block of BVH channel values (degrees, file units) into a Motion."""
     F = values.shape[0]
@@ -220,14 +255,12 @@ def channels_to_motion(sk: Skeleton, values: np.ndarray, frame_time: float) -> M
     rotations = np.zeros((F, J, 4))
     rotations[..., 0] = 1.0
     rot_cols, pos_cols = _channel_columns(sk)
-    by_order: dict[str, list[tuple[int, list[int]]]] = {}
-    for j, cols in rot_cols:
-        by_order.setdefault(sk.rotation_order(j), []).append((j, cols))
-    for order, items in by_order.items():
-        joints = [j for j, _ in items]
-        cols = np.array([c for _, c in items])  # (Jg, 3)
-        angles = np.deg2rad(values[:, cols])  # (F, Jg, 3)
-        rotations[:, joints] = rot.euler_to_quat(angles, order)
+    if rot_cols and F:
+        joints = np.array([j for j, _ in rot_cols], dtype=np.int64)
+        cols = np.array([c for _, c in rot_cols], dtype=np.int64)
+        # cols follow the file's channel order, and so does rotation_order(j)
+        axes = np.array([["XYZ".index(a) for a in sk.rotation_order(j)] for j, _ in rot_cols])
+        _euler_deg_to_quat_kernel(np.ascontiguousarray(values), joints, cols, axes, rotations)
     root_positions = np.broadcast_to(sk.offsets[0], (F, 3)).copy()
     translations = None
     for j, cols in pos_cols:
@@ -264,8 +297,8 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         raise BVHError(source, ln, "a second ROOT: files with several skeletons are not supported")
     if tok.upper() != "MOTION":
         raise BVHError(source, ln, f"expected 'MOTION' after the hierarchy, found {tok!r}")
-    if lx.tokens:
-        raise BVHError(source, ln, f"unexpected text after MOTION: {lx.tokens[0][0]!r}")
+    if lx.more_tokens():
+        raise BVHError(source, ln, f"unexpected text after MOTION: {lx.peek('')[0]!r}")
     try:
         sk = Skeleton(
             h.names, h.parents, h.offsets, h.channels, h.es_parents, h.es_offsets, h.es_names
