@@ -478,6 +478,22 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
         sites.setdefault(int(p), []).append(e)
     off_digits = max(digits, 15)
 
+    # smallest End Site index in each joint's subtree (None if it has none)
+    first_site: list[int | None] = [None] * sk.num_joints
+    for e, p in enumerate(sk.end_site_parents):
+        j = int(p)
+        while j >= 0:
+            if first_site[j] is None or e < first_site[j]:
+                first_site[j] = e
+            j = int(sk.parents[j])
+
+    def end_site(e: int, ind: str) -> None:
+        label = sk.end_site_names[e]
+        out.append(f"{ind}  End Site" + (f" {label}" if label else ""))
+        out.append(f"{ind}  {{")
+        out.append(f"{ind}    OFFSET {_fmt_offset(sk.end_site_offsets[e], off_digits)}")
+        out.append(f"{ind}  }}")
+
     def joint(j: int, depth: int) -> None:
         ind = "  " * depth
         out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
@@ -485,14 +501,17 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
         out.append(f"{ind}  OFFSET {_fmt_offset(sk.offsets[j], off_digits)}")
         ch = sk.channels[j]
         out.append(f"{ind}  CHANNELS {len(ch)}" + "".join(f" {c}" for c in ch))
+        # Merge child joints and End Sites so both keep their file order: an End Site goes
+        # before a child joint whose subtree holds a later End Site (e.g. "End Site" then
+        # "JOINT Toe" under an ankle, as some exporters write).
+        pending = list(sites.get(j, []))
         for c in kids.get(j, []):
+            first = first_site[c]
+            while pending and first is not None and pending[0] < first:
+                end_site(pending.pop(0), ind)
             joint(c, depth + 1)
-        for e in sites.get(j, []):
-            label = sk.end_site_names[e]
-            out.append(f"{ind}  End Site" + (f" {label}" if label else ""))
-            out.append(f"{ind}  {{")
-            out.append(f"{ind}    OFFSET {_fmt_offset(sk.end_site_offsets[e], off_digits)}")
-            out.append(f"{ind}  }}")
+        for e in pending:
+            end_site(e, ind)
         out.append(f"{ind}}}")
 
     joint(0, 0)
