@@ -352,3 +352,75 @@ def test_fast_channel_conversion_matches_reference_euler(order: str) -> None:
     np.testing.assert_array_equal(m.rotations[:, 2], [[1, 0, 0, 0]] * 50)
     back = channels_to_motion(sk, motion_to_channels(m), 0.01)
     assert np.all(rot.quat_angle(back.rotations, m.rotations) < 1e-12)
+
+
+def _both_hierarchy_parsers(text: str):
+    from mocapkit.io.bvh import _fast_hierarchy, _Lines, _parse_hierarchy
+
+    lx = _Lines(text.encode(), "x.bvh")
+    fast = _fast_hierarchy(lx.header_lines)
+    try:
+        ref = _parse_hierarchy(lx, "x.bvh")
+    except BVHError:
+        ref = None
+    return fast, ref
+
+
+def _same_hierarchy(a, b) -> bool:
+    keys = ("names", "parents", "offsets", "channels", "es_parents", "es_offsets", "es_names")
+    return all(getattr(a, k) == getattr(b, k) for k in keys)
+
+
+@settings(max_examples=400, deadline=2000, derandomize=True)
+@given(
+    edits=st.lists(
+        st.tuples(
+            st.integers(0, SMALL.index("MOTION")),
+            st.integers(0, 3),
+            st.sampled_from(
+                [
+                    "{",
+                    "}",
+                    " ",
+                    "\n",
+                    "x",
+                    "0",
+                    "End Site",
+                    "JOINT",
+                    "CHANNELS 3",
+                    "MOTION",
+                    "ROOT a",
+                ]
+            ),
+        ),
+        max_size=3,
+    ),
+)
+def test_fast_hierarchy_parser_agrees_with_reference(edits) -> None:
+    """Whenever the line-based fast path accepts a hierarchy, the token parser (the reference)
+    accepts it too and builds the same one; otherwise the reference decides (and errors)."""
+    text = SMALL
+    for pos, dele, ins in edits:
+        text = text[:pos] + ins + text[pos + dele :]
+    fast, ref = _both_hierarchy_parsers(text)
+    if fast is not None:
+        assert ref is not None and _same_hierarchy(fast, ref)
+
+
+def test_fast_hierarchy_parser_takes_the_common_files(shared_path) -> None:
+    for f in sorted(shared_path("bvh-corpus").glob("*.bvh")):
+        fast, ref = _both_hierarchy_parsers(f.read_bytes().decode("utf-8", "replace"))
+        assert ref is not None, f.name
+        if fast is not None:
+            assert _same_hierarchy(fast, ref), f.name
+
+
+def test_joint_rotating_without_rotation_channels_gets_them() -> None:
+    text = SMALL.replace("CHANNELS 3 Xrotation Yrotation Zrotation", "CHANNELS 0")
+    text = text.replace(" 90 0 0\n", "\n").replace(" 0 -90 0\n", "\n")
+    m = parse_bvh(text)
+    assert not m.skeleton.has_rotation[2]
+    m.rotations[:, 2] = rot.euler_to_quat(np.array([0.3, 0.2, 0.1]), "XYZ")
+    back = parse_bvh(format_bvh(m))
+    assert back.skeleton.has_rotation[2]
+    assert np.all(rot.quat_angle(back.rotations, m.rotations) < 1e-9)

@@ -209,7 +209,8 @@ def parse_rows(
             exact = np.array(prefix.split(), dtype=np.float64)
             values = exact[: rows * ncols]
     return ParseResult(
-        values.reshape(rows, ncols).copy() if rows * ncols else np.zeros((rows, ncols)),
+        # a view: the buffer holds at most a row or two more than needed
+        values.reshape(rows, ncols) if rows * ncols else np.zeros((rows, ncols)),
         int(status),
         int(eline),
         int(ecol),

@@ -48,10 +48,21 @@ class _Lines:
         end = len(data) if m is None else m.end()
         header = data[:end].decode("utf-8", errors="replace")
         lines = header.split("\n")
-        self.tokens = [(t, ln) for ln, line in enumerate(lines, 1) for t in _TOKEN.findall(line)]
+        self.header_lines = lines
+        self._tokens: list[tuple[str, int]] | None = None
         self.i = 0
         self.lineno = len(lines)  # line of the last hierarchy token (the MOTION line)
         self.pos = end + 1 if data[end : end + 1] == b"\n" else end
+
+    @property
+    def tokens(self) -> list[tuple[str, int]]:
+        if self._tokens is None:  # tokenised only when the fast line parser gives up
+            self._tokens = [
+                (t, ln)
+                for ln, line in enumerate(self.header_lines, 1)
+                for t in _TOKEN.findall(line)
+            ]
+        return self._tokens
 
     def next_line(self) -> tuple[int, str] | None:
         if self.pos >= len(self.data):
@@ -203,6 +214,110 @@ def _parse_joint(lx: _Lines, h: _Hierarchy, parent: int, name_line: int, name: s
             )
 
 
+_CANON = {c.lower(): c for c in VALID_CHANNELS}
+
+
+def _fast_hierarchy(lines: list[str]) -> _Hierarchy | None:
+    """Line-based parse of a well-formed hierarchy (the common case), or None.
+
+    One keyword per line, braces alone on their lines. Anything unusual — or anything wrong —
+    returns None and the token parser (:func:`_parse_joint`, the reference) takes over; it
+    gives the same result on good input and the precise error on bad input.
+    """
+    h = _Hierarchy()
+    stack: list[int] = []  # open joints; -2 marks an open End Site
+    opening: tuple[str, str] | None = None  # ("joint", name) or ("site", label) awaiting "{"
+    seen_root = closed = motion_seen = False
+    names: set[str] = set()
+    has_channels: set[int] = set()
+    for line in lines:
+        parts = line.split()
+        if not parts:
+            continue
+        if (closed and not motion_seen and parts[0].upper() != "MOTION") or motion_seen:
+            return None  # text after the root closed (a second ROOT?) or after MOTION
+        key = parts[0].upper()
+        if opening is not None:
+            if parts != ["{"]:
+                return None
+            kind, label = opening
+            opening = None
+            if kind == "site":
+                stack.append(-2)
+            else:
+                if label in names or not label or "{" in label or "}" in label:
+                    return None
+                names.add(label)
+                h.parents.append(stack[-1] if stack else -1)
+                h.names.append(label)
+                h.channels.append(())
+                h.offsets.append([])
+                stack.append(len(h.names) - 1)
+            continue
+        if key == "HIERARCHY" and len(parts) == 1 and not h.names and not seen_root:
+            continue
+        if key == "ROOT" or key == "JOINT":
+            if (key == "ROOT") == (seen_root or bool(stack)) or (stack and stack[-1] < 0):
+                return None
+            seen_root = True
+            opening = ("joint", " ".join(parts[1:]))
+        elif key == "END":
+            if len(parts) < 2 or not parts[1].upper().startswith("SITE") or not stack:
+                return None
+            if stack[-1] < 0 or "{" in line or "}" in line:
+                return None
+            h.es_parents.append(stack[-1])
+            h.es_names.append(" ".join(parts[2:]))
+            h.es_offsets.append([])
+            opening = ("site", "")
+        elif key == "OFFSET":
+            if len(parts) != 4 or not stack:
+                return None
+            try:
+                off = [float(parts[1]), float(parts[2]), float(parts[3])]
+            except ValueError:
+                return None
+            if not all(np.isfinite(off)):
+                return None
+            target = h.es_offsets[-1] if stack[-1] < 0 else h.offsets[stack[-1]]
+            if target:
+                return None
+            target.extend(off)
+        elif key == "CHANNELS":
+            if not stack or stack[-1] < 0 or stack[-1] in has_channels or not h.offsets[stack[-1]]:
+                return None
+            has_channels.add(stack[-1])
+            try:
+                chans = tuple(_CANON[c.lower()] for c in parts[2:])
+            except KeyError:
+                return None
+            n = len(chans)
+            nrot = sum(c in ROTATION_CHANNELS for c in chans)
+            npos = n - nrot
+            if (
+                len(parts) < 2
+                or parts[1] != str(n)
+                or len(set(chans)) != n
+                or nrot not in (0, 3)
+                or npos not in (0, 3)
+            ):
+                return None
+            h.channels[stack[-1]] = chans
+        elif key == "}":
+            if len(parts) != 1 or not stack:
+                return None
+            top = stack.pop()
+            if (h.es_offsets[-1] if top < 0 else h.offsets[top]) == []:
+                return None
+            if not stack:
+                closed = True
+        elif key == "MOTION" and closed and len(parts) == 1:
+            motion_seen = True
+        else:
+            return None
+    return h if closed and motion_seen else None
+
+
 def _channel_columns(
     sk: Skeleton,
 ) -> tuple[list[tuple[int, list[int]]], list[tuple[int, list[int]]]]:
@@ -263,25 +378,19 @@ def channels_to_motion(sk: Skeleton, values: np.ndarray, frame_time: float) -> M
         _euler_deg_to_quat_kernel(np.ascontiguousarray(values), joints, cols, axes, rotations)
     root_positions = np.broadcast_to(sk.offsets[0], (F, 3)).copy()
     translations = None
-    for j, cols in pos_cols:
-        if j == 0:
-            root_positions = values[:, cols].copy()
-        else:
-            if translations is None:
-                translations = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
-            translations[:, j] = values[:, cols]
-    if translations is not None:
+    pos_joints = [j for j, _ in pos_cols]
+    if pos_joints and pos_joints[0] == 0:
+        root_positions = values[:, pos_cols[0][1]]
+    if any(j != 0 for j in pos_joints):
+        translations = np.empty((F, J, 3))
+        translations[:] = sk.offsets
+        translations[:, pos_joints] = values[:, [c for _, c in pos_cols]]
         translations[:, 0] = root_positions
     return Motion(sk, rotations, root_positions, frame_time, translations)
 
 
-def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False) -> Motion:
-    """Parse BVH text (bytes or str) into a Motion; ``source`` names it in errors."""
-    if isinstance(data, str):
-        data = data.encode("utf-8")
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    lx = _Lines(data, source)
+def _parse_hierarchy(lx: _Lines, source: str) -> _Hierarchy:
+    """The reference (token-based) hierarchy parser, with precise errors."""
     tok, ln = lx.take("'HIERARCHY'")
     if tok.upper() != "HIERARCHY":
         raise BVHError(
@@ -299,6 +408,19 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         raise BVHError(source, ln, f"expected 'MOTION' after the hierarchy, found {tok!r}")
     if lx.more_tokens():
         raise BVHError(source, ln, f"unexpected text after MOTION: {lx.peek('')[0]!r}")
+    return h
+
+
+def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False) -> Motion:
+    """Parse BVH text (bytes or str) into a Motion; ``source`` names it in errors."""
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    lx = _Lines(data, source)
+    h = _fast_hierarchy(lx.header_lines)
+    if h is None:
+        h = _parse_hierarchy(lx, source)
     try:
         sk = Skeleton(
             h.names, h.parents, h.offsets, h.channels, h.es_parents, h.es_offsets, h.es_names
@@ -442,15 +564,25 @@ def motion_to_channels(motion: Motion) -> np.ndarray:
     return out
 
 
-def _with_root_position_channels(motion: Motion) -> Motion:
-    """Give the root position channels when its translation moves but the layout has none."""
+def _with_needed_channels(motion: Motion) -> Motion:
+    """Add the channels the data needs but the layout lacks, so nothing is silently dropped:
+    rotation channels for a joint that rotates without any, position channels for a root that
+    moves away from its OFFSET (e.g. after a ground-plane alignment of a 0-channel root)."""
     sk = motion.skeleton
-    if sk.has_position[0] or motion.num_frames == 0:
-        return motion
-    if np.allclose(motion.root_positions, sk.offsets[0], rtol=0, atol=1e-12):
+    if motion.num_frames == 0:
         return motion
     channels = list(sk.channels)
-    channels[0] = POSITION_CHANNELS + tuple(channels[0])
+    ident = np.abs(motion.rotations[..., 0]) >= 1.0 - 1e-15  # (F, J): identity rotation
+    for j in np.flatnonzero(~sk.has_rotation & ~ident.all(axis=0)):
+        rot_first = bool(channels[j]) and channels[j][0] in ROTATION_CHANNELS
+        new = tuple(f"{a}rotation" for a in "ZXY")
+        channels[j] = new + tuple(channels[j]) if not rot_first else tuple(channels[j]) + new
+    if not sk.has_position[0] and not np.allclose(
+        motion.root_positions, sk.offsets[0], rtol=0, atol=1e-12
+    ):
+        channels[0] = POSITION_CHANNELS + tuple(channels[0])
+    if channels == list(sk.channels):
+        return motion
     return motion.with_skeleton(sk.with_channels(channels))
 
 
@@ -467,7 +599,7 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
     motion.check_finite("cannot write BVH")
     if order is not None:
         motion = motion.with_skeleton(motion.skeleton.with_rotation_order(order))
-    motion = _with_root_position_channels(motion)
+    motion = _with_needed_channels(motion)
     sk = motion.skeleton
     out: list[str] = ["HIERARCHY"]
     kids: dict[int, list[int]] = {}
