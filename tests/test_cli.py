@@ -132,3 +132,10 @@ def test_console_script_runs_as_a_real_process(walk_bvh: Path) -> None:
     )
     assert res.returncode == 0, res.stderr
     assert json.loads(res.stdout)["frames"] > 0
+
+
+def test_info_overrides_up_and_units(walk_bvh: Path) -> None:
+    code, out, _ = run("info", "--json", "--units", "cm", "--up", "y", str(walk_bvh))
+    assert code == 0
+    info = json.loads(out)
+    assert (info["units_guess"], info["metres_per_unit"], info["up_axis"]) == ("cm", 0.01, "Y")

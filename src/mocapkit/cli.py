@@ -104,8 +104,13 @@ def main() -> None:
 
 
 # --------------------------------------------------------------------------------------- info
-def motion_info(motion: Motion, path: str) -> dict[str, Any]:
-    """A JSON-ready summary of a motion (what ``mocapkit info`` prints)."""
+def motion_info(
+    motion: Motion, path: str, up: str | None = None, units: str | None = None
+) -> dict[str, Any]:
+    """A JSON-ready summary of a motion (what ``mocapkit info`` prints).
+
+    ``up`` ("Y", "Z", "-Y", ...) and ``units`` ("m", "cm", "mm", "inch") override the guesses.
+    """
     from mocapkit import features
     from mocapkit.core.kinematics import forward_kinematics
 
@@ -125,19 +130,23 @@ def motion_info(motion: Motion, path: str) -> dict[str, Any]:
         "fps": motion.fps,
         "duration_s": motion.duration,
     }
-    up = features.detect_up_axis(motion)
-    units, metres = features.detect_units(motion)
+    up = up.upper() if up else features.detect_up_axis(motion)
+    if units:
+        metres = features.metres_per_unit(motion, units)
+        units = next(k for k, v in features.UNITS.items() if v == metres)
+    else:
+        units, metres = features.detect_units(motion)
     info["up_axis"] = up
     info["units_guess"] = units
     info["metres_per_unit"] = metres
     if motion.num_frames:
         pos, _ = forward_kinematics(motion)
         info["bounding_box"] = {
-            "min": pos.min(axis=(0, 1)).round(6).tolist(),
-            "max": pos.max(axis=(0, 1)).round(6).tolist(),
+            "min": (pos.min(axis=(0, 1)).round(6) + 0.0).tolist(),
+            "max": (pos.max(axis=(0, 1)).round(6) + 0.0).tolist(),
         }
         try:
-            fc = features.foot_contacts(motion)
+            fc = features.foot_contacts(motion, up=up, units=metres)
         except ValueError as e:
             info["contacts"] = {"error": str(e)}
         else:
@@ -187,20 +196,30 @@ def _print_info(info: dict[str, Any]) -> None:
 @main.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (a list when several files).")
+@click.option("--up", default=None, help="Up axis (Y, Z, -Y, ...) instead of the guess.")
+@click.option(
+    "--units",
+    default=None,
+    type=click.Choice(["m", "cm", "mm", "inch"]),
+    help="Length unit instead of the guess.",
+)
 @LENIENT
 @friendly_errors
-def info(files: tuple[str, ...], as_json: bool, lenient: bool) -> None:
+def info(
+    files: tuple[str, ...], as_json: bool, up: str | None, units: str | None, lenient: bool
+) -> None:
     """Summarise motion files: joints, channels, frames, fps, units, bounding box, contacts.
 
     \b
     Example:
       mocapkit info walk.bvh
       mocapkit info --json clips/*.bvh > summary.json
+      mocapkit info --up Z --units cm zup_clip.bvh
     """
     infos = []
     with progress(len(files), "reading") as step:
         for f in files:
-            infos.append(motion_info(_load(f, lenient), f))
+            infos.append(motion_info(_load(f, lenient), f, up=up, units=units))
             step()
     if as_json:
         click.echo(json.dumps(infos[0] if len(infos) == 1 else infos, indent=2))

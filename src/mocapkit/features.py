@@ -551,7 +551,9 @@ def detect_units(
     return name, float(mpu)
 
 
-def _metres_per_unit(obj: Motion | Skeleton, units: str | float | None) -> float:
+def metres_per_unit(obj: Motion | Skeleton, units: str | float | None) -> float:
+    """Metres per file unit: from ``units`` ("m", "cm", "mm", "inch" or a number), else guessed
+    with :func:`detect_units`."""
     if units is None:
         return detect_units(obj)[1]
     if isinstance(units, str):
@@ -1021,7 +1023,7 @@ def foot_contacts(
     H = character_height(motion, up)
     mpu = 1.0
     if height_threshold is not None or velocity_threshold is not None:
-        mpu = _metres_per_unit(motion, units)
+        mpu = metres_per_unit(motion, units)
     h_thr = height_fraction * H if height_threshold is None else height_threshold / mpu
     v_thr = speed_fraction * H if velocity_threshold is None else velocity_threshold / mpu
     F = motion.num_frames
