@@ -1,106 +1,17 @@
-"""The ``mocapkit`` command: parses arguments, calls the library, prints results.
-
-Only this module and :mod:`mocapkit.viz` talk to people. Defaults come from the library's
-function signatures, not from here.
-"""
+"""``mocapkit info`` and ``mocapkit convert``."""
 
 from __future__ import annotations
 
-import functools
 import json
-import sys
-import warnings
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
+from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main, progress
 from mocapkit.core.motion import Motion
-from mocapkit.io import MocapFileError, RepairWarning, read_motion, write_motion
-from mocapkit.io._atomic import atomic_write_text, refuse_overwrite
-
-
-class CLIError(click.ClickException):
-    """A one-line error with exit status 2 (bad input)."""
-
-    exit_code = 2
-
-    def show(self, file: Any = None) -> None:
-        click.echo(f"mocapkit: error: {self.message}", err=True)
-
-
-def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn library exceptions about bad input into one-line CLI errors (no traceback)."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", RepairWarning)
-                result = fn(*args, **kwargs)
-            for w in caught:
-                click.echo(f"mocapkit: repaired: {w.message}", err=True)
-            return result
-        except MocapFileError as e:
-            raise CLIError(str(e)) from None
-        except (ValueError, KeyError, FileNotFoundError, ImportError) as e:
-            raise CLIError(str(e).strip("'\"")) from None
-
-    return wrapper
-
-
-@contextmanager
-def progress(total: int, description: str, enabled: bool = True) -> Iterator[Callable[[], None]]:
-    """A rich progress bar on stderr; yields a function to call once per finished item."""
-    if not enabled or total <= 1:
-        yield lambda: None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
-    with Progress(
-        "[progress.description]{task.description}",
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeRemainingColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
-        task = bar.add_task(description, total=total)
-        yield lambda: bar.advance(task)
-
-
-def _load(path: str, lenient: bool, asf: str | None = None, fps: float | None = None) -> Motion:
-    kwargs: dict[str, Any] = {"lenient": lenient}
-    if asf is not None:
-        kwargs["asf"] = asf
-    if fps is not None:
-        kwargs["fps"] = fps
-    return read_motion(path, **kwargs)
-
-
-LENIENT = click.option(
-    "--lenient",
-    is_flag=True,
-    help="Repair what is safe (frame-count mismatch, blank or truncated rows, NaN gaps) and "
-    "report it, instead of failing.",
-)
-
-
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
-@click.version_option(package_name="mocapkit")
-def main() -> None:
-    """mocapkit: motion-capture data tools (BVH, ASF/AMC).
-
-    \b
-    Examples:
-      mocapkit info walk.bvh
-      mocapkit convert subject.asf walk.amc walk.bvh   (see: mocapkit convert -h)
-      mocapkit demo --out demo_out
-    """
+from mocapkit.io import write_motion
+from mocapkit.io._atomic import refuse_overwrite
 
 
 # --------------------------------------------------------------------------------------- info
@@ -162,7 +73,7 @@ def motion_info(
     return info
 
 
-def _print_info(info: dict[str, Any]) -> None:
+def print_info(info: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
 
@@ -219,13 +130,13 @@ def info(
     infos = []
     with progress(len(files), "reading") as step:
         for f in files:
-            infos.append(motion_info(_load(f, lenient), f, up=up, units=units))
+            infos.append(motion_info(load(f, lenient), f, up=up, units=units))
             step()
     if as_json:
         click.echo(json.dumps(infos[0] if len(infos) == 1 else infos, indent=2))
     else:
         for i in infos:
-            _print_info(i)
+            print_info(i)
 
 
 # ------------------------------------------------------------------------------------ convert
@@ -292,75 +203,7 @@ def convert(
     else:
         raise CLIError("convert takes IN OUT, or ASF AMC OUT")
     refuse_overwrite(out, [*srcs])
-    motion = _load(src, lenient, asf=asf, fps=amc_fps if src.lower().endswith(".amc") else None)
+    motion = load(src, lenient, asf=asf, fps=amc_fps if src.lower().endswith(".amc") else None)
     motion = convert_motion(motion, fps=fps, scale=scale)
     write_motion(motion, out, order=order)
     click.echo(f"wrote {out} ({motion.num_frames} frames at {motion.fps:.6g} fps)")
-
-
-# --------------------------------------------------------------------------------------- demo
-@main.command()
-@click.option(
-    "--out",
-    "out_dir",
-    default="demo_out",
-    show_default=True,
-    type=click.Path(file_okay=False),
-    help="Folder for the demo's files.",
-)
-@friendly_errors
-def demo(out_dir: str) -> None:
-    """Run the tour on generated data (nothing is downloaded).
-
-    Generates the procedural humanoid (walk, run, wave) and the Three-Circles set, writes them as
-    BVH/.npz/CSV, reads them back, summarises them and converts one.
-
-    \b
-    Example:
-      mocapkit demo --out demo_out
-    """
-    from mocapkit import datasets
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    click.echo(f"mocapkit demo -> {out}/")
-    clips = {}
-    for kind, seconds in (("walk", 4.0), ("run", 3.0), ("wave", 3.0)):
-        synth = datasets.procedural_motion(kind, seconds=seconds, seed=0)
-        path = out / f"humanoid_{kind}.bvh"
-        write_motion(synth.motion, path)
-        clips[kind] = path
-        click.echo(f"  generated {path} ({synth.motion.num_frames} frames)")
-    circles = datasets.three_circles()
-    csv = out / "three_circles.csv"
-    rows = ["circle,frame,x,y"]
-    for name in ("large", "forward", "backward"):
-        arr = getattr(circles, name)
-        rows += [f"{name},{i},{x:.9g},{y:.9g}" for i, (x, y) in enumerate(arr)]
-    atomic_write_text(csv, "\n".join(rows) + "\n")
-    click.echo(f"  generated {csv}")
-
-    click.echo("\n[info] on the generated walk:")
-    walk = read_motion(clips["walk"])
-    summary = motion_info(walk, str(clips["walk"]))
-    _print_info(summary)
-    atomic_write_text(out / "humanoid_walk.info.json", json.dumps(summary, indent=2) + "\n")
-
-    click.echo("[convert] walk -> 60 fps, ZYX order, .npz and back to BVH:")
-    conv = convert_motion(walk, fps=60.0)
-    npz = write_motion(conv, out / "humanoid_walk_60fps.npz", order="ZYX")
-    back = read_motion(npz)
-    bvh = write_motion(back, out / "humanoid_walk_60fps_zyx.bvh")
-    again = read_motion(bvh)
-    same = back.allclose(again)
-    click.echo(
-        f"  {npz} -> {bvh}: {again.num_frames} frames at {again.fps:g} fps, "
-        f"round trip {'exact' if same else 'DIFFERENT'}"
-    )
-    if not same:
-        raise CLIError("demo: the BVH round trip changed the motion")
-    click.echo("\ndone.")
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

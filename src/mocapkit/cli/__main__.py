@@ -1,0 +1,5 @@
+import sys
+
+from mocapkit.cli import main
+
+sys.exit(main())
