@@ -5,7 +5,14 @@ function signatures, not from here. Each capability's subcommands live in their 
 register themselves on :data:`main` when imported below.
 """
 
-from mocapkit.cli import demo, io_commands  # noqa: F401  (registers the subcommands)
+# Importing a module registers its subcommands and appends its demo step (in this order).
+from mocapkit.cli import (  # noqa: F401
+    clean_commands,
+    demo,
+    graph_commands,
+    io_commands,
+    stitch_commands,
+)
 from mocapkit.cli.common import CLIError, main
 
 __all__ = ["CLIError", "main"]

@@ -58,9 +58,10 @@ def foundation_step(out: Path) -> None:
         raise CLIError("demo: the BVH round trip changed the motion")
 
 
-# Capabilities append (title, step) here; the demo runs them in order.
-DEMO_STEPS: list[tuple[str, DemoStep]] = [
-    ("foundation: synthetic data, info, convert", foundation_step)
+# Capabilities add (rank, title, step) here when their CLI module is imported; the demo runs
+# them by rank: foundation 0, stitching 10, motion graphs 20, cleaning 30.
+DEMO_STEPS: list[tuple[int, str, DemoStep]] = [
+    (0, "foundation: synthetic data, info, convert", foundation_step)
 ]
 
 
@@ -88,7 +89,7 @@ def demo(out_dir: str) -> None:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     click.echo(f"mocapkit demo -> {out}/")
-    for i, (title, step) in enumerate(DEMO_STEPS, 1):
+    for i, (_, title, step) in enumerate(sorted(DEMO_STEPS, key=lambda s: s[0]), 1):
         click.echo(f"\n== {i}. {title}")
         step(out)
     click.echo("\ndone.")

@@ -1,0 +1,1 @@
+"""``mocapkit clean`` subcommands (registered on import; see mocapkit.cli)."""

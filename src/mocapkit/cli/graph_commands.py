@@ -1,0 +1,1 @@
+"""``mocapkit graph`` subcommands (registered on import; see mocapkit.cli)."""

@@ -1,0 +1,1 @@
+"""``mocapkit stitch`` subcommands (registered on import; see mocapkit.cli)."""
