@@ -14,6 +14,7 @@ Conventions (used throughout mocapkit):
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -22,6 +23,16 @@ import numpy as np
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 VALID_CHANNELS = frozenset(POSITION_CHANNELS + ROTATION_CHANNELS)
+
+
+@functools.lru_cache(maxsize=256)
+def _channel_problem(ch: tuple[str, ...]) -> str:
+    """What is wrong with a joint's channel layout ("" if nothing); cached, layouts repeat."""
+    if any(c not in VALID_CHANNELS for c in ch) or len(set(ch)) != len(ch):
+        return "invalid channels"
+    if sum(c in ROTATION_CHANNELS for c in ch) not in (0, 3):
+        return "needs 0 or 3 rotation channels"
+    return ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,12 +79,9 @@ class Skeleton:
         if parents[0] != -1 or np.any(parents[1:] < 0) or np.any(parents[1:] >= np.arange(1, J)):
             raise ValueError("parents must be -1 for joint 0 and < j for every other joint j")
         for j, ch in enumerate(channels):
-            bad = [c for c in ch if c not in VALID_CHANNELS]
-            if bad or len(set(ch)) != len(ch):
-                raise ValueError(f"joint {names[j]!r}: invalid channels {ch}")
-            nrot = sum(c in ROTATION_CHANNELS for c in ch)
-            if nrot not in (0, 3):
-                raise ValueError(f"joint {names[j]!r}: needs 0 or 3 rotation channels, got {ch}")
+            problem = _channel_problem(ch)
+            if problem:
+                raise ValueError(f"joint {names[j]!r}: {problem}, got {ch}")
         if len(ep) != len(eo) or len(en) != len(ep):
             raise ValueError(
                 "end_site_parents, end_site_offsets and end_site_names differ in length"

@@ -18,7 +18,7 @@ import numpy as np
 OK, BAD_COUNT, BAD_NUMBER, NON_FINITE = 0, 1, 2, 3
 
 _POW10 = np.array([10.0**i for i in range(23)])
-_SLOW_CAPACITY = 4096
+_SLOW_CAPACITY = 256
 
 
 @numba.njit(cache=True, nogil=True)
@@ -57,11 +57,12 @@ def _parse_kernel(buf, ncols, out, slow_pos, pow10, allow_nan):  # pragma: no co
             exp10 = 0
             seen_digit = False
             slow = False
+            while pos < n and buf[pos] == 48:  # leading zeros: no significant digit
+                seen_digit = True
+                pos += 1
             while pos < n and 48 <= buf[pos] <= 57:
                 seen_digit = True
-                if mant == 0 and buf[pos] == 48:
-                    pass  # leading zero: no significant digit
-                elif ndig < 18:
+                if ndig < 18:
                     mant = mant * 10 + (buf[pos] - 48)
                     ndig += 1
                 else:
@@ -70,11 +71,14 @@ def _parse_kernel(buf, ncols, out, slow_pos, pow10, allow_nan):  # pragma: no co
                 pos += 1
             if pos < n and buf[pos] == 46:  # '.'
                 pos += 1
+                if mant == 0:
+                    while pos < n and buf[pos] == 48:
+                        seen_digit = True
+                        exp10 -= 1
+                        pos += 1
                 while pos < n and 48 <= buf[pos] <= 57:
                     seen_digit = True
-                    if mant == 0 and buf[pos] == 48:
-                        exp10 -= 1
-                    elif ndig < 18:
+                    if ndig < 18:
                         mant = mant * 10 + (buf[pos] - 48)
                         ndig += 1
                         exp10 -= 1
@@ -155,6 +159,16 @@ def _parse_kernel(buf, ncols, out, slow_pos, pow10, allow_nan):  # pragma: no co
     return 0, row, line, 0, 0, first_inner_blank, nslow, n
 
 
+@numba.njit(cache=True, nogil=True)
+def _count_newlines(buf):  # pragma: no cover - compiled
+    # no temporary (buf == 10) array: fresh large allocations cost page faults on every file
+    n = 0
+    for c in buf:
+        if c == 10:
+            n += 1
+    return n
+
+
 @dataclass
 class ParseResult:
     """Outcome of :func:`parse_rows`.
@@ -183,7 +197,7 @@ def parse_rows(
     if ncols < 0:
         raise ValueError("ncols must be >= 0")
     buf = np.frombuffer(block, dtype=np.uint8)
-    max_rows = int(np.count_nonzero(buf == 10)) + 1
+    max_rows = _count_newlines(buf) + 1
     out = np.empty(max(max_rows * ncols, 1), dtype=np.float64)
     slow = np.empty((_SLOW_CAPACITY, 3), dtype=np.int64)
     if ncols == 0:

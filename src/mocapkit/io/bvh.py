@@ -15,6 +15,8 @@ truncated last row — and says so with a :class:`RepairWarning`.
 
 from __future__ import annotations
 
+import functools
+import math
 import re
 import warnings
 from pathlib import Path
@@ -217,6 +219,23 @@ def _parse_joint(lx: _Lines, h: _Hierarchy, parent: int, name_line: int, name: s
 _CANON = {c.lower(): c for c in VALID_CHANNELS}
 
 
+@functools.lru_cache(maxsize=256)
+def _channel_layout(tokens: tuple[str, ...]) -> tuple[str, ...] | None:
+    """("6", "Xposition", ...) -> canonical channel names, or None if not a valid layout.
+    Cached: a file repeats the same few CHANNELS lines for every joint."""
+    if not tokens:
+        return None
+    try:
+        chans = tuple(_CANON[c.lower()] for c in tokens[1:])
+    except KeyError:
+        return None
+    n = len(chans)
+    nrot = sum(c in ROTATION_CHANNELS for c in chans)
+    if tokens[0] != str(n) or len(set(chans)) != n or nrot not in (0, 3) or n - nrot not in (0, 3):
+        return None
+    return chans
+
+
 def _fast_hierarchy(lines: list[str]) -> _Hierarchy | None:
     """Line-based parse of a well-formed hierarchy (the common case), or None.
 
@@ -277,7 +296,7 @@ def _fast_hierarchy(lines: list[str]) -> _Hierarchy | None:
                 off = [float(parts[1]), float(parts[2]), float(parts[3])]
             except ValueError:
                 return None
-            if not all(np.isfinite(off)):
+            if not all(map(math.isfinite, off)):
                 return None
             target = h.es_offsets[-1] if stack[-1] < 0 else h.offsets[stack[-1]]
             if target:
@@ -287,20 +306,8 @@ def _fast_hierarchy(lines: list[str]) -> _Hierarchy | None:
             if not stack or stack[-1] < 0 or stack[-1] in has_channels or not h.offsets[stack[-1]]:
                 return None
             has_channels.add(stack[-1])
-            try:
-                chans = tuple(_CANON[c.lower()] for c in parts[2:])
-            except KeyError:
-                return None
-            n = len(chans)
-            nrot = sum(c in ROTATION_CHANNELS for c in chans)
-            npos = n - nrot
-            if (
-                len(parts) < 2
-                or parts[1] != str(n)
-                or len(set(chans)) != n
-                or nrot not in (0, 3)
-                or npos not in (0, 3)
-            ):
+            chans = _channel_layout(tuple(parts[1:]))
+            if chans is None:
                 return None
             h.channels[stack[-1]] = chans
         elif key == "}":
@@ -336,57 +343,77 @@ def _channel_columns(
 
 
 @numba.njit(cache=True, nogil=True)
-def _euler_deg_to_quat_kernel(values, joints, cols, axes, out):  # pragma: no cover - compiled
-    """out[f, joints[k]] = q_axes[k,0](v0) * q_axes[k,1](v1) * q_axes[k,2](v2), v in degrees.
+def _channels_kernel(  # pragma: no cover - compiled
+    values, rot_cols, rot_axes, pos_cols, offsets, rotations, translations
+):
+    """Fill local rotations (F, J, 4) and translations (F, Jt, 3) from BVH channel values.
 
-    The fast twin of ``rotations.euler_to_quat`` (intrinsic composition, w,x,y,z).
+    Joint j rotates by q_ax0(v0) q_ax1(v1) q_ax2(v2) (degrees, intrinsic, w,x,y,z) with
+    rot_cols[j] < 0 meaning "no rotation channels" (identity); its translation comes from the
+    position columns pos_cols[j] (< 0: its OFFSET). Only the first Jt joints get translations
+    (Jt = 1 when only the root may move). The fast twin of ``rotations.euler_to_quat``.
     """
     half = np.pi / 360.0
-    for f in range(values.shape[0]):
-        for k in range(joints.shape[0]):
+    F, J = rotations.shape[0], rotations.shape[1]
+    Jt = translations.shape[1]
+    for f in range(F):
+        for j in range(J):
             w, x, y, z = 1.0, 0.0, 0.0, 0.0
+            if rot_cols[j, 0] >= 0:
+                for i in range(3):
+                    a = values[f, rot_cols[j, i]] * half
+                    c, s = np.cos(a), np.sin(a)
+                    ax = rot_axes[j, i]
+                    # (w,x,y,z) * (c, s*e_ax)
+                    if ax == 0:
+                        w, x, y, z = w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s
+                    elif ax == 1:
+                        w, x, y, z = w * c - y * s, x * c - z * s, y * c + w * s, z * c + x * s
+                    else:
+                        w, x, y, z = w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s
+            rotations[f, j, 0] = w
+            rotations[f, j, 1] = x
+            rotations[f, j, 2] = y
+            rotations[f, j, 3] = z
+        for j in range(Jt):
             for i in range(3):
-                a = values[f, cols[k, i]] * half
-                c, s = np.cos(a), np.sin(a)
-                ax = axes[k, i]
-                # (w,x,y,z) * (c, s*e_ax)
-                if ax == 0:
-                    w, x, y, z = w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s
-                elif ax == 1:
-                    w, x, y, z = w * c - y * s, x * c - z * s, y * c + w * s, z * c + x * s
-                else:
-                    w, x, y, z = w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s
-            j = joints[k]
-            out[f, j, 0] = w
-            out[f, j, 1] = x
-            out[f, j, 2] = y
-            out[f, j, 3] = z
+                c = pos_cols[j, i]
+                translations[f, j, i] = values[f, c] if c >= 0 else offsets[j, i]
 
 
 def channels_to_motion(sk: Skeleton, values: np.ndarray, frame_time: float) -> Motion:
     """Turn a (F, C) block of BVH channel values (degrees, file units) into a Motion."""
     F = values.shape[0]
     J = sk.num_joints
-    rotations = np.zeros((F, J, 4))
-    rotations[..., 0] = 1.0
-    rot_cols, pos_cols = _channel_columns(sk)
-    if rot_cols and F:
-        joints = np.array([j for j, _ in rot_cols], dtype=np.int64)
-        cols = np.array([c for _, c in rot_cols], dtype=np.int64)
-        # cols follow the file's channel order, and so does rotation_order(j)
-        axes = np.array([["XYZ".index(a) for a in sk.rotation_order(j)] for j, _ in rot_cols])
-        _euler_deg_to_quat_kernel(np.ascontiguousarray(values), joints, cols, axes, rotations)
-    root_positions = np.broadcast_to(sk.offsets[0], (F, 3)).copy()
-    translations = None
-    pos_joints = [j for j, _ in pos_cols]
-    if pos_joints and pos_joints[0] == 0:
-        root_positions = values[:, pos_cols[0][1]]
-    if any(j != 0 for j in pos_joints):
-        translations = np.empty((F, J, 3))
-        translations[:] = sk.offsets
-        translations[:, pos_joints] = values[:, [c for _, c in pos_cols]]
-        translations[:, 0] = root_positions
-    return Motion(sk, rotations, root_positions, frame_time, translations)
+    rot_cols = np.full((J, 3), -1, dtype=np.int64)
+    rot_axes = np.zeros((J, 3), dtype=np.int64)
+    pos_cols = np.full((J, 3), -1, dtype=np.int64)
+    c = 0
+    for j, ch in enumerate(sk.channels):
+        r = 0
+        for name in ch:
+            if name in ROTATION_CHANNELS:
+                rot_cols[j, r] = c
+                rot_axes[j, r] = "XYZ".index(name[0])
+                r += 1
+            else:
+                pos_cols[j, "XYZ".index(name[0])] = c
+            c += 1
+    moving = [j for j in range(1, J) if pos_cols[j, 0] >= 0]
+    Jt = J if moving else 1
+    rotations = np.empty((F, J, 4))
+    translations = np.empty((F, Jt, 3))
+    _channels_kernel(
+        np.ascontiguousarray(values, dtype=np.float64),
+        rot_cols,
+        rot_axes,
+        pos_cols,
+        sk.offsets,
+        rotations,
+        translations,
+    )
+    root_positions = translations[:, 0].copy()
+    return Motion(sk, rotations, root_positions, frame_time, translations if moving else None)
 
 
 def _parse_hierarchy(lx: _Lines, source: str) -> _Hierarchy:
