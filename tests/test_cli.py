@@ -139,3 +139,65 @@ def test_info_overrides_up_and_units(walk_bvh: Path) -> None:
     assert code == 0
     info = json.loads(out)
     assert (info["units_guess"], info["metres_per_unit"], info["up_axis"]) == ("cm", 0.01, "Y")
+
+
+ASF = """:version 1.10
+:name VICON
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name lfemur
+     direction 0.34202 -0.939693 0
+     length 7.10592
+     axis 0 0 20 XYZ
+     dof rx ry rz
+  end
+:hierarchy
+  begin
+    root lfemur
+  end
+"""
+AMC = """:FULLY-SPECIFIED
+:DEGREES
+1
+root 1 2 3 4 5 6
+lfemur -21.2 3.6 -10.5
+2
+root 1 2 3.5 4 5 6
+lfemur 10 0 0
+"""
+
+
+def test_convert_asf_amc_to_bvh(tmp_path: Path) -> None:
+    (tmp_path / "07.asf").write_text(ASF)
+    (tmp_path / "07_01.amc").write_text(AMC)
+    out = tmp_path / "07_01.bvh"
+    code, _, err = run(
+        "convert",
+        str(tmp_path / "07.asf"),
+        str(tmp_path / "07_01.amc"),
+        str(out),
+        "--amc-fps",
+        "60",
+    )
+    assert code == 0, err
+    m = read_motion(out)
+    assert m.num_frames == 2 and m.frame_time == pytest.approx(1 / 60)
+    np.testing.assert_allclose(m.root_positions, [[1, 2, 3], [1, 2, 3.5]])
+    # the ASF beside a CMU-style AMC is found on its own
+    out2 = tmp_path / "auto.bvh"
+    assert run("convert", str(tmp_path / "07_01.amc"), str(out2))[0] == 0
+    assert read_motion(out2).num_frames == 2
+    bad = tmp_path / "bad.amc"
+    bad.write_text(AMC.replace("lfemur 10 0 0", "lfemur 10 0"))
+    code, _, err = run("convert", str(tmp_path / "07.asf"), str(bad), str(tmp_path / "x.bvh"))
+    assert code == 2 and f"{bad}:8:" in err
