@@ -5,6 +5,10 @@ Pollard, "Laziness is a virtue: Motion stitching using effort minimization".
   RTS smoother (readable reference, and the fast linear-map form).
 * :mod:`mocapkit.stitch.lscore` — L, L_k, L*, the windowed-Euclidean baseline, stitch windows
   and the batched landing search.
+* :mod:`mocapkit.stitch.search` — score features of motions and the transition search over a
+  library of clips (by L* or by windowed Euclidean distance), on arrays or on Motions.
+* :mod:`mocapkit.stitch.transition` — the stitched Motion (Kalman-generated frames after a
+  ground-plane alignment) and the cross-fade / gap-interpolation baselines.
 
 Conventions: feature clips are (frames, m) arrays, m = 3 × joints of body-local joint positions;
 a stitch window is (2w, m) = w query frames ending at the take-off frame, then w data frames
@@ -40,29 +44,63 @@ from mocapkit.stitch.lscore import (
     sliding_windows,
     windowed_euclidean,
 )
+from mocapkit.stitch.search import (
+    SCORES,
+    Transition,
+    body_joints,
+    conform,
+    euclidean_landings,
+    find_transition,
+    motion_features,
+    parse_takeoffs,
+    search_features,
+)
+from mocapkit.stitch.transition import (
+    Stitched,
+    align_data,
+    crossfade,
+    interpolate_gap,
+    stitch,
+    stitch_motions,
+)
 
 __all__ = [
     "DEFAULT_K_MAX",
     "DEFAULT_MODEL",
     "DEFAULT_W",
+    "SCORES",
     "BestStitch",
     "ClipSearchResult",
     "ConstantAccelerationModel",
     "ElasticResult",
     "SearchResult",
+    "Stitched",
+    "Transition",
+    "align_data",
+    "body_joints",
+    "conform",
+    "crossfade",
     "elastic_lscore",
     "elastic_lscore_reference",
     "elastic_lscores",
     "elastic_lscores_reference",
     "elastic_mask",
     "elastic_operators",
+    "euclidean_landings",
+    "find_transition",
+    "interpolate_gap",
     "lscore",
     "lscore_reference",
+    "motion_features",
+    "parse_takeoffs",
     "rts_smooth_reference",
     "search_clips",
+    "search_features",
     "search_landings",
     "sliding_windows",
     "smooth",
     "smoother_matrix",
+    "stitch",
+    "stitch_motions",
     "windowed_euclidean",
 ]

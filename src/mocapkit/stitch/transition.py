@@ -1,0 +1,380 @@
+"""The stitched :class:`~mocapkit.core.motion.Motion`: query up to take-off, k generated frames,
+data from the landing frame on — by the effort-minimising Kalman transition, or by the plain
+baselines (cross-fade, gap interpolation).
+
+Alignment (:func:`align_data`). The data clip (first put on the query's skeleton by
+:func:`mocapkit.stitch.search.conform`) is moved rigidly over the ground plane
+(:func:`mocapkit.features.ground_alignment`, :func:`mocapkit.features.apply_ground_transform`) so
+that at the landing frame b its facing equals the query's at the take-off frame a and its pelvis
+ground position *continues* the query's: ``p_b = p_a + (k + 1) v``, where v is the mean of the
+query's pelvis ground velocity at a (``p_a - p_{a-1}``) and the aligned data's at b
+(``p_{b+1} - p_b``). Placing the landing frame exactly on the take-off position would make the
+character stand still for the k + 1 steps of the transition. Heights are never changed and the
+heading is not extrapolated (a turn during the transition is not predicted). ``align=False``
+keeps the data clip where it is (e.g. two parts of one recording, as in the blank-out
+experiment).
+
+Generated frames (:func:`stitch_motions`), k of them. Every joint's local rotation is written
+relative to the take-off pose, ``r_t = log(q_a⁻¹ q_t)`` with the quaternion taken in the ``w >= 0``
+hemisphere (continuous as long as a joint turns by less than 180° from its take-off pose within
+the window), and the root position and the animated local translations are taken as they are
+(centred on frame a). Each of these series is smoothed with the same Kalman model and mask as the
+score — w observed take-off frames ``a-w+1..a``, k unobserved steps, w observed landing frames
+``b..b+w-1`` of the aligned data — and the k unobserved steps become the generated frames
+(``q = q_a exp(r̂)``). The query's frames up to a and the data's frames from b are kept unchanged.
+
+The score's own prediction of the transition is the smoothed trajectory of the *features*
+(body-local joint positions). The generated frames are built from rotations instead (so the
+result is a valid BVH), so their forward-kinematics body-local positions differ from that
+trajectory; :class:`Stitched` reports the discrepancy (``fk_error_mean``/``fk_error_max``, per
+joint and frame, in the clip's units).
+
+Baselines: :func:`crossfade` (slerp of rotations and lerp of translations with ease-in/out
+weights over a fixed window where query and data overlap) and :func:`interpolate_gap` (g frames
+between take-off and landing: ``"slerp"`` — quaternion slerp, the LaFAN1 interpolation baseline —
+or ``"linear"`` — component-wise linear interpolation of the quaternions, renormalised; the root
+position and translations are interpolated linearly in both).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion, concatenate
+from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
+from mocapkit.stitch.lscore import DEFAULT_W, _check_w, elastic_mask
+from mocapkit.stitch.search import (
+    Transition,
+    _joint_indices,
+    conform,
+    find_transition,
+    motion_features,
+)
+
+__all__ = [
+    "Stitched",
+    "align_data",
+    "crossfade",
+    "interpolate_gap",
+    "stitch",
+    "stitch_motions",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class Stitched:
+    """A stitched motion and where its parts are.
+
+    ``motion``: the result, on the query's skeleton. Output frames ``0..takeoff`` are the query's
+    (``takeoff`` = a), ``generated`` (a slice) the generated/blended frames and ``landing_index``
+    the output frame of the data's landing frame b. ``transform``: the ground transform applied
+    to the data clip (None without alignment). ``method``: "kalman", "crossfade", "slerp" or
+    "linear". For "kalman": ``kalman_positions`` (k, J', 3) — the body-local feature trajectory
+    the L-score predicts for the injected frames, ``fk_positions`` (k, J', 3) — the body-local
+    forward-kinematics positions of the generated frames, and their distance per joint and
+    frame (``fk_error_mean``, ``fk_error_max``, clip units; 0 when k = 0).
+    """
+
+    motion: Motion
+    method: str
+    takeoff: int
+    landing: int
+    k: int
+    generated: slice
+    landing_index: int
+    transform: object | None = None
+    transition: Transition | None = None
+    kalman_positions: np.ndarray | None = None
+    fk_positions: np.ndarray | None = None
+    fk_error_mean: float = 0.0
+    fk_error_max: float = 0.0
+
+
+# --------------------------------------------------------------------------------- alignment
+
+
+def _check_frames(query: Motion, takeoff: int, data: Motion, landing: int, before: int, after: int):
+    a, b = int(takeoff), int(landing)
+    if a != takeoff or not before - 1 <= a < query.num_frames:
+        raise ValueError(
+            f"take-off frame {takeoff} outside [{before - 1}, {query.num_frames - 1}] of the query"
+        )
+    if b != landing or not 0 <= b <= data.num_frames - after:
+        raise ValueError(
+            f"landing frame {landing} outside [0, {data.num_frames - after}] of the data clip "
+            f"({data.num_frames} frames; {after} frames from the landing are needed)"
+        )
+    return a, b
+
+
+def align_data(
+    query: Motion, takeoff: int, data: Motion, landing: int, k: int = 0, up: str | None = None
+):
+    """``(aligned data, GroundTransform)``: ``data`` moved over the ground so that at ``landing``
+    it faces like ``query`` at ``takeoff`` and its pelvis is ``k + 1`` mean steps ahead of the
+    query's take-off position (see the module docstring). ``data`` must already be on the query's
+    skeleton (:func:`conform`)."""
+    from mocapkit import features
+
+    up = up or features.detect_up_axis(query)
+    a, b = int(takeoff), int(landing)
+    T0 = features.ground_alignment(query, a, data, b, up=up)
+    moved = features.apply_ground_transform(data, T0)
+    a0 = max(a - 1, 0)
+    b1 = min(b + 2, data.num_frames)
+    pq = features.root_trajectory(query[a0 : a + 1], up)
+    pd = features.root_trajectory(moved[b:b1], up)
+    vq = pq[-1] - pq[0] if len(pq) > 1 else np.zeros(2)
+    vd = pd[1] - pd[0] if len(pd) > 1 else vq
+    if len(pq) < 2:
+        vq = vd
+    step = 0.5 * (vq + vd) * (int(k) + 1)
+    shift = features.GroundTransform.from_2d(0.0, step, up)
+    T = shift.compose(T0)
+    return features.apply_ground_transform(data, T), T
+
+
+# --------------------------------------------------------------------------------- Kalman
+
+
+def _relative_logs(ref: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """log(ref⁻¹ q) in the w >= 0 hemisphere: (n, J, 4) → (n, J, 3)."""
+    rel = rot.quat_mul(rot.quat_inv(ref)[None], q)
+    rel = np.where(rel[..., :1] < 0.0, -rel, rel)
+    return rot.quat_log(rel)
+
+
+def _translation_series(motion: Motion) -> np.ndarray:
+    """(F, J, 3) local translations (root position in column 0)."""
+    return motion.local_translations()
+
+
+def stitch_motions(
+    query: Motion,
+    takeoff: int,
+    data: Motion,
+    landing: int,
+    k: int,
+    *,
+    window: int = DEFAULT_W,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    align: bool = True,
+    up: str | None = None,
+    joints: Sequence[str] | None = None,
+) -> Stitched:
+    """The Kalman stitch of ``query`` (frames 0..takeoff) and ``data`` (frames landing..) with
+    ``k`` generated frames (see the module docstring). ``window`` = w: the query needs frames
+    ``takeoff-w+1..takeoff`` and the data ``landing..landing+w-1``. ``joints``: feature joints
+    for the FK discrepancy (default: the body joints). Returns :class:`Stitched`."""
+    from mocapkit import features
+
+    w = _check_w(window)
+    if int(k) != k or k < 0:
+        raise ValueError(f"k must be an integer >= 0, got {k}")
+    k = int(k)
+    data = conform(data, query)
+    a, b = _check_frames(query, takeoff, data, landing, w, w)
+    up = up or features.detect_up_axis(query)
+    transform = None
+    if align:
+        data, transform = align_data(query, a, data, b, k, up)
+    q_win = np.concatenate([query.rotations[a - w + 1 : a + 1], data.rotations[b : b + w]])
+    t_win = np.concatenate(
+        [_translation_series(query[a - w + 1 : a + 1]), _translation_series(data[b : b + w])]
+    )
+    ref = query.rotations[a]
+    J = query.num_joints
+    logs = _relative_logs(ref, q_win).reshape(2 * w, 3 * J)
+    centre = t_win[w - 1].copy()
+    trans = (t_win - centre).reshape(2 * w, 3 * J)
+    P = smoother_matrix(model, elastic_mask(w, k))[:, 0, :]  # (2w + k, 2w)
+    Pk = P[w : w + k]  # the injected steps
+    gen_logs = (Pk @ logs).reshape(k, J, 3)
+    gen_trans = (Pk @ trans).reshape(k, J, 3) + centre
+    gen_rots = rot.quat_normalize(rot.quat_mul(ref[None], rot.quat_exp(gen_logs)))
+    gen_trans_out = None
+    if query.translations is not None or data.translations is not None:
+        gen_trans_out = gen_trans
+    gen = Motion(query.skeleton, gen_rots, gen_trans[:, 0], query.frame_time, gen_trans_out)
+    motion = _join(query[: a + 1], gen, data[b:])
+
+    idx = _joint_indices(query.skeleton, joints)
+    names = [query.skeleton.names[j] for j in idx]
+    kal = fk = None
+    err_mean = err_max = 0.0
+    if k:
+        qf = motion_features(query[a - w + 1 : a + 1], up, names)
+        df = motion_features(data[b : b + w], up, names)
+        kal = (Pk @ np.concatenate([qf, df])).reshape(k, len(idx), 3)
+        fk = features.local_positions(gen, up=up)[:, idx]
+        d = np.linalg.norm(fk - kal, axis=-1)
+        err_mean, err_max = float(d.mean()), float(d.max())
+    return Stitched(
+        motion,
+        "kalman",
+        a,
+        b,
+        k,
+        slice(a + 1, a + 1 + k),
+        a + 1 + k,
+        transform,
+        None,
+        kal,
+        fk,
+        err_mean,
+        err_max,
+    )
+
+
+def _join(*parts: Motion) -> Motion:
+    parts = tuple(p for p in parts if p.num_frames)
+    if any(p.translations is not None for p in parts):
+        parts = tuple(
+            Motion(p.skeleton, p.rotations, p.root_positions, p.frame_time, p.local_translations())
+            for p in parts
+        )
+    return concatenate(parts)
+
+
+def stitch(
+    query: Motion,
+    takeoff,
+    data: Motion | Sequence[Motion],
+    landing: int | None = None,
+    *,
+    window: int = DEFAULT_W,
+    max_inject_seconds: float = 1.0,
+    score: str = "lscore",
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    align: bool = True,
+    up: str | None = None,
+    joints: Sequence[str] | None = None,
+) -> Stitched:
+    """Search (:func:`mocapkit.stitch.search.find_transition`) then build the Kalman stitch
+    (:func:`stitch_motions`) with the chosen clip, take-off, landing and k. The search result is
+    ``result.transition``."""
+    from mocapkit.features import detect_up_axis
+
+    clips = [data] if isinstance(data, Motion) else list(data)
+    up = up or detect_up_axis(query)
+    tr = find_transition(
+        query,
+        takeoff,
+        clips,
+        landing,
+        window=window,
+        max_inject_seconds=max_inject_seconds,
+        score=score,
+        model=model,
+        up=up,
+        joints=joints,
+    )
+    res = stitch_motions(
+        query,
+        tr.takeoff,
+        clips[tr.clip],
+        tr.landing,
+        tr.k,
+        window=window,
+        model=model,
+        align=align,
+        up=up,
+        joints=joints,
+    )
+    return replace(res, transition=tr)
+
+
+# --------------------------------------------------------------------------------- baselines
+
+
+def _ease(t: np.ndarray) -> np.ndarray:
+    return t * t * (3.0 - 2.0 * t)
+
+
+def crossfade(
+    query: Motion,
+    data: Motion,
+    takeoff: int,
+    landing: int,
+    window_seconds: float = 0.25,
+    *,
+    align: bool = True,
+    up: str | None = None,
+) -> Stitched:
+    """Plain cross-fade over ``n = round(window_seconds / frame_time)`` frames (at least 1).
+
+    Query frames ``a-n+1..a`` are played at the same time as data frames ``b..b+n-1`` and blended
+    with ease-in/out weights ``s = smoothstep((i+1)/(n+1))``: rotations by slerp, translations by
+    lerp. Output: query ``0..a-n``, the n blended frames, data ``b+n..``; it is n frames shorter
+    than a stitch with k = 0. With ``align``, the data is aligned (facing and pelvis position) at
+    the middle of the blend window, ``b + (n-1)//2`` onto ``a - n + 1 + (n-1)//2``.
+    """
+    from mocapkit import features
+
+    data = conform(data, query)
+    n = max(1, query.seconds_to_frames(window_seconds))
+    a, b = _check_frames(query, takeoff, data, landing, n, n)
+    up = up or features.detect_up_axis(query)
+    transform = None
+    c = (n - 1) // 2
+    if align:
+        transform = features.ground_alignment(query, a - n + 1 + c, data, b + c, up=up)
+        data = features.apply_ground_transform(data, transform)
+    s = _ease((np.arange(n) + 1.0) / (n + 1.0))
+    qa, qb = query[a - n + 1 : a + 1], data[b : b + n]
+    rots = rot.quat_slerp(qa.rotations, qb.rotations, s[:, None])
+    s3 = s[:, None, None]
+    tra = qa.local_translations() * (1 - s3) + qb.local_translations() * s3
+    has_t = query.translations is not None or data.translations is not None
+    blend = Motion(query.skeleton, rots, tra[:, 0], query.frame_time, tra if has_t else None)
+    motion = _join(query[: a - n + 1], blend, data[b + n :])
+    return Stitched(motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a + 1, transform)
+
+
+def interpolate_gap(
+    query: Motion,
+    data: Motion,
+    takeoff: int,
+    landing: int,
+    gap: int,
+    method: str = "slerp",
+    *,
+    align: bool = True,
+    up: str | None = None,
+) -> Stitched:
+    """Fill ``gap`` frames between query frame ``takeoff`` and data frame ``landing`` by
+    interpolating between those two poses at ``t = i/(gap+1)``, i = 1..gap: rotations by
+    ``"slerp"`` or ``"linear"`` (component-wise lerp of the quaternions, renormalised), root
+    position and translations linearly. With ``align`` the data is aligned as for the Kalman
+    stitch with k = gap (:func:`align_data`)."""
+    from mocapkit import features
+
+    if method not in ("slerp", "linear"):
+        raise ValueError(f"method must be 'slerp' or 'linear', got {method!r}")
+    if int(gap) != gap or gap < 0:
+        raise ValueError(f"gap must be an integer >= 0, got {gap}")
+    g = int(gap)
+    data = conform(data, query)
+    a, b = _check_frames(query, takeoff, data, landing, 1, 1)
+    up = up or features.detect_up_axis(query)
+    transform = None
+    if align:
+        data, transform = align_data(query, a, data, b, g, up)
+    t = (np.arange(g) + 1.0) / (g + 1.0)
+    q0, q1 = query.rotations[a], rot.quat_fix_hemisphere(data.rotations[b], query.rotations[a])
+    if method == "slerp":
+        rots = rot.quat_slerp(q0[None], q1[None], np.broadcast_to(t[:, None], (g, q0.shape[0])))
+    else:
+        rots = rot.quat_normalize(q0[None] * (1 - t[:, None, None]) + q1[None] * t[:, None, None])
+    t0, t1 = query[a].local_translations()[0], data[b].local_translations()[0]
+    tra = t0[None] * (1 - t[:, None, None]) + t1[None] * t[:, None, None]
+    has_t = query.translations is not None or data.translations is not None
+    gen = Motion(
+        query.skeleton, rots.reshape(g, -1, 4), tra[:, 0], query.frame_time, tra if has_t else None
+    )
+    motion = _join(query[: a + 1], gen, data[b:])
+    return Stitched(motion, method, a, b, g, slice(a + 1, a + 1 + g), a + 1 + g, transform)
