@@ -14,16 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from mocapkit._optional import pyplot
+
 __all__ = ["pick_plot_joints", "plot_paths_2d", "plot_stitch"]
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def pick_plot_joints(names: Sequence[str], n: int = 3) -> list[int]:
@@ -59,7 +52,7 @@ def plot_stitch(
     ``takeoff - margin .. landing + margin``."""
     from mocapkit import features
 
-    plt = _pyplot()
+    plt = pyplot()
     m = stitched.motion
     names = m.skeleton.names
     if lscore_by_k is None and stitched.transition is not None:
@@ -121,7 +114,7 @@ def plot_stitch(
 
 def plot_paths_2d(path: str | Path, curves: dict, title: str = "") -> Path:
     """2-D paths: ``curves`` maps a label to ``(points (n, 2), matplotlib format)``."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 5))
     for label, (pts, fmt) in curves.items():
         pts = np.asarray(pts)
