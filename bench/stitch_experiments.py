@@ -83,7 +83,8 @@ def shared_root() -> Path:
 def three_circles_experiment(out: Path) -> list[dict]:
     from mocapkit import datasets
     from mocapkit.stitch import elastic_lscore, search_features, sliding_windows
-    from mocapkit.stitch.plots import _pyplot, plot_paths_2d
+    from mocapkit._optional import pyplot
+    from mocapkit.stitch.plots import plot_paths_2d
 
     tc = datasets.three_circles()
     rows, curves, lk = [], {}, {}
@@ -114,7 +115,7 @@ def three_circles_experiment(out: Path) -> list[dict]:
     curves = {"large circle": (tc.large, "k,"), "query AB": (tc.query, "kd"), **curves}
     curves["take-off B"] = (tc.query[-1:], "r^")
     plot_paths_2d(out / "three_circles_paths.png", curves, "Three-Circles: elastic L-score")
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))
     for which, L in lk.items():
         ax.plot(np.arange(len(L)), L, ".-", label=f"{which} (k_opt = {int(np.argmin(L))})")
@@ -216,9 +217,9 @@ def _blank_out_figure(fig_data: dict, out: Path) -> None:
     if not fig_data:
         return
     from mocapkit.core.kinematics import forward_kinematics
-    from mocapkit.stitch.plots import _pyplot
+    from mocapkit._optional import pyplot
 
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(fig_data), figsize=(6 * len(fig_data), 4), squeeze=False)
     for ax, (g, (name, a, m, s_opt, k)) in zip(axes[0], sorted(fig_data.items()), strict=True):
         lo, hi = a - 12, a + g + 14
