@@ -1,1 +1,361 @@
-"""``mocapkit graph`` subcommands (registered on import; see mocapkit.cli)."""
+"""``mocapkit graph`` subcommands (registered on import; see mocapkit.cli): build, synth, report,
+and the motion-graph step of ``mocapkit demo``."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import click
+import numpy as np
+
+from mocapkit.cli.common import CLIError, friendly_errors, load, main, progress
+from mocapkit.cli.demo import DEMO_STEPS
+
+READABLE_EXT = (".bvh", ".npz")
+
+
+@main.group()
+def graph() -> None:
+    """Motion graphs (Kovar et al.) with the dynamics-based comparison metric of Matsunaga &
+    Zordan: build a graph from clips, synthesise new motion from it, report on it.
+
+    \b
+    Examples:
+      mocapkit graph build clips/ --out graph.json --plot costs.png
+      mocapkit graph synth graph.json --seconds 30 --out walk.bvh --seed 1
+      mocapkit graph report graph.json
+    """
+
+
+def _collect(inputs: tuple[str, ...]) -> list[Path]:
+    files: list[Path] = []
+    for s in inputs:
+        p = Path(s)
+        if p.is_dir():
+            found = sorted(f for f in p.iterdir() if f.suffix.lower() in READABLE_EXT)
+            if not found:
+                raise CLIError(f"{p}: no .bvh or .npz files in this folder")
+            files += found
+        elif p.exists():
+            files.append(p)
+        else:
+            raise CLIError(f"{p}: no such file or folder")
+    return files
+
+
+def _rel(path: Path, base: Path) -> str:
+    try:
+        return os.path.relpath(path.resolve(), base.resolve())
+    except ValueError:  # other drive (Windows)
+        return str(path.resolve())
+
+
+@graph.command("build")
+@click.argument("inputs", nargs=-1, required=True, type=click.Path())
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The graph file to write (JSON).",
+)
+@click.option(
+    "--metric",
+    type=click.Choice(["dynamics", "uniform", "torso"]),
+    default="dynamics",
+    show_default=True,
+    help="Body-part weighting: dynamics (the paper's), uniform (Heuristic 1), torso (Heuristic 2).",
+)
+@click.option(
+    "--transitions",
+    "T",
+    type=int,
+    default=None,
+    help="Keep the T best transitions (default: the knee of the rank-ordered costs).",
+)
+@click.option(
+    "--threshold", type=float, default=None, help="Keep the transitions with cost <= X instead."
+)
+@click.option(
+    "--window",
+    type=float,
+    default=1.0 / 3.0,
+    show_default="0.333",
+    help="Comparison window in seconds.",
+)
+@click.option(
+    "--stride",
+    type=int,
+    default=None,
+    help="Evaluate every STRIDE-th frame, then refine (default: 1 up to 20,000 frames, else 2).",
+)
+@click.option(
+    "--masses",
+    type=click.Path(dir_okay=False, exists=True),
+    default=None,
+    help="JSON {joint name: kg} overriding the de Leva body-part masses.",
+)
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the cost matrices (this metric vs the uniform one), their difference "
+    "with the transitions marked, and the rank-ordered cost curve (PNG).",
+)
+@click.option(
+    "--graphml",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write the graph as GraphML.",
+)
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@friendly_errors
+def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graphml, quiet):
+    """Build a motion graph from motion files and/or folders of them.
+
+    Finds the local minima of the aligned window cost between every pair of frames (in tiles,
+    never the whole matrix), merges those within a quarter second, keeps the T best (the knee
+    of the rank-ordered curve unless --transitions/--threshold), refines them at full
+    resolution and prunes the graph to its largest strongly connected component. Frames are
+    0-based in the JSON.
+
+    \b
+    Examples:
+      mocapkit graph build walk.bvh run.bvh --out graph.json
+      mocapkit graph build clips/ --out graph.json --metric uniform --transitions 60
+      mocapkit graph build clips/ --out graph.json --plot costs.png --graphml graph.graphml
+    """
+    from mocapkit.graph.distance import build_database, candidate_grid
+    from mocapkit.graph.graph import build_graph, default_stride
+    from mocapkit.graph.weights import load_masses
+
+    if T is not None and threshold is not None:
+        raise CLIError("give --transitions or --threshold, not both")
+    files = _collect(inputs)
+    motions = []
+    with progress(len(files), "reading", enabled=not quiet) as step:
+        for f in files:
+            motions.append(load(str(f), False))
+            step()
+    overrides = load_masses(masses) if masses else None
+    db = build_database(motions, metric, window, masses=overrides)
+    stride = default_stride(db.num_frames) if stride is None else stride
+    tile = 1024
+    G = len(candidate_grid(db, stride))
+    n = -(-(G - 2) // tile)
+    outp = Path(out)
+    with progress(n * (n + 1) // 2, "comparing frames", enabled=not quiet) as step:
+        g, db, _minima = build_graph(
+            motions, metric, paths=[_rel(f, outp.parent) for f in files], transitions=T,
+            threshold=threshold, window=window, stride=stride, tile=tile, database=db,
+            progress=lambda done, total: step(),
+        )  # fmt: skip
+    g.save(outp)
+    st = g.stats
+    click.echo(
+        f"{len(files)} clips, {db.num_frames} frames at {db.fps:g} fps; window "
+        f"{2 * db.half + 1} frames; {st['candidates']} candidate transitions "
+        f"({st['gflop']:.1f} GFLOP in {st['tile_seconds']:.1f} s, stride {g.stride})"
+    )
+    click.echo(
+        f"kept T = {g.T} ({'--transitions' if T is not None else '--threshold' if threshold is not None else 'knee rule'}): "  # noqa: E501
+        f"{g.num_transitions} transitions, {int(g.in_scc.sum())} in the largest strongly "
+        f"connected component ({g.scc_frames()} frames)"
+    )
+    click.echo(f"wrote {outp}")
+    if graphml:
+        click.echo(f"wrote {g.save_graphml(graphml)}")
+    if plot:
+        from mocapkit.graph.plots import plot_cost_comparison
+
+        other = "uniform" if metric != "uniform" else "dynamics"
+        db2 = build_database(motions, other, window, masses=overrides)
+        g2, _, _ = build_graph(
+            motions, other, transitions=g.T, window=window, stride=stride, database=db2
+        )
+        p = plot_cost_comparison(plot, {metric: db, other: db2}, {metric: g, other: g2})
+        click.echo(f"wrote {p}")
+
+
+def _read_path_csv(path: str) -> np.ndarray:
+    rows = []
+    for k, line in enumerate(Path(path).read_text().splitlines()):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        cells = [c for c in line.replace(";", ",").replace("\t", ",").split(",") if c.strip()]
+        try:
+            vals = [float(c) for c in cells]
+        except ValueError:
+            if not rows:
+                continue  # header
+            raise ValueError(f"{path}:{k + 1}: not a number in {line!r}") from None
+        if len(vals) < 2:
+            raise ValueError(f"{path}:{k + 1}: need two columns (x, z)")
+        rows.append(vals[:2])
+    if len(rows) < 2:
+        raise ValueError(f"{path}: a path needs at least two points")
+    return np.array(rows)
+
+
+@graph.command("synth")
+@click.argument("graph_file", type=click.Path(dir_okay=False, exists=True))
+@click.option("--seconds", type=float, default=None, help="Random walk of this duration.")
+@click.option(
+    "--path",
+    "path_csv",
+    type=click.Path(dir_okay=False, exists=True),
+    default=None,
+    help="Follow this ground path instead: CSV of x,z points (file units; "
+    "ground coordinates, x = side axis, z = forward axis).",
+)
+@click.option(
+    "--out", "out", required=True, type=click.Path(dir_okay=False), help="The BVH to write."
+)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option(
+    "--blend",
+    type=click.Choice(["crossfade", "inertialize"]),
+    default="crossfade",
+    show_default=True,
+    help="How transitions are blended.",
+)
+@friendly_errors
+def synth(graph_file, seconds, path_csv, out, seed, blend):
+    """Synthesise a continuous BVH from a motion graph: a seeded random walk (--seconds) or a
+    walk following a 2-D path (--path).
+
+    \b
+    Examples:
+      mocapkit graph synth graph.json --seconds 30 --out walk.bvh --seed 7
+      mocapkit graph synth graph.json --path path.csv --out follow.bvh
+    """
+    from mocapkit.graph.graph import load_graph
+    from mocapkit.graph.synth import Synthesizer
+    from mocapkit.io import write_motion
+
+    if (seconds is None) == (path_csv is None):
+        raise CLIError("give exactly one of --seconds or --path")
+    g = load_graph(graph_file)
+    motions = [load(str(p), False) for p in g.clip_paths(Path(graph_file).parent)]
+    syn = Synthesizer(g, motions)
+    if seconds is not None:
+        if not seconds > 0:
+            raise CLIError("--seconds must be positive")
+        steps = syn.random_walk(seconds, seed)
+        m = syn.render(steps, blend, max_frames=max(1, round(seconds * motions[0].fps)))
+    else:
+        pts = _read_path_csv(path_csv)
+        steps = syn.follow_path(pts, seed)
+        m = syn.render(steps, blend, start=syn._start_transform)
+    write_motion(m, out)
+    n_tr = sum(s.kind == "transition" for s in steps)
+    click.echo(f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {n_tr} transitions)")
+
+
+def graph_report(g, base: Path | None) -> dict:
+    """The numbers ``mocapkit graph report`` prints."""
+    from mocapkit.graph.skate import transition_skate
+
+    nodes, _edges = g.scc()
+    out = {
+        "clips": len(g.clips),
+        "frames": int(sum(c.frames for c in g.clips)),
+        "metric": g.metric,
+        "T": g.T,
+        "transitions": g.num_transitions,
+        "transitions_in_scc": int(g.in_scc.sum()),
+        "scc_nodes": len(nodes),
+        "scc_frames": g.scc_frames(),
+    }
+    try:
+        motions = [load(str(p), False) for p in g.clip_paths(base)]
+    except (OSError, ValueError) as e:
+        out["foot_skate"] = None
+        out["foot_skate_error"] = str(e)
+        return out
+    out["foot_skate"] = transition_skate(g, motions).summary() if g.num_transitions else None
+    return out
+
+
+@graph.command("report")
+@click.argument("graph_file", type=click.Path(dir_okay=False, exists=True))
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@friendly_errors
+def report(graph_file, as_json):
+    """Transition count, size of the strongly connected component and the foot skate of the
+    transitions (start-to-end distance and arc length of the supporting foot, cm).
+
+    \b
+    Example:
+      mocapkit graph report graph.json --json
+    """
+    from mocapkit.graph.graph import load_graph
+
+    g = load_graph(graph_file)
+    r = graph_report(g, Path(graph_file).parent)
+    if as_json:
+        click.echo(json.dumps(r, indent=2))
+        return
+    click.echo(f"{graph_file}: {r['clips']} clips, {r['frames']} frames, metric {r['metric']}")
+    click.echo(
+        f"  transitions: {r['transitions']} (T = {r['T']}), "
+        f"{r['transitions_in_scc']} in the largest strongly connected component"
+    )
+    click.echo(f"  component: {r['scc_nodes']} nodes, {r['scc_frames']} frames")
+    fs = r.get("foot_skate")
+    if fs:
+        s, a = fs["start_to_end_cm"], fs["arc_length_cm"]
+        if s["mean"] is None:
+            click.echo("  foot skate: no transition has a supporting foot")
+        else:
+            click.echo(
+                f"  foot skate over {fs['supported']}/{fs['transitions']} supported "
+                f"transitions: start-to-end mean {s['mean']:.2f} cm (median "
+                f"{s['median']:.2f}, max {s['max']:.2f}); arc length mean "
+                f"{a['mean']:.2f} cm (median {a['median']:.2f}, max {a['max']:.2f})"
+            )
+    elif "foot_skate_error" in r:
+        click.echo(f"  foot skate: clips not readable ({r['foot_skate_error']})")
+
+
+def graph_step(out: Path) -> None:
+    """Demo: a motion graph of the procedural humanoid, a random walk and a path walk."""
+    from mocapkit import datasets
+    from mocapkit.graph.graph import build_graph
+    from mocapkit.graph.synth import Synthesizer
+    from mocapkit.io import write_motion
+
+    paths, motions = [], []
+    for n, (kind, secs) in enumerate((("walk", 4.0), ("run", 3.0), ("walk", 4.0), ("idle", 3.0))):
+        m = datasets.procedural_motion(kind, seconds=secs, seed=10 + n).motion
+        p = out / f"graph_clip{n}_{kind}.bvh"
+        write_motion(m, p)
+        paths.append(p.name)
+        motions.append(m)
+    g, db, _ = build_graph(motions, "dynamics", paths=paths, transitions=40)
+    gp = g.save(out / "humanoid_graph.json")
+    click.echo(
+        f"  {db.num_frames} frames -> {g.num_transitions} transitions, "
+        f"{int(g.in_scc.sum())} in the strongly connected component; wrote {gp}"
+    )
+    syn = Synthesizer(g, motions)
+    steps = syn.random_walk(10.0, seed=0)
+    m = syn.render(steps, max_frames=round(10.0 * motions[0].fps))
+    click.echo(
+        f"  random walk: wrote {write_motion(m, out / 'graph_random_walk.bvh')} "
+        f"({m.num_frames} frames, {sum(s.kind == 'transition' for s in steps)} "
+        "transitions)"
+    )
+    r = graph_report(g, out)
+    fs = r["foot_skate"]
+    if fs and fs["start_to_end_cm"]["mean"] is not None:
+        click.echo(
+            f"  foot skate of the transitions: {fs['start_to_end_cm']['mean']:.2f} cm "
+            f"start-to-end, {fs['arc_length_cm']['mean']:.2f} cm arc length (mean)"
+        )
+
+
+DEMO_STEPS.append((20, "motion graphs: build, walk, foot skate", graph_step))

@@ -1,0 +1,72 @@
+"""Mocap cleaning by self-similarity (Aristidou, Cohen-Or, Hodgins, Shamir, EG 2018).
+
+Motion-words over joint groups, a trimmed quaternion-log pose distance, constrained DTW, KNN words
+in a context of takes, the movement digression map (MDM), repair of the flagged cells only,
+sparse-joint reconstruction and the paper's rotation baselines.
+
+    from mocapkit.clean import SelfSimilarityCleaner
+    cleaner = SelfSimilarityCleaner().fit(take, context=[take2, take3])
+    cleaner.mdm_                 # (F, J) in [0, 1] on the take's frames
+    cleaner.segments()           # flagged runs (joint, start, end, peak)
+    fixed = cleaner.repair().motion
+"""
+
+from mocapkit.clean.baselines import BASELINES, RotationBaseline
+from mocapkit.clean.cleaner import FLOOR_DEG, THRESHOLD, Segment, SelfSimilarityCleaner, clean
+from mocapkit.clean.dtw import (
+    MAX_RUN,
+    constrained_dtw,
+    dtw_mean_cost,
+    pose_distance,
+    pose_distance_matrices,
+    scan_words,
+)
+from mocapkit.clean.inject import ERROR_KINDS, Injected, inject
+from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group, select_knn
+from mocapkit.clean.mdm import mean_texture, median_texture, movement_digression_map
+from mocapkit.clean.repair import RepairResult, repair_cells
+from mocapkit.clean.sparse import reconstruct
+from mocapkit.clean.texture import (
+    ANALYSIS_FPS,
+    JointGroup,
+    Texture,
+    default_groups,
+    make_texture,
+    word_lengths,
+)
+
+__all__ = [
+    "ANALYSIS_FPS",
+    "BASELINES",
+    "ERROR_KINDS",
+    "FLOOR_DEG",
+    "K_NEIGHBOURS",
+    "MAX_RUN",
+    "THRESHOLD",
+    "Context",
+    "GroupNeighbours",
+    "Injected",
+    "JointGroup",
+    "RepairResult",
+    "RotationBaseline",
+    "Segment",
+    "SelfSimilarityCleaner",
+    "Texture",
+    "clean",
+    "constrained_dtw",
+    "default_groups",
+    "dtw_mean_cost",
+    "inject",
+    "make_texture",
+    "mean_texture",
+    "median_texture",
+    "movement_digression_map",
+    "pose_distance",
+    "pose_distance_matrices",
+    "reconstruct",
+    "repair_cells",
+    "scan_words",
+    "search_group",
+    "select_knn",
+    "word_lengths",
+]

@@ -1,0 +1,367 @@
+"""The estimator: fit on a take and a context, then MDM scores, mask, segments, repaired motion."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocapkit.clean import mdm as mdm_mod
+from mocapkit.clean.dtw import MAX_RUN, pose_distance_matrices
+from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group
+from mocapkit.clean.repair import RepairResult, default_margin, repair_cells, runs
+from mocapkit.clean.texture import (
+    ANALYSIS_FPS,
+    JointGroup,
+    default_groups,
+    interpolate_track,
+    make_texture,
+    rotating_joints,
+    source_word_starts,
+    word_lengths,
+)
+from mocapkit.core.motion import Motion
+
+Progress = Callable[[str, int, int], None]
+"""progress(stage, done, total): called as the search advances (the CLI draws a bar)."""
+
+THRESHOLD = 0.5
+"""MDM value above which a cell is erroneous (the paper's 0.5)."""
+
+FLOOR_DEG = 18.0
+"""Lower bound (degrees) on each joint's MDM scale. The paper divides each joint's digression by
+the joint's mean, which puts an average cell at 1 - e^-1 = 0.63 > 0.5: on clean Bandai takes that
+flags about half of all cells. With the floor a cell needs a digression above
+``0.83 * max(mean, 18 deg)`` to cross 0.5 (clean takes stay below ~15 deg at the 99th
+percentile; the injected errors are 15-180 deg)."""
+
+
+@dataclass
+class Segment:
+    """A run of flagged frames on one joint (file frames, inclusive)."""
+
+    joint: str
+    joint_index: int
+    start: int
+    end: int
+    peak: float
+
+    def as_dict(self) -> dict:
+        return {
+            "joint": self.joint,
+            "joint_index": self.joint_index,
+            "start": self.start,
+            "end": self.end,
+            "peak": round(float(self.peak), 6),
+        }
+
+
+def _same_skeleton(a: Motion, b: Motion) -> bool:
+    return a.skeleton.names == b.skeleton.names and np.array_equal(
+        a.skeleton.parents, b.skeleton.parents
+    )
+
+
+class SelfSimilarityCleaner:
+    """Self-similarity analysis for motion-capture cleaning (Aristidou et al. 2018).
+
+    Usage::
+
+        cleaner = SelfSimilarityCleaner().fit(take, context=[other1, other2])
+        cleaner.mdm_            # (F, J) movement digression map on the take's frames, in [0, 1]
+        cleaner.mask()          # (F, J) bool, MDM > threshold
+        cleaner.segments()      # flagged runs per joint
+        fixed = cleaner.repair().motion
+
+    Args:
+        groups: joint groups (default :func:`~mocapkit.clean.texture.default_groups` over the
+            joints that rotate in the take).
+        k: neighbours per word (5).
+        fps: analysis rate (24); word lengths scale with it.
+        max_run: DTW slope constraint (at most this many consecutive non-diagonal steps).
+        exclude: minima within this many frames of the source word are skipped (default N // 2).
+        threshold: MDM threshold (0.5).
+        scale, gain, floor_deg: MDM normalisation (see
+            :func:`~mocapkit.clean.mdm.movement_digression_map`): the paper divides each joint's
+            row by its mean (``scale="mean", gain=1``); ``floor_deg`` bounds the scale from below
+            (:data:`FLOOR_DEG`; 0 reproduces the paper).
+        two_stage: stage 1 searches the take itself with whole-body words; stage 2 searches the
+            context with the sub-group words, only for the words stage 1 flagged (MDM above
+            ``stage1_threshold`` on any of their cells).
+        stage1_threshold: stage-1 flagging level (default ``0.6 * threshold``).
+    """
+
+    def __init__(
+        self,
+        groups: Sequence[JointGroup] | None = None,
+        k: int = K_NEIGHBOURS,
+        fps: float = ANALYSIS_FPS,
+        max_run: int = MAX_RUN,
+        exclude: int | None = None,
+        threshold: float = THRESHOLD,
+        scale: str = "mean",
+        gain: float = 1.0,
+        floor_deg: float = FLOOR_DEG,
+        two_stage: bool = False,
+        stage1_threshold: float | None = None,
+        weight_power: float = 0.0,
+    ) -> None:
+        if k < 1:
+            raise ValueError("k must be >= 1")
+        if not 0.0 <= threshold <= 1.0:
+            raise ValueError("threshold must lie in [0, 1]")
+        if fps <= 0:
+            raise ValueError("fps must be positive")
+        self.groups = None if groups is None else list(groups)
+        self.k = int(k)
+        self.fps = float(fps)
+        self.max_run = int(max_run)
+        self.exclude = exclude
+        self.threshold = float(threshold)
+        self.scale = scale
+        self.gain = float(gain)
+        self.floor_deg = float(floor_deg)
+        self.two_stage = bool(two_stage)
+        self.stage1_threshold = stage1_threshold
+        self.weight_power = float(weight_power)
+
+    # ---------------------------------------------------------------------------- fitting
+    def fit(
+        self,
+        motion: Motion,
+        context: Sequence[Motion] = (),
+        progress: Progress | None = None,
+        names: Sequence[str] | None = None,
+    ) -> SelfSimilarityCleaner:
+        """Analyse ``motion`` against itself and the ``context`` takes (same skeleton)."""
+        for i, c in enumerate(context):
+            if not _same_skeleton(motion, c):
+                label = names[i] if names is not None else f"context take {i}"
+                raise ValueError(f"{label}: its skeleton differs from the input's")
+        self.motion_ = motion
+        tex = make_texture(motion, self.fps, "input")
+        ctx_tex = [make_texture(c, self.fps, f"ctx{i}").rotations for i, c in enumerate(context)]
+        self.texture_ = tex
+        active = rotating_joints(motion)
+        for c in context:
+            active |= rotating_joints(c)
+        self.active_ = active
+        groups = self.groups
+        if groups is None:
+            groups = default_groups(motion.skeleton, include=np.flatnonzero(active))
+        if not groups:
+            raise ValueError("no joint group has two or more rotating joints")
+        self.groups_ = list(groups)
+        N, step, M = word_lengths(self.fps)
+        self.word_lengths_ = (N, step, M)
+        src = tex.rotations
+        if src.shape[0] < N:
+            raise ValueError(
+                f"the take is too short: {src.shape[0]} analysis frames, a word needs {N}"
+            )
+        starts = source_word_starts(src.shape[0], N, step)
+        self.starts_ = starts
+        report = progress or (lambda stage, done, total: None)
+
+        if not self.two_stage:
+            ctx = Context.build([src, *ctx_tex], self_clip=0)
+            self.neighbours_ = self._search(src, ctx, self.groups_, starts, report, "search")
+        else:
+            self.neighbours_ = self._two_stage(src, ctx_tex, starts, report)
+        self._finish_maps()
+        return self
+
+    def _search(
+        self,
+        src: np.ndarray,
+        ctx: Context,
+        groups: Sequence[JointGroup],
+        starts: np.ndarray,
+        report: Progress,
+        stage: str,
+    ) -> list[GroupNeighbours]:
+        N, _, M = self.word_lengths_
+        out = []
+        if len(starts) == 0:
+            return [
+                GroupNeighbours(
+                    g,
+                    starts,
+                    np.zeros((0, self.k), np.int64),
+                    np.zeros((0, self.k)),
+                    np.zeros((0, self.k, N, len(g.joints), 4)),
+                )
+                for g in groups
+            ]
+        # rows needed: the span of the words (stage 2 only needs a few)
+        r0 = int(starts.min())
+        r1 = int(starts.max()) + N
+        dists = pose_distance_matrices(src[r0:r1], ctx.rotations, groups)
+        for gi, g in enumerate(groups):
+            out.append(
+                search_group(
+                    src,
+                    ctx,
+                    g,
+                    starts,
+                    N,
+                    M,
+                    self.k,
+                    self.exclude,
+                    self.max_run,
+                    distances=dists[gi],
+                    row_offset=r0,
+                )
+            )
+            report(stage, gi + 1, len(groups))
+        return out
+
+    def _two_stage(
+        self, src: np.ndarray, ctx_tex: list[np.ndarray], starts: np.ndarray, report: Progress
+    ) -> list[GroupNeighbours]:
+        N, _, _ = self.word_lengths_
+        body = [g for g in self.groups_ if g.name == "body"] or [
+            max(self.groups_, key=lambda g: len(g.joints))
+        ]
+        subs = [g for g in self.groups_ if g is not body[0]] or body
+        local = Context.build([src], self_clip=0)
+        stage1 = self._search(src, local, body, starts, report, "stage 1")
+        mdm1 = self._mdm_from(stage1, analysis=True)
+        thr1 = self.stage1_threshold if self.stage1_threshold is not None else 0.6 * self.threshold
+        hot = np.array([(mdm1[a : a + N] > thr1).any() for a in starts], dtype=bool)
+        self.stage1_flagged_ = hot
+        if not hot.any():
+            return stage1
+        ctx = Context.build([src, *ctx_tex], self_clip=0)
+        # stage 2 on contiguous runs of flagged words
+        stage2: list[GroupNeighbours] = []
+        idx = np.flatnonzero(hot)
+        chunks = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+        per_group: dict[str, list[GroupNeighbours]] = {g.name: [] for g in subs}
+        for ci, ch in enumerate(chunks):
+            res = self._search(src, ctx, subs, starts[ch], lambda *a: None, "stage 2")
+            for gn in res:
+                per_group[gn.group.name].append(gn)
+            report("stage 2", ci + 1, len(chunks))
+        for g in subs:
+            parts = per_group[g.name]
+            stage2.append(
+                GroupNeighbours(
+                    g,
+                    np.concatenate([p.starts for p in parts]),
+                    np.concatenate([p.index for p in parts]),
+                    np.concatenate([p.distance for p in parts]),
+                    np.concatenate([p.words for p in parts]),
+                )
+            )
+        b = stage1[0]
+        keep = ~hot
+        stage1_kept = GroupNeighbours(
+            b.group, b.starts[keep], b.index[keep], b.distance[keep], b.words[keep]
+        )
+        return [stage1_kept, *stage2]
+
+    def _mdm_from(
+        self, neighbours: Sequence[GroupNeighbours], analysis: bool = False
+    ) -> np.ndarray:
+        tex = self.texture_
+        tbar, covered = mdm_mod.mean_texture(tex.rotations, neighbours, self.weight_power)
+        if analysis:
+            dig = mdm_mod.digression(tex.rotations, tbar)
+        else:
+            tbar_f = interpolate_track(tbar, tex.fps, tex.file_times())
+            dig = mdm_mod.digression(tex.file_rotations, tbar_f)
+        active = self.active_.copy()
+        covered_j = covered.any(axis=0)
+        active &= covered_j
+        return mdm_mod.movement_digression_map(
+            dig, self.scale, self.gain, np.radians(self.floor_deg), active
+        )
+
+    def _finish_maps(self) -> None:
+        tex = self.texture_
+        tbar, covered = mdm_mod.mean_texture(tex.rotations, self.neighbours_, self.weight_power)
+        self.mean_texture_ = tbar
+        tbar_f = interpolate_track(tbar, tex.fps, tex.file_times())
+        self.digression_ = mdm_mod.digression(tex.file_rotations, tbar_f)
+        active = self.active_ & covered.any(axis=0)
+        self.mdm_ = mdm_mod.movement_digression_map(
+            self.digression_, self.scale, self.gain, np.radians(self.floor_deg), active
+        )
+        self.mdm_analysis_ = self._mdm_from(self.neighbours_, analysis=True)
+
+    # ---------------------------------------------------------------------------- results
+    def _check(self) -> None:
+        if not hasattr(self, "mdm_"):
+            raise RuntimeError("call fit() first")
+
+    @property
+    def joint_names(self) -> list[str]:
+        self._check()
+        return list(self.motion_.skeleton.names)
+
+    def scores(self) -> np.ndarray:
+        """(F, J) MDM on the take's frames, float64 in [0, 1] (columns in skeleton order)."""
+        self._check()
+        return self.mdm_.copy()
+
+    def mask(self, threshold: float | None = None) -> np.ndarray:
+        """(F, J) bool: MDM above the threshold."""
+        self._check()
+        thr = self.threshold if threshold is None else float(threshold)
+        return self.mdm_ > thr
+
+    def segments(self, threshold: float | None = None) -> list[Segment]:
+        """Flagged runs per joint, in joint order then time (inclusive file frames)."""
+        m = self.mask(threshold)
+        out = []
+        names = self.motion_.skeleton.names
+        for j in range(m.shape[1]):
+            for a, b in runs(m[:, j]):
+                out.append(Segment(names[j], j, a, b, float(self.mdm_[a : b + 1, j].max())))
+        return out
+
+    def replacement(self) -> np.ndarray:
+        """(F, J, 4) replacement rotations on the take's frames (facing-aligned space for the
+        pelvis): the median KNN words around every frame."""
+        self._check()
+        tex = self.texture_
+        med, _ = mdm_mod.median_texture(tex.rotations, self.neighbours_, self.weight_power)
+        return interpolate_track(med, tex.fps, tex.file_times())
+
+    def repair(
+        self,
+        threshold: float | None = None,
+        margin: int | None = None,
+        mask: np.ndarray | None = None,
+    ) -> RepairResult:
+        """Replace the flagged cells by the median KNN words, blended (see
+        :mod:`mocapkit.clean.repair`); everything else is copied bit for bit.
+
+        ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's."""
+        self._check()
+        tex = self.texture_
+        margin = default_margin(self.motion_.fps) if margin is None else margin
+        return repair_cells(
+            self.motion_,
+            self.mask(threshold) if mask is None else mask,
+            self.replacement(),
+            margin,
+            to_file=tex.pelvis_align,
+            pelvis=tex.pelvis,
+        )
+
+
+def clean(
+    motion: Motion,
+    context: Sequence[Motion] = (),
+    threshold: float = THRESHOLD,
+    two_stage: bool = False,
+    **kwargs,
+) -> tuple[SelfSimilarityCleaner, RepairResult]:
+    """Fit a :class:`SelfSimilarityCleaner` and repair: (cleaner, repair result)."""
+    c = SelfSimilarityCleaner(threshold=threshold, two_stage=two_stage, **kwargs).fit(
+        motion, context
+    )
+    return c, c.repair()

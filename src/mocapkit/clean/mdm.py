@@ -1,0 +1,174 @@
+"""Mean-motion-texture and the movement digression map (Sec. 3.4).
+
+``T̄``: for every (frame, joint), the normalised average of the mean KNN words (over the K
+neighbours) of every source word, of every group holding the joint, that covers the frame.
+``M = |T - T̄|`` is the geodesic angle between the take's rotation and ``T̄`` (radians). Each joint's
+row is divided by a scale (the paper: the row's mean), and ``MDM = 1 - exp(-M²)`` in [0, 1].
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from mocapkit.clean.knn import GroupNeighbours
+from mocapkit.core import rotations as rot
+
+
+def word_weights(gn: GroupNeighbours, power: float) -> np.ndarray:
+    """(W,) confidence of each source word's neighbours: ``(eps + d)^-power`` with ``d`` the mean
+    KNN word distance per kept joint term (so groups of different sizes compare); ``power = 0``
+    gives equal weights (the paper)."""
+    if power == 0 or gn.distance.size == 0:
+        return np.ones(len(gn.starts))
+    d = np.where(np.isfinite(gn.distance), gn.distance, np.nan)
+    with np.errstate(all="ignore"):
+        dm = np.nanmean(d, axis=1) / max(1, len(gn.group.joints) - gn.group.trim)
+    dm = np.where(np.isfinite(dm), dm, np.nanmax(dm) if np.isfinite(dm).any() else 1.0)
+    eps = 1e-4
+    return (eps + dm) ** (-power)
+
+
+def _accumulate(
+    shape: tuple[int, int],
+    reference: np.ndarray,
+    neighbours: Sequence[GroupNeighbours],
+    word_values: Sequence[np.ndarray],
+    weights: np.ndarray | None,
+    power: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    F, J = shape
+    acc = np.zeros((F, J, 4))
+    cnt = np.zeros((F, J))
+    for gn, vals in zip(neighbours, word_values, strict=True):
+        js = np.asarray(gn.group.joints)
+        N = vals.shape[1]
+        w_t = np.ones(N) if weights is None else weights
+        ww = word_weights(gn, power)
+        for w, a in enumerate(gn.starts):
+            v = vals[w]  # (N, m, 4)
+            if not np.all(np.isfinite(v)):
+                continue
+            ref = reference[a : a + N][:, js]
+            v = np.where(np.sum(v * ref, axis=-1, keepdims=True) < 0, -v, v)
+            acc[a : a + N, js] += v * (ww[w] * w_t)[:, None, None]
+            cnt[a : a + N, js] += (ww[w] * w_t)[:, None]
+    return acc, cnt
+
+
+def _finish(
+    acc: np.ndarray, cnt: np.ndarray, reference: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    n = np.linalg.norm(acc, axis=-1, keepdims=True)
+    ok = (cnt > 0) & (n[..., 0] > 1e-12)
+    out = np.where(ok[..., None], acc / np.where(n > 0, n, 1.0), reference)
+    return out, ok
+
+
+def mean_word(gn: GroupNeighbours) -> np.ndarray:
+    """(W, N, m, 4) the mean of each source word's K neighbours (NaN where it has none)."""
+    valid = gn.index >= 0  # (W, K)
+    s = np.sum(gn.words * valid[:, :, None, None, None], axis=1)
+    n = np.linalg.norm(s, axis=-1, keepdims=True)
+    out = s / np.where(n > 0, n, 1.0)
+    out[~valid.any(axis=1)] = np.nan
+    return out
+
+
+def median_word(gn: GroupNeighbours) -> np.ndarray:
+    """(W, N, m, 4) the median neighbour of each source word: the KNN word with the least summed
+    geodesic distance to the others (an actual motion, as the paper asks; NaN where none)."""
+    W = gn.index.shape[0]
+    out = np.full(gn.words.shape[:1] + gn.words.shape[2:], np.nan)
+    for w in range(W):
+        idx = np.flatnonzero(gn.index[w] >= 0)
+        if len(idx) == 0:
+            continue
+        ws = gn.words[w, idx]  # (k, N, m, 4)
+        dots = np.abs(np.einsum("anjc,bnjc->abnj", ws, ws))
+        cost = np.arccos(np.clip(dots, 0.0, 1.0)).sum(axis=(2, 3)).sum(axis=1)
+        out[w] = ws[int(np.argmin(cost))]
+    return out
+
+
+def mean_texture(
+    reference: np.ndarray, neighbours: Sequence[GroupNeighbours], power: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """T̄ (F, J, 4) and a (F, J) bool mask of the cells some word covered (others copy
+    ``reference``, the analysed texture). ``power``: see :func:`word_weights`."""
+    vals = [mean_word(gn) for gn in neighbours]
+    acc, cnt = _accumulate(reference.shape[:2], reference, neighbours, vals, None, power)
+    return _finish(acc, cnt, reference)
+
+
+def median_texture(
+    reference: np.ndarray, neighbours: Sequence[GroupNeighbours], power: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Replacement texture: per frame, the median words covering it blended with triangular
+    weights (peak at each word's centre); same shape/mask conventions as :func:`mean_texture`."""
+    vals = [median_word(gn) for gn in neighbours]
+    N = vals[0].shape[1] if vals else 1
+    tri = 1.0 - np.abs(np.arange(N) - (N - 1) / 2) / ((N + 1) / 2)
+    acc, cnt = _accumulate(reference.shape[:2], reference, neighbours, vals, tri, power)
+    return _finish(acc, cnt, reference)
+
+
+def digression(texture: np.ndarray, mean_tex: np.ndarray) -> np.ndarray:
+    """M = |T - T̄|: (F, J) geodesic angles in radians."""
+    return rot.quat_angle(texture, mean_tex)
+
+
+def movement_digression_map(
+    M: np.ndarray,
+    scale: str = "mean",
+    gain: float = 1.0,
+    floor: float = 0.0,
+    active: np.ndarray | None = None,
+) -> np.ndarray:
+    """MDM = 1 - exp(-(M / (gain * s_j))²) per joint column ``j`` (frames are rows here).
+
+    Args:
+        M: (F, J) digression angles (radians).
+        scale: per-joint scale ``s_j``: "mean" (the paper) or "median" of the joint's column.
+        gain: multiplies the scale (1 in the paper).
+        floor: lower bound on ``s_j`` in radians (joints that barely move).
+        active: (J,) bool, joints analysed; others get MDM 0.
+
+    Returns:
+        (F, J) float64 in [0, 1].
+    """
+    M = np.asarray(M, dtype=np.float64)
+    if scale == "mean":
+        s = M.mean(axis=0) if M.shape[0] else np.ones(M.shape[1])
+    elif scale == "median":
+        s = np.median(M, axis=0) if M.shape[0] else np.ones(M.shape[1])
+    else:
+        raise ValueError(f"scale must be 'mean' or 'median', got {scale!r}")
+    s = np.maximum(gain * s, max(float(floor), 1e-12))
+    out = 1.0 - np.exp(-((M / s) ** 2))
+    if active is not None:
+        out[:, ~np.asarray(active, dtype=bool)] = 0.0
+    return np.clip(out, 0.0, 1.0)
+
+
+def neighbour_spread(reference: np.ndarray, neighbours: Sequence[GroupNeighbours]) -> np.ndarray:
+    """(F, J) how much the KNN words disagree: per word, frame and joint the mean geodesic angle
+    of the K neighbours from their mean, averaged over the words covering each cell (radians;
+    0 where no word covers it)."""
+    F, J = reference.shape[:2]
+    acc = np.zeros((F, J))
+    cnt = np.zeros((F, J))
+    for gn in neighbours:
+        js = np.asarray(gn.group.joints)
+        mw = mean_word(gn)  # (W, N, m, 4)
+        N = gn.words.shape[2] if gn.words.ndim == 5 else 0
+        valid = gn.index >= 0
+        for w, a in enumerate(gn.starts):
+            if not valid[w].any():
+                continue
+            ws = gn.words[w, valid[w]]  # (k, N, m, 4)
+            ang = rot.quat_angle(ws, mw[w][None])  # (k, N, m)
+            acc[a : a + N, js] += ang.mean(axis=0)
+            cnt[a : a + N, js] += 1.0
+    return np.where(cnt > 0, acc / np.where(cnt > 0, cnt, 1.0), 0.0)

@@ -1,0 +1,165 @@
+"""Full-skeleton reconstruction from a take holding only some joints (Sec. 4, last part).
+
+The input's words over its known joints are matched (same pose distance and constrained DTW) in a
+database of complete takes; among each word's K neighbours, the first word takes the nearest and
+every later word the one that best continues the previous choice (word distance plus the pose
+distance over the overlapping frames), so that the result is temporally coherent. The chosen
+full-body words are blended (triangular weights), brought back to the input's frames, smoothed
+with a quadratic Savitzky-Golay filter, and the known joints are copied from the input exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from mocapkit import features
+from mocapkit.clean.dtw import MAX_RUN, constrained_dtw, pose_distance, pose_distance_matrices
+from mocapkit.clean.knn import K_NEIGHBOURS, Context, _warp_word, search_group
+from mocapkit.clean.texture import (
+    ANALYSIS_FPS,
+    JointGroup,
+    interpolate_track,
+    make_texture,
+    source_word_starts,
+    texture_from_rotations,
+    word_lengths,
+)
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+from mocapkit.core.skeleton import Skeleton
+
+
+def _full_layout(
+    sparse: Motion, full: Skeleton, known: Sequence[str] | None
+) -> tuple[np.ndarray, list[int]]:
+    """(F, J_full, 4) rotations of the sparse take on the full skeleton (identity where unknown)
+    and the indices of the known joints."""
+    names = list(full.names)
+    F = sparse.num_frames
+    out = rot.quat_identity((F, len(names)))
+    if known is None:
+        known = [n for n in sparse.skeleton.names if n in names]
+    missing = [n for n in known if n not in names]
+    if missing:
+        raise ValueError(f"joints not in the database skeleton: {', '.join(missing)}")
+    src_names = list(sparse.skeleton.names)
+    idx = []
+    for n in known:
+        if n not in src_names:
+            raise ValueError(f"joint {n!r} is not in the sparse take")
+        j = names.index(n)
+        out[:, j] = sparse.rotations[:, src_names.index(n)]
+        idx.append(j)
+    return out, sorted(set(idx))
+
+
+def reconstruct(
+    sparse: Motion,
+    database: Sequence[Motion],
+    known: Sequence[str] | None = None,
+    k: int = K_NEIGHBOURS,
+    fps: float = ANALYSIS_FPS,
+    max_run: int = MAX_RUN,
+    transition_weight: float = 1.0,
+) -> Motion:
+    """Rebuild every joint of ``sparse`` from a database of complete takes.
+
+    Args:
+        sparse: the take; its skeleton is either the database's (then ``known`` names the joints
+            to trust) or a subset of it by joint name.
+        database: complete takes on one skeleton.
+        known: joint names to keep; default: the sparse skeleton's joints found in the database
+            skeleton. The pelvis, whose rotation carries the heading, does not take part in the
+            search (it is still copied when known).
+        k: candidates per word.
+        transition_weight: weight of the overlap pose distance when chaining words.
+
+    Returns:
+        A Motion on the database skeleton at the input's frame rate: known joints and the root
+        translation copied from the input, the other joints reconstructed.
+    """
+    if not database:
+        raise ValueError("the database needs at least one take")
+    full = database[0].skeleton
+    for m in database[1:]:
+        if list(m.skeleton.names) != list(full.names):
+            raise ValueError("database takes must share one skeleton")
+    rots, kidx = _full_layout(sparse, full, known)
+    pelvis = features.pelvis_index(full)
+    search_joints = [j for j in kidx if j != pelvis]
+    if len(search_joints) < 2:
+        raise ValueError("at least two known joints (besides the pelvis) are needed")
+    J = full.num_joints
+    partial = Motion(full, rots, np.zeros((sparse.num_frames, 3)), sparse.frame_time)
+    src_file = texture_from_rotations(rots)
+    if abs(sparse.fps - fps) > 1e-6 * fps:
+        src = texture_from_rotations(features.resample(partial, fps).rotations)
+    else:
+        src = src_file.copy()
+    db = [make_texture(m, fps).rotations for m in database]
+    ctx = Context.build(db)
+    N, step, M = word_lengths(fps)
+    if src.shape[0] < N:
+        raise ValueError(f"the take is too short: {src.shape[0]} analysis frames, a word needs {N}")
+    starts = source_word_starts(src.shape[0], N, step)
+    trim = 1 if len(search_joints) >= 4 else 0
+    group = JointGroup("known", tuple(search_joints), trim)
+    D = pose_distance_matrices(src, ctx.rotations, [group])[0]
+    gn = search_group(src, ctx, group, starts, N, M, k, 0, max_run, distances=D)
+    all_j = np.arange(J)
+    chosen = []
+    prev = None
+    for w, a in enumerate(starts):
+        cands = []
+        for r in range(k):
+            t0 = gn.index[w, r]
+            if t0 < 0:
+                continue
+            block = D[a : a + N, t0 : t0 + M]
+            _, path = constrained_dtw(block, max_run)
+            word = _warp_word(ctx.rotations[t0 : t0 + M][:, all_j], path, N)
+            cands.append((gn.distance[w, r], word))
+        if not cands:
+            chosen.append(None)
+            continue
+        if prev is None:
+            best = min(cands, key=lambda c: c[0])[1]
+        else:
+            pa, pword = prev
+            ov = pa + N - a  # overlapping frames with the previous word
+            if ov > 0:
+                costs = [
+                    d + transition_weight * float(np.mean(pose_distance(wd[:ov], pword[a - pa :])))
+                    for d, wd in cands
+                ]
+            else:
+                costs = [d for d, _ in cands]
+            best = cands[int(np.argmin(costs))][1]
+        chosen.append(best)
+        prev = (int(a), best)
+    acc = np.zeros((src.shape[0], J, 4))
+    tri = 1.0 - np.abs(np.arange(N) - (N - 1) / 2) / ((N + 1) / 2)
+    ref = None
+    for a, word in zip(starts, chosen, strict=True):
+        if word is None:
+            continue
+        if ref is None:
+            ref = word[0]
+        word = np.where(np.sum(word * ref, axis=-1, keepdims=True) < 0, -word, word)
+        acc[a : a + N] += word * tri[:, None, None]
+        ref = word[-1]
+    n = np.linalg.norm(acc, axis=-1, keepdims=True)
+    rec = np.where(n > 1e-12, acc / np.where(n > 0, n, 1.0), rot.quat_identity((1, 1)))
+    rec = texture_from_rotations(rec)
+    times = np.arange(sparse.num_frames) * sparse.frame_time
+    rec_f = interpolate_track(rec, fps, times)
+    win = max(5, round(0.2 * sparse.fps) | 1)
+    if sparse.num_frames >= win:
+        rec_f = rot.quat_normalize(savgol_filter(rec_f, win, 2, axis=0, mode="interp"))
+    out = rec_f.copy()
+    out[:, kidx] = rots[:, kidx]
+    root = np.asarray(sparse.root_positions, dtype=np.float64).copy()
+    return Motion(full, out, root, sparse.frame_time)

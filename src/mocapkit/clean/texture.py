@@ -1,0 +1,305 @@
+"""Motion-texture, joint groups and motion-words (Aristidou et al. 2018, Sec. 3.1).
+
+Conventions (used by the whole :mod:`mocapkit.clean` package):
+
+- A *texture* is a ``(F, J, 4)`` array of unit quaternions ``w, x, y, z``: the local rotation of
+  every joint of the skeleton (all ``J`` joints, in skeleton order) at every analysis frame, after
+  discarding the root translation and turning the body so that it always faces the ground frame's
+  forward axis (heading removed from the pelvis). The paper's "rows = joints, columns = frames" is
+  its transpose.
+- Analysis runs at :data:`ANALYSIS_FPS` (24 fps): a take is resampled (slerp) first, and results
+  are mapped back to the file's own frames.
+- Word lengths are given at 24 fps (source 15 frames every 5, target 20 frames at every frame)
+  and scale with the analysis rate: :func:`word_lengths`.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocapkit import features
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+from mocapkit.core.skeleton import Skeleton
+
+ANALYSIS_FPS = 24.0
+"""The rate the paper analyses at; words are defined in frames at this rate."""
+
+SOURCE_LEN = 15
+SOURCE_STEP = 5
+TARGET_LEN = 20
+
+
+@dataclass(frozen=True)
+class JointGroup:
+    """A named set of joints forming motion-words.
+
+    Attributes:
+        name: label ("body", "upper", ...).
+        joints: joint indices (skeleton order, sorted, unique).
+        trim: how many of the largest per-joint terms the pose distance drops (outlier tolerance):
+            3 for the whole body, 1 for sub-groups in the paper.
+    """
+
+    name: str
+    joints: tuple[int, ...]
+    trim: int = 1
+
+    def __post_init__(self) -> None:
+        js = tuple(sorted({int(j) for j in self.joints}))
+        if not js:
+            raise ValueError(f"joint group {self.name!r} is empty")
+        object.__setattr__(self, "joints", js)
+        if not 0 <= self.trim < len(js):
+            raise ValueError(
+                f"joint group {self.name!r}: trim must be in [0, {len(js) - 1}], got {self.trim}"
+            )
+
+
+def word_lengths(fps: float = ANALYSIS_FPS) -> tuple[int, int, int]:
+    """(source length, source step, target length) in frames at ``fps`` (paper: 15, 5, 20 at 24)."""
+    s = fps / ANALYSIS_FPS
+    return (
+        max(3, round(SOURCE_LEN * s)),
+        max(1, round(SOURCE_STEP * s)),
+        max(4, round(TARGET_LEN * s)),
+    )
+
+
+def source_word_starts(num_frames: int, length: int, step: int) -> np.ndarray:
+    """Start frames of the source words: every ``step`` frames, the last one flush with the end
+    so that every frame is covered (one word when the take is shorter than a word)."""
+    if num_frames <= length:
+        return np.zeros(1, dtype=np.int64)
+    starts = list(range(0, num_frames - length + 1, step))
+    if starts[-1] != num_frames - length:
+        starts.append(num_frames - length)
+    return np.asarray(starts, dtype=np.int64)
+
+
+# ---------------------------------------------------------------------------------- groups
+
+_SIDE_RE = {
+    "left": re.compile(r"(^|[^a-z])(l|left)([^a-z]|$)|^left|left$|^l(?=[A-Z])"),
+    "right": re.compile(r"(^|[^a-z])(r|right)([^a-z]|$)|^right|right$|^r(?=[A-Z])"),
+}
+
+
+_LEG_RE = re.compile(r"leg|thigh|knee|foot|toe|ankle|shin|calf|femur|tibia")
+_ARM_RE = re.compile(r"arm|hand|shoulder|clavicle|elbow|wrist|neck|head|spine|chest")
+
+
+def _name_side(name: str) -> str | None:
+    low = name.lower()
+    for side in ("left", "right"):
+        if _SIDE_RE[side].search(low) or _SIDE_RE[side].search(name):
+            return side
+    return None
+
+
+def _subtree(sk: Skeleton, j: int) -> list[int]:
+    out = [j]
+    for c in sk.children(j):
+        out += _subtree(sk, c)
+    return out
+
+
+def rotating_joints(motion: Motion, tol: float = 1e-6) -> np.ndarray:
+    """(J,) bool: joints whose local rotation changes during the take (beyond ``tol`` radians)."""
+    q = motion.rotations
+    if q.shape[0] == 0:
+        return np.zeros(motion.num_joints, dtype=bool)
+    ang = rot.quat_angle(q, q[:1])
+    return ang.max(axis=0) > tol
+
+
+def default_groups(skeleton: Skeleton, include: Sequence[int] | None = None) -> list[JointGroup]:
+    """The paper's groups: whole body (trim 3), upper and lower half, left and right half (trim 1).
+
+    Legs are the subtrees of the pelvis' children that hang below it in the rest pose; everything
+    else below the pelvis is the upper body. Sides come from joint names (``_L``, ``Left``...),
+    else from the sign of the rest-pose lateral offset. The pelvis and the spine belong to both
+    halves. ``include`` restricts every group to those joints (for instance the joints that
+    rotate); groups left with fewer than two joints are dropped.
+    """
+    J = skeleton.num_joints
+    keep = np.ones(J, dtype=bool) if include is None else np.isin(np.arange(J), include)
+    pelvis = features.pelvis_index(skeleton)
+    up = features.detect_up_axis(skeleton)
+    up_axis = "XYZ".index(up.lstrip("+-")[-1])
+    up_sign = -1.0 if up.startswith("-") else 1.0
+    from mocapkit.core.kinematics import rest_positions
+
+    rest = rest_positions(skeleton)
+    lower: set[int] = {pelvis}
+    for c in skeleton.children(pelvis):
+        sub = _subtree(skeleton, c)
+        named = any(_LEG_RE.search(skeleton.names[j].lower()) for j in sub)
+        below = up_sign * (rest[sub, up_axis].min() - rest[pelvis, up_axis]) < -1e-9
+        if len(sub) > 1 and (
+            named or (below and not any(_ARM_RE.search(skeleton.names[j].lower()) for j in sub))
+        ):
+            lower.update(sub)
+    upper = set(range(J)) - lower | {pelvis}
+    # sides: by name, else by lateral sign
+    side = {j: _name_side(skeleton.names[j]) for j in range(J)}
+    if not any(s == "left" for s in side.values()) or not any(s == "right" for s in side.values()):
+        lat_axes = [a for a in range(3) if a != up_axis]
+        spread = [np.ptp(rest[:, a]) for a in lat_axes]
+        lat = lat_axes[int(np.argmin(spread))]
+        rel = rest[:, lat] - rest[pelvis, lat]
+        scale = max(float(np.abs(rel).max()), 1e-9)
+        side = {
+            j: ("left" if rel[j] > 0.05 * scale else "right" if rel[j] < -0.05 * scale else None)
+            for j in range(J)
+        }
+    # a joint inherits the side of its nearest sided ancestor (hands' fingers etc.)
+    for j in range(J):
+        if side[j] is None:
+            p = int(skeleton.parents[j])
+            while p >= 0 and side[p] is None:
+                p = int(skeleton.parents[p])
+            if p >= 0 and p != pelvis:
+                side[j] = side[p]
+    centre = {j for j in range(J) if side[j] is None}
+    left = {j for j in range(J) if side[j] == "left"} | centre
+    right = {j for j in range(J) if side[j] == "right"} | centre
+    groups = []
+    for name, js, trim in (
+        ("body", set(range(J)), 3),
+        ("upper", upper, 1),
+        ("lower", lower, 1),
+        ("left", left, 1),
+        ("right", right, 1),
+    ):
+        sel = [j for j in sorted(js) if keep[j]]
+        if len(sel) < 2:
+            continue
+        groups.append(JointGroup(name, tuple(sel), min(trim, len(sel) - 1)))
+    return groups
+
+
+# ---------------------------------------------------------------------------------- texture
+
+
+def _ancestor_rotations(motion: Motion, j: int) -> np.ndarray:
+    """(F, 4) global rotation of joint ``j``'s parent."""
+    sk = motion.skeleton
+    chain = []
+    p = int(sk.parents[j])
+    while p >= 0:
+        chain.append(p)
+        p = int(sk.parents[p])
+    q = rot.quat_identity((motion.num_frames,))
+    for a in reversed(chain):
+        q = rot.quat_mul(q, motion.rotations[:, a])
+    return q
+
+
+def facing_aligned_rotations(motion: Motion, up: str | None = None) -> np.ndarray:
+    """(F, J, 4) local rotations with the heading removed (the body always faces forward).
+
+    The heading (rotation about the up axis, :func:`mocapkit.features.heading_angles`) is taken
+    out of the pelvis' global rotation; all other joints keep their local rotations, so the
+    result only differs from ``motion.rotations`` in the pelvis column. The root translation is
+    simply not part of the texture.
+    """
+    q = np.array(motion.rotations, dtype=np.float64)
+    if motion.num_frames == 0:
+        return q
+    up = up or features.detect_up_axis(motion)
+    pelvis = features.pelvis_index(motion.skeleton)
+    q[:, pelvis] = rot.quat_mul(pelvis_alignment(motion, up), q[:, pelvis])
+    return q
+
+
+def pelvis_alignment(motion: Motion, up: str | None = None) -> np.ndarray:
+    """(F, 4) ``X`` with ``aligned_pelvis = X * pelvis`` (local rotations): ``X = A^-1 U A`` where
+    ``A`` is the pelvis' parent's global rotation and ``U`` turns the heading back to zero."""
+    up = up or features.detect_up_axis(motion)
+    heading = features.heading_angles(motion, up)
+    pelvis = features.pelvis_index(motion.skeleton)
+    axis = np.zeros(3)
+    axis["XYZ".index(up.lstrip("+-")[-1])] = -1.0 if up.startswith("-") else 1.0
+    unturn = rot.rotvec_to_quat(-heading[:, None] * axis)  # (F, 4)
+    anc = _ancestor_rotations(motion, pelvis)
+    return rot.quat_mul(rot.quat_inv(anc), rot.quat_mul(unturn, anc))
+
+
+def texture_from_rotations(q: np.ndarray) -> np.ndarray:
+    """Make each joint's quaternion track hemisphere-continuous with ``w >= 0`` at the start;
+    returns a C-contiguous float64 ``(F, J, 4)`` copy."""
+    q = np.asarray(q, dtype=np.float64)
+    if q.shape[0] == 0:
+        return q.copy()
+    q = rot.quat_normalize(q)
+    q = np.where(q[:1, :, :1] < 0, -q, q)
+    return np.ascontiguousarray(rot.quat_unroll(q, axis=0))
+
+
+@dataclass
+class Texture:
+    """A take prepared for analysis.
+
+    Attributes:
+        file_rotations: (F_file, J, 4) facing-aligned rotations at the file's own frames.
+        rotations: (F_a, J, 4) the same resampled to ``fps`` (the analysis texture).
+        fps: analysis rate.
+        file_fps: the take's rate.
+        name: label (file name).
+        pelvis: the joint whose heading was removed.
+        pelvis_align: (F_file, 4) ``X`` with ``file_rotations[:, pelvis] = X * original`` (up to
+            sign): see :func:`pelvis_alignment`.
+    """
+
+    file_rotations: np.ndarray
+    rotations: np.ndarray
+    fps: float
+    file_fps: float
+    name: str = ""
+    pelvis: int = 0
+    pelvis_align: np.ndarray | None = None
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    def analysis_times(self) -> np.ndarray:
+        return np.arange(self.num_frames) / self.fps
+
+    def file_times(self) -> np.ndarray:
+        return np.arange(self.file_rotations.shape[0]) / self.file_fps
+
+
+def make_texture(motion: Motion, fps: float = ANALYSIS_FPS, name: str = "") -> Texture:
+    """The motion-texture of a take at ``fps`` (and at its own frames), see the module notes."""
+    if motion.num_frames == 0:
+        raise ValueError(f"{name or 'motion'}: the take has no frames")
+    motion.check_finite(name or "motion")
+    pelvis = features.pelvis_index(motion.skeleton)
+    align = pelvis_alignment(motion)
+    aligned = np.array(motion.rotations, dtype=np.float64)
+    aligned[:, pelvis] = rot.quat_mul(align, aligned[:, pelvis])
+    file_q = texture_from_rotations(aligned)
+    if abs(motion.fps - fps) < 1e-6 * fps:
+        an = file_q.copy()
+    else:
+        tmp = Motion(motion.skeleton, file_q, np.zeros((motion.num_frames, 3)), motion.frame_time)
+        an = texture_from_rotations(features.resample(tmp, fps).rotations)
+    return Texture(file_q, an, float(fps), float(motion.fps), name, pelvis, align)
+
+
+def interpolate_track(q: np.ndarray, src_fps: float, dst_times: np.ndarray) -> np.ndarray:
+    """Slerp a ``(F, J, 4)`` quaternion track sampled at ``src_fps`` to the times ``dst_times``
+    (clamped to the track's span)."""
+    F = q.shape[0]
+    s = np.clip(np.asarray(dst_times) * src_fps, 0.0, F - 1)
+    i0 = np.floor(s).astype(np.int64)
+    i1 = np.minimum(i0 + 1, F - 1)
+    a = s - i0
+    out = rot.quat_slerp(q[i0], q[i1], np.broadcast_to(a[:, None], (len(s), q.shape[1])))
+    return np.where((a == 0.0)[:, None, None], q[i0], out)

@@ -1,0 +1,612 @@
+"""The aligned, windowed point-cloud cost of Kovar et al. with per-pair body-part weights, and
+its tiled BLAS evaluation.
+
+For centre frames i (of clip A) and j (of clip B) the cost is::
+
+    C(i, j) = min_{theta, t} sum_{k=-h..h} sum_p w_kp(i, j) |a_{i+k,p} - R_theta b_{j+k,p} - t|^2
+    w_kp(i, j) = W_k (s_p + f_{i+k,p} + f_{j+k,p})
+
+with ``W_k`` the quadratic window weight (:func:`window_weights`), ``s_p`` / ``f_p`` the static
+and per-frame weights of the part owning point p divided by its number of points
+(:mod:`mocapkit.graph.weights`), ``R_theta`` a rotation about the up axis and ``t`` a
+ground-plane translation (Kovar & Gleicher's closed form). Minimising over t and theta in closed
+form leaves, with ``W = sum w``, ``A = sum w a_xz``, ``B = sum w b_xz``::
+
+    C = sum w|a|^2 + sum w|b|^2 - 2 sum w y_a y_b - (|A|^2 + |B|^2) / W - 2 sqrt(num^2 + den^2)
+    den = sum w (x_a x_b + z_a z_b) - A.B / W,   num = sum w (x_a z_b - z_a x_b) - A x B / W
+
+Every sum is a correlation of per-frame window features of the two clips; since the weight is a
+sum of a row term and a column term, each is one matrix product of (rows x window.points) by
+(window.points x columns). :func:`cost_tile` evaluates a whole tile that way; :func:`pair_costs`
+evaluates explicit pairs (float64, vectorised over pairs); tests/graph/naive.py holds the
+readable per-pair reference.
+
+Coordinates: ``x`` and ``z`` are ground coordinates (``p . side``, ``p . forward`` of
+:func:`mocapkit.features.ground_frame`), ``y`` the height. Each window is centred on the ground
+position of its centre frame's pelvis (the cost is invariant to that), which keeps float32 tiles
+well conditioned.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from mocapkit.core.motion import Motion
+from mocapkit.features import detect_up_axis, ground_frame, pelvis_index
+from mocapkit.graph.pointcloud import BodyParts, body_parts, point_cloud
+from mocapkit.graph.weights import (
+    clip_contact_parts,
+    metric_weights,
+    part_masses,
+    support_mask,
+)
+
+__all__ = [
+    "CostDatabase",
+    "build_database",
+    "cost_matrix",
+    "cost_tile",
+    "pair_alignment",
+    "pair_costs",
+    "tiled_local_minima",
+    "window_weights",
+]
+
+
+def window_weights(half: int) -> np.ndarray:
+    """(2 half + 1,) quadratic window weights ``1 - (k / (half + 1))^2``, largest at k = 0,
+    normalised to sum 1."""
+    if half < 0:
+        raise ValueError(f"window half-width must be >= 0, got {half}")
+    k = np.arange(-half, half + 1, dtype=np.float64)
+    w = 1.0 - (k / (half + 1)) ** 2
+    return w / w.sum()
+
+
+@dataclass(eq=False)
+class CostDatabase:
+    """All clips' point clouds in one buffer (one array per quantity, clip ranges by offsets).
+
+    Attributes:
+        coords: (N, P, 3) float64 points as (x, y, z) = (side, up, forward) ground coordinates.
+        centre: (N, 2) ground position (x, z) of each frame's pelvis.
+        starts: (C + 1,) first frame of each clip in the buffer, then N.
+        point_static: (P,) static weight of each point (part weight / points of the part).
+        point_frame: (N, P) per-frame weight of each point.
+        support: (Ps,) indices of the points whose per-frame weight can be non-zero.
+        half: window half-width h (window = 2h + 1 frames).
+        window: (2h + 1,) window weights.
+        fps: frame rate (all clips share it).
+        metric: the metric name.
+        parts: the body parts.
+        up: the up axis.
+    """
+
+    coords: np.ndarray
+    centre: np.ndarray
+    starts: np.ndarray
+    point_static: np.ndarray
+    point_frame: np.ndarray
+    support: np.ndarray
+    half: int
+    window: np.ndarray
+    fps: float
+    metric: str
+    parts: BodyParts
+    up: str
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.coords.shape[0])
+
+    @property
+    def num_clips(self) -> int:
+        return len(self.starts) - 1
+
+    def clip_of(self, frames: np.ndarray) -> np.ndarray:
+        """Clip index of global frame indices."""
+        return np.searchsorted(self.starts, np.asarray(frames), side="right") - 1
+
+    def valid_centres(self) -> np.ndarray:
+        """(N,) bool: frames whose whole window lies inside their clip."""
+        ok = np.zeros(self.num_frames, dtype=bool)
+        for a, b in zip(self.starts[:-1], self.starts[1:], strict=True):
+            if b - a > 2 * self.half:
+                ok[a + self.half : b - self.half] = True
+        return ok
+
+    def flops_per_pair(self) -> int:
+        """Floating-point operations of the matrix products per evaluated pair."""
+        K = len(self.window)
+        P = self.coords.shape[1]
+        Ps = len(self.support)
+        inner = 3 * Ps + 3 * P + (P + Ps) + 2 * (2 * P + 2 * Ps)
+        return 2 * K * inner
+
+
+def build_database(
+    motions: Sequence[Motion],
+    metric: str = "dynamics",
+    window: float = 1.0 / 3.0,
+    *,
+    masses: dict[str, float] | None = None,
+    contacts: Sequence[np.ndarray] | None = None,
+    up: str | None = None,
+) -> CostDatabase:
+    """Point clouds, weights and window of a set of clips (same skeleton and frame rate).
+
+    Args:
+        motions: the clips.
+        metric: "dynamics", "uniform" or "torso".
+        window: window length in seconds (rounded to an odd number of frames, at least 1).
+        masses: joint name -> kg overrides of the de Leva masses.
+        contacts: optional (F, B) bool per-part contacts per clip (default: foot contacts).
+        up: the up axis (detected on the first clip when None).
+    """
+    if not motions:
+        raise ValueError("need at least one clip")
+    first = motions[0]
+    for m in motions[1:]:
+        if m.num_joints != first.num_joints or m.skeleton.names != first.skeleton.names:
+            raise ValueError("all clips must share one skeleton (same joints)")
+        if not np.isclose(m.frame_time, first.frame_time, rtol=1e-6, atol=0):
+            raise ValueError(
+                f"all clips must share one frame rate ({first.fps:g} vs {m.fps:g} fps); "
+                "resample them first (mocapkit.features.resample)"
+            )
+    up = up or detect_up_axis(first)
+    parts = body_parts(first.skeleton)
+    mass = part_masses(parts, overrides=masses)
+    half = max(0, round(window * first.fps / 2.0))
+    side, u, fwd = ground_frame(up)
+    basis = np.stack([side, u, fwd], axis=1)  # (3, 3): columns x, y, z
+    pelvis = pelvis_index(first.skeleton)
+    counts = parts.points_per_part().astype(np.float64)
+    coords, centres, frames = [], [], []
+    foot_joints: set[int] = set()
+    for c, m in enumerate(motions):
+        if m.num_frames == 0:
+            raise ValueError(f"clip {c} has no frames")
+        m.check_finite(f"clip {c}")
+        pc = point_cloud(m, parts) @ basis
+        coords.append(pc)
+        pel = (
+            pc[:, parts.point_source.tolist().index(pelvis)]
+            if pelvis in parts.point_source
+            else pc[:, 0]
+        )
+        centres.append(pel[:, [0, 2]])
+        if contacts is not None:
+            cp = np.asarray(contacts[c], dtype=bool)
+        else:
+            from mocapkit.features import find_feet
+
+            foot_joints.update(j for _, j in find_feet(m.skeleton, m, up))
+            cp = clip_contact_parts(m, parts, up)
+        pw = metric_weights(metric, parts, cp, mass)
+        frames.append(pw.frame)
+        static = pw.static
+    if contacts is not None:
+        foot_joints.update(
+            int(parts.joints[b])
+            for cp in contacts
+            for b in np.flatnonzero(np.asarray(cp).any(axis=0))
+        )
+    sup_parts = support_mask(metric, parts, sorted(foot_joints))
+    frame_w = np.concatenate(frames)
+    sup_parts |= (frame_w != 0).any(axis=0)
+    point_static = static[parts.point_part] / counts[parts.point_part]
+    point_frame = frame_w[:, parts.point_part] / counts[parts.point_part][None, :]
+    support = np.flatnonzero(sup_parts[parts.point_part])
+    starts = np.concatenate([[0], np.cumsum([m.num_frames for m in motions])]).astype(np.int64)
+    return CostDatabase(
+        np.ascontiguousarray(np.concatenate(coords)),
+        np.ascontiguousarray(np.concatenate(centres)),
+        starts,
+        point_static,
+        point_frame,
+        support,
+        int(half),
+        window_weights(int(half)),
+        float(first.fps),
+        metric,
+        parts,
+        up,
+    )
+
+
+# ============================================================================================
+# explicit pairs (float64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_sums_kernel(coords, centre, static, frame, window, half, ii, jj, out):  # pragma: no cover
+    P = coords.shape[1]
+    for n in range(ii.shape[0]):
+        i = ii[n]
+        j = jj[n]
+        cxa = centre[i, 0]
+        cza = centre[i, 1]
+        cxb = centre[j, 0]
+        czb = centre[j, 1]
+        sw = ax = az = bx = bz = saa = sbb = syy = sdot = scrs = 0.0
+        for k in range(-half, half + 1):
+            wk = window[k + half]
+            fa = i + k
+            fb = j + k
+            for p in range(P):
+                w = wk * (static[p] + frame[fa, p] + frame[fb, p])
+                xa = coords[fa, p, 0] - cxa
+                ya = coords[fa, p, 1]
+                za = coords[fa, p, 2] - cza
+                xb = coords[fb, p, 0] - cxb
+                yb = coords[fb, p, 1]
+                zb = coords[fb, p, 2] - czb
+                sw += w
+                ax += w * xa
+                az += w * za
+                bx += w * xb
+                bz += w * zb
+                saa += w * (xa * xa + ya * ya + za * za)
+                sbb += w * (xb * xb + yb * yb + zb * zb)
+                syy += w * ya * yb
+                sdot += w * (xa * xb + za * zb)
+                scrs += w * (xa * zb - za * xb)
+        out[n, 0] = sw
+        out[n, 1] = ax
+        out[n, 2] = az
+        out[n, 3] = bx
+        out[n, 4] = bz
+        out[n, 5] = saa
+        out[n, 6] = sbb
+        out[n, 7] = syy
+        out[n, 8] = sdot
+        out[n, 9] = scrs
+
+
+def _window_sums(db: CostDatabase, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The ten weighted sums for explicit pairs (compiled loop, float64)."""
+    out = np.empty((len(i), 10))
+    _pair_sums_kernel(
+        db.coords, db.centre, db.point_static, db.point_frame, db.window, db.half,
+        np.ascontiguousarray(i, dtype=np.int64), np.ascontiguousarray(j, dtype=np.int64), out,
+    )  # fmt: skip
+    return tuple(out[:, k] for k in range(10))
+
+
+def _finish(sums: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """cost, num, den from the sums (works on arrays of any shape)."""
+    Sw, Ax, Az, Bx, Bz, Saa, Sbb, Syy, Sdot, Scrs = sums
+    inv = 1.0 / Sw
+    num = Scrs - (Ax * Bz - Az * Bx) * inv
+    den = Sdot - (Ax * Bx + Az * Bz) * inv
+    cost = Saa + Sbb - 2.0 * Syy - (Ax * Ax + Az * Az + Bx * Bx + Bz * Bz) * inv
+    cost -= 2.0 * np.sqrt(num * num + den * den)
+    return np.maximum(cost, 0.0), num, den
+
+
+def _check_centres(db: CostDatabase, idx: np.ndarray, name: str) -> np.ndarray:
+    idx = np.asarray(idx, dtype=np.int64).reshape(-1)
+    ok = db.valid_centres()
+    if len(idx) and (idx.min() < 0 or idx.max() >= db.num_frames or not ok[idx].all()):
+        bad = idx[(idx < 0) | (idx >= db.num_frames)]
+        if len(bad) == 0:
+            bad = idx[~ok[idx]]
+        raise ValueError(
+            f"{name}: frame {int(bad[0])} is not a valid window centre (the window of "
+            f"{2 * db.half + 1} frames must lie inside one clip)"
+        )
+    return idx
+
+
+def pair_costs(db: CostDatabase, i: np.ndarray, j: np.ndarray, chunk: int = 1 << 16) -> np.ndarray:
+    """Exact aligned window costs (float64) of the pairs ``(i[n], j[n])`` of global frames."""
+    i = _check_centres(db, i, "i")
+    j = _check_centres(db, j, "j")
+    if i.shape != j.shape:
+        raise ValueError("i and j must have the same length")
+    out = np.empty(len(i))
+    for s in range(0, len(i), chunk):
+        out[s : s + chunk] = _finish(_window_sums(db, i[s : s + chunk], j[s : s + chunk]))[0]
+    return out
+
+
+def pair_alignment(db: CostDatabase, i: int, j: int) -> tuple[float, np.ndarray]:
+    """Optimal ground transform taking window j onto window i: ``(theta, t)`` with
+    ``a ~ R_theta b + t`` in ground coordinates (x, z) of the original (uncentred) clouds,
+    ``R_theta (x, z) = (x cos + z sin, -x sin + z cos)``."""
+    i_arr = _check_centres(db, np.array([i]), "i")
+    j_arr = _check_centres(db, np.array([j]), "j")
+    sums = _window_sums(db, i_arr, j_arr)
+    _, num, den = _finish(sums)
+    theta = float(np.arctan2(num[0], den[0]))
+    c, s = np.cos(theta), np.sin(theta)
+    Sw, Ax, Az, Bx, Bz = (float(v[0]) for v in sums[:5])
+    t = np.array([(Ax - c * Bx - s * Bz) / Sw, (Az + s * Bx - c * Bz) / Sw])
+    gb = db.centre[j]
+    t = t + db.centre[i] - np.array([c * gb[0] + s * gb[1], -s * gb[0] + c * gb[1]])
+    return theta, t
+
+
+# ============================================================================================
+# tiles (BLAS)
+
+
+@dataclass(eq=False)
+class _Side:
+    """Window features of a set of centre frames (rows or columns of a tile)."""
+
+    x: np.ndarray  # (n, K*P)
+    y: np.ndarray
+    z: np.ndarray
+    sq: np.ndarray  # |p|^2
+    u: np.ndarray  # W_k (s_p + f_{i+k,p})
+    f: np.ndarray  # W_k f_{i+k,p} on support points (n, K*Ps)
+    xs: np.ndarray  # x on support points
+    ys: np.ndarray
+    zs: np.ndarray
+    sqs: np.ndarray
+
+
+def _side(db: CostDatabase, idx: np.ndarray, dtype: type) -> _Side:
+    k = np.arange(-db.half, db.half + 1)
+    win = np.clip(idx[:, None] + k, 0, db.num_frames - 1)  # invalid centres are masked later
+    c = db.coords[win]  # (n, K, P, 3)
+    x = c[..., 0] - db.centre[idx, 0][:, None, None]
+    z = c[..., 2] - db.centre[idx, 1][:, None, None]
+    y = c[..., 1]
+    sq = x * x + y * y + z * z
+    Wk = db.window[None, :, None]
+    u = Wk * (db.point_static + db.point_frame[win])
+    s = db.support
+    f = Wk * db.point_frame[win][..., s]
+    n = len(idx)
+
+    def flat(v: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(v.reshape(n, -1), dtype=dtype)
+
+    return _Side(
+        flat(x), flat(y), flat(z), flat(sq), flat(u), flat(f),
+        flat(x[..., s]), flat(y[..., s]), flat(z[..., s]), flat(sq[..., s]),
+    )  # fmt: skip
+
+
+def _tile_sums(r: _Side, c: _Side, Wk_s: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The ten sums of every (row, column) pair, as matrix products."""
+    n, m = r.x.shape[0], c.x.shape[0]
+    ux, uz = r.u * r.x, r.u * r.z
+    # row scalars
+    rw = r.u.sum(1)[:, None]
+    rx = ux.sum(1)[:, None]
+    rz = uz.sum(1)[:, None]
+    raa = (r.u * r.sq).sum(1)[:, None]
+    # column scalars: sum W_k beta g(b); the window weight is folded into c.f
+    cw = c.f.sum(1)[None, :]
+    cx = (c.f * c.xs).sum(1)[None, :]
+    cz = (c.f * c.zs).sum(1)[None, :]
+    cbb = (c.f * c.sqs).sum(1)[None, :]
+    has_s = r.f.shape[1] > 0
+    # Bx, Bz, Sbb share the row matrix u
+    cols = np.concatenate([c.x, c.z, c.sq], axis=0)  # (3m, KP)
+    prod = r.u @ cols.T
+    Bx = prod[:, :m] + cx
+    Bz = prod[:, m : 2 * m] + cz
+    Sbb = prod[:, 2 * m :] + cbb
+    # beta_j f(a): the row side carries W_k f(a) on support points, the column side beta
+    if has_s:
+        rows = np.concatenate([Wk_s * r.xs, Wk_s * r.zs, Wk_s * r.sqs], axis=0)  # (3n, KPs)
+        cbeta = c.f / Wk_s  # beta_{j+k,p} (window weight divided back out)
+        pb = rows @ cbeta.T
+        Ax = rx + pb[:n]
+        Az = rz + pb[n : 2 * n]
+        Saa = raa + pb[2 * n :]
+        Syy = (
+            np.concatenate([r.u * r.y, Wk_s * r.ys], axis=1)
+            @ np.concatenate([c.y, cbeta * c.ys], axis=1).T
+        )
+        rowd = np.concatenate([ux, uz, Wk_s * r.xs, Wk_s * r.zs], axis=1)
+        cold = np.concatenate(
+            [
+                np.concatenate([c.x, c.z, cbeta * c.xs, cbeta * c.zs], axis=1),
+                np.concatenate([c.z, -c.x, cbeta * c.zs, -cbeta * c.xs], axis=1),
+            ],
+            axis=0,
+        )
+    else:
+        Ax = np.broadcast_to(rx, (n, m))
+        Az = np.broadcast_to(rz, (n, m))
+        Saa = np.broadcast_to(raa, (n, m))
+        Syy = (r.u * r.y) @ c.y.T
+        rowd = np.concatenate([ux, uz], axis=1)
+        cold = np.concatenate(
+            [np.concatenate([c.x, c.z], axis=1), np.concatenate([c.z, -c.x], axis=1)], axis=0
+        )
+    pd = rowd @ cold.T
+    Sdot = pd[:, :m]
+    Scrs = pd[:, m:]
+    return (rw + cw, Ax, Az, Bx, Bz, Saa, Sbb, Syy, Sdot, Scrs)
+
+
+def _support_window(db: CostDatabase, dtype: type) -> np.ndarray:
+    Ps = len(db.support)
+    return np.ascontiguousarray(np.repeat(db.window, Ps)[None, :], dtype=dtype)
+
+
+def _tile(db: CostDatabase, r: _Side, c: _Side, dtype: type) -> np.ndarray:
+    return _finish(_tile_sums(r, c, _support_window(db, dtype)))[0]
+
+
+def cost_tile(
+    db: CostDatabase, rows: np.ndarray, cols: np.ndarray, dtype: type = np.float64
+) -> np.ndarray:
+    """Costs (len(rows), len(cols)) of every pair of the given centre frames, by matrix
+    products in ``dtype`` (float64 or float32). Frames that are not valid centres give inf."""
+    if dtype not in (np.float64, np.float32):
+        raise ValueError("dtype must be numpy.float64 or numpy.float32")
+    rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+    cols = np.asarray(cols, dtype=np.int64).reshape(-1)
+    for name, idx in (("rows", rows), ("cols", cols)):
+        if len(idx) and (idx.min() < 0 or idx.max() >= db.num_frames):
+            raise ValueError(f"{name} must index frames 0..{db.num_frames - 1}")
+    ok = db.valid_centres()
+    out = _tile(db, _side(db, rows, dtype), _side(db, cols, dtype), dtype)
+    out = np.array(out, dtype=np.float64)
+    out[~ok[rows], :] = np.inf
+    out[:, ~ok[cols]] = np.inf
+    return out
+
+
+def cost_matrix(db: CostDatabase, tile: int = 1024) -> np.ndarray:
+    """The full (N, N) cost matrix (float64; for small databases and plots). inf where a frame
+    is not a valid window centre."""
+    N = db.num_frames
+    if N > 20000:
+        raise ValueError(f"cost_matrix holds N x N values; {N} frames is too many (use tiles)")
+    out = np.empty((N, N))
+    idx = np.arange(N)
+    for a in range(0, N, tile):
+        for b in range(a, N, tile):
+            t = cost_tile(db, idx[a : a + tile], idx[b : b + tile])
+            out[a : a + tile, b : b + tile] = t
+            out[b : b + tile, a : a + tile] = t.T
+    return out
+
+
+# ============================================================================================
+# tiled local minima
+
+
+def candidate_grid(db: CostDatabase, stride: int = 1) -> np.ndarray:
+    """Global centre frames on a stride grid per clip, with -1 separators before, between and
+    after clips (so grid neighbours never cross a clip boundary)."""
+    if stride < 1:
+        raise ValueError(f"stride must be >= 1, got {stride}")
+    ok = db.valid_centres()
+    out: list[np.ndarray] = [np.array([-1])]
+    for a, b in zip(db.starts[:-1], db.starts[1:], strict=True):
+        v = np.flatnonzero(ok[a:b]) + a
+        if len(v):
+            out += [v[::stride], np.array([-1])]
+    return np.concatenate(out).astype(np.int64)
+
+
+def _local_minima(t: np.ndarray) -> np.ndarray:
+    """(n-2, m-2) bool: interior cells <= their 8 neighbours and finite."""
+    c = t[1:-1, 1:-1]
+    ok = np.isfinite(c)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if di or dj:
+                ok &= c <= t[1 + di : t.shape[0] - 1 + di, 1 + dj : t.shape[1] - 1 + dj]
+    return ok
+
+
+@dataclass(frozen=True, eq=False)
+class MinimaResult:
+    """Local minima of the cost over the grid (each unordered pair once, i < j).
+
+    Attributes:
+        i, j: global centre frames; cost: their costs (in the tile dtype); stride; the number of
+        evaluated cells (``pairs``), flops of the matrix products and seconds spent.
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    cost: np.ndarray
+    stride: int
+    pairs: int
+    flops: float
+    seconds: float
+    dtype: str = "float64"
+
+
+def tiled_local_minima(
+    db: CostDatabase,
+    stride: int = 1,
+    tile: int = 1024,
+    dtype: type = np.float32,
+    min_gap: int | None = None,
+    max_candidates: int = 200_000,
+    progress: Callable[[int, int], None] | None = None,
+) -> MinimaResult:
+    """Local minima of the cost matrix over a stride grid, computed tile by tile (upper
+    triangle; the cost is symmetric), never holding more than one tile (+ 1-cell halo).
+
+    Pairs within one clip closer than ``min_gap`` frames (default: the window length) are
+    dropped. At most ``max_candidates`` lowest minima are kept. ``progress(done, total)`` is
+    called after each tile.
+    """
+    import time
+
+    if tile < 8:
+        raise ValueError("tile must be >= 8")
+    t0 = time.perf_counter()
+    grid = candidate_grid(db, stride)
+    G = len(grid)
+    gap = (2 * db.half + 1) if min_gap is None else int(min_gap)
+    clip = db.clip_of(np.maximum(grid, 0))
+    idx = np.maximum(grid, 0)
+    sep = grid < 0
+    starts = list(range(1, G - 1, tile))
+    total = len(starts) * (len(starts) + 1) // 2
+    done = 0
+    pairs = 0
+    Wk_s = _support_window(db, dtype)
+    keep_i: list[np.ndarray] = []
+    keep_j: list[np.ndarray] = []
+    keep_c: list[np.ndarray] = []
+    kept = 0
+    for ra in starts:
+        rb = min(ra + tile, G - 1)
+        rows = np.arange(ra - 1, rb + 1)
+        rside = _side(db, idx[rows], dtype)
+        for ca in starts:
+            if ca < ra:
+                continue
+            cb = min(ca + tile, G - 1)
+            cols = np.arange(ca - 1, cb + 1)
+            cside = _side(db, idx[cols], dtype)
+            t = _finish(_tile_sums(rside, cside, Wk_s))[0]
+            t[sep[rows], :] = np.inf
+            t[:, sep[cols]] = np.inf
+            pairs += t.size
+            mins = _local_minima(t)
+            mi, mj = np.nonzero(mins)
+            gi, gj = rows[mi + 1], cols[mj + 1]
+            sel = gj > gi
+            gi, gj = gi[sel], gj[sel]
+            fi, fj = grid[gi], grid[gj]
+            near = (clip[gi] == clip[gj]) & (np.abs(fj - fi) < gap)
+            fi, fj = fi[~near], fj[~near]
+            cv = t[mi[sel][~near] + 1, mj[sel][~near] + 1].astype(np.float64)
+            keep_i.append(fi)
+            keep_j.append(fj)
+            keep_c.append(cv)
+            kept += len(cv)
+            if kept > 2 * max_candidates:
+                ci, cj, cc = (np.concatenate(v) for v in (keep_i, keep_j, keep_c))
+                part = np.argpartition(cc, max_candidates)[:max_candidates]
+                keep_i, keep_j, keep_c = [ci[part]], [cj[part]], [cc[part]]
+                kept = max_candidates
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    ci, cj, cc = (np.concatenate(v) if v else np.zeros(0) for v in (keep_i, keep_j, keep_c))
+    if len(cc) > max_candidates:
+        part = np.argpartition(cc, max_candidates)[:max_candidates]
+        ci, cj, cc = ci[part], cj[part], cc[part]
+    order = np.argsort(cc, kind="stable")
+    return MinimaResult(
+        ci[order].astype(np.int64),
+        cj[order].astype(np.int64),
+        cc[order],
+        stride,
+        pairs,
+        float(pairs) * db.flops_per_pair(),
+        time.perf_counter() - t0,
+        np.dtype(dtype).name,
+    )

@@ -1,0 +1,400 @@
+"""Motion graphs (Kovar, Gleicher & Pighin 2002) built with a chosen comparison metric.
+
+Nodes are instants ``(clip, frame)``: clip starts and ends, transition sources and transition
+landing frames. Edges are continuations (play a clip from one node to the next node of that
+clip) and transitions. A transition ``(A, i) -> (B, j)`` plays ``blend`` frames that blend
+``A[i + k]`` into the aligned ``B[j + k]`` (k = 0..blend-1) and lands at node ``(B, j + blend)``.
+The graph is pruned to its largest strongly connected component, so that a walk never dead-ends.
+Frames are 0-based everywhere.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.core.motion import Motion
+from mocapkit.graph.distance import (
+    CostDatabase,
+    MinimaResult,
+    build_database,
+    tiled_local_minima,
+)
+from mocapkit.graph.select import Candidates, select_transitions
+
+__all__ = ["FORMAT", "ClipInfo", "MotionGraph", "build_graph", "default_stride", "load_graph"]
+
+FORMAT = "mocapkit-motion-graph"
+
+
+@dataclass(frozen=True)
+class ClipInfo:
+    path: str
+    frames: int
+    fps: float
+
+
+@dataclass(eq=False)
+class MotionGraph:
+    """Clips + selected transitions (+ what was learnt choosing them).
+
+    Attributes:
+        clips: path, frame count and fps of each clip (list order = clip index).
+        src_clip, src_frame, dst_clip, dst_frame, cost: (T,) the transitions, 0-based, sorted
+            by cost.
+        in_scc: (T,) bool, the transition lies in the largest strongly connected component.
+        metric, window (seconds), half (window half-width, frames), blend (frames), stride.
+        ranked_costs: rank-ordered costs of all merged candidates (the curve of the knee rule).
+        T: the number of transitions chosen (before refinement merged any).
+        stats: timings and sizes.
+    """
+
+    clips: list[ClipInfo]
+    src_clip: np.ndarray
+    src_frame: np.ndarray
+    dst_clip: np.ndarray
+    dst_frame: np.ndarray
+    cost: np.ndarray
+    metric: str = "dynamics"
+    window: float = 1.0 / 3.0
+    half: int = 5
+    blend: int = 5
+    stride: int = 1
+    ranked_costs: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    T: int = 0
+    in_scc: np.ndarray | None = None
+    stats: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name in ("src_clip", "src_frame", "dst_clip", "dst_frame"):
+            setattr(self, name, np.asarray(getattr(self, name), dtype=np.int64).reshape(-1))
+        self.cost = np.asarray(self.cost, dtype=np.float64).reshape(-1)
+        n = len(self.cost)
+        for name in ("src_clip", "src_frame", "dst_clip", "dst_frame"):
+            if len(getattr(self, name)) != n:
+                raise ValueError("transition arrays must have the same length")
+        C = len(self.clips)
+        if n and (
+            self.src_clip.min() < 0
+            or max(self.src_clip.max(), self.dst_clip.max()) >= C
+            or self.dst_clip.min() < 0
+        ):
+            raise ValueError("transition clip index out of range")
+        frames = np.array([c.frames for c in self.clips], dtype=np.int64)
+        if n and (
+            np.any(self.src_frame < 0)
+            or np.any(self.src_frame + self.blend > frames[self.src_clip])
+            or np.any(self.dst_frame < 0)
+            or np.any(self.dst_frame + self.blend > frames[self.dst_clip] - 1)
+        ):
+            raise ValueError("a transition's frames (plus the blend) fall outside its clip")
+        if self.in_scc is None:
+            self.in_scc = self._scc_mask()
+        self.in_scc = np.asarray(self.in_scc, dtype=bool)
+
+    # ---- structure -------------------------------------------------------------------------
+    @property
+    def num_transitions(self) -> int:
+        return len(self.cost)
+
+    def nodes_of_clip(self, c: int, only_scc: bool = False) -> np.ndarray:
+        """Sorted node frames of clip c."""
+        sel = self.in_scc if only_scc else np.ones(self.num_transitions, dtype=bool)
+        f = [0, self.clips[c].frames - 1]
+        f += self.src_frame[sel & (self.src_clip == c)].tolist()
+        f += (self.dst_frame[sel & (self.dst_clip == c)] + self.blend).tolist()
+        return np.unique(np.array(f, dtype=np.int64))
+
+    def edges(self, only_scc: bool = False) -> tuple[list[tuple[int, int]], list[dict]]:
+        """Nodes ``(clip, frame)`` (sorted) and edges as dicts: ``kind`` "clip" (``u``, ``v``,
+        ``frames``) or "transition" (``u``, ``v``, ``cost``, ``index``: the transition's row);
+        ``u``/``v`` index the node list. Duplicate transitions keep the cheapest."""
+        sel = self.in_scc if only_scc else np.ones(self.num_transitions, dtype=bool)
+        nodes: list[tuple[int, int]] = []
+        for c in range(len(self.clips)):
+            nodes += [(c, int(f)) for f in self.nodes_of_clip(c, only_scc)]
+        where = {n: k for k, n in enumerate(nodes)}
+        edges: list[dict] = []
+        for k in range(len(nodes) - 1):
+            (c0, f0), (c1, f1) = nodes[k], nodes[k + 1]
+            if c0 == c1:
+                edges.append({"u": k, "v": k + 1, "kind": "clip", "frames": f1 - f0})
+        best: dict[tuple[int, int], int] = {}
+        for t in np.flatnonzero(sel):
+            u = where[(int(self.src_clip[t]), int(self.src_frame[t]))]
+            v = where[(int(self.dst_clip[t]), int(self.dst_frame[t] + self.blend))]
+            if (u, v) not in best or self.cost[t] < self.cost[best[(u, v)]]:
+                best[(u, v)] = int(t)
+        for (u, v), t in sorted(best.items()):
+            edges.append(
+                {"u": u, "v": v, "kind": "transition", "cost": float(self.cost[t]), "index": t}
+            )
+        return nodes, edges
+
+    def _components(
+        self, only_scc: bool = False
+    ) -> tuple[list[tuple[int, int]], list[dict], np.ndarray]:
+        """Nodes, edges and a bool mask of the nodes in the largest strongly connected
+        component (scipy's Tarjan)."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        nodes, edges = self.edges(only_scc)
+        n = len(nodes)
+        u = np.array([e["u"] for e in edges], dtype=np.int64)
+        v = np.array([e["v"] for e in edges], dtype=np.int64)
+        adj = coo_matrix((np.ones(len(u)), (u, v)), shape=(n, n)).tocsr()
+        _, labels = connected_components(adj, directed=True, connection="strong")
+        sizes = np.bincount(labels)
+        big = int(np.argmax(sizes))
+        mask = labels == big if sizes[big] > 1 else np.zeros(n, dtype=bool)
+        return nodes, edges, mask
+
+    def _scc_mask(self) -> np.ndarray:
+        n = self.num_transitions
+        if n == 0:
+            return np.zeros(0, dtype=bool)
+        nodes, _, mask = self._components()
+        comp = {nd for nd, m in zip(nodes, mask, strict=True) if m}
+        out = np.zeros(n, dtype=bool)
+        for t in range(n):
+            u = (int(self.src_clip[t]), int(self.src_frame[t]))
+            v = (int(self.dst_clip[t]), int(self.dst_frame[t] + self.blend))
+            out[t] = u in comp and v in comp
+        return out
+
+    def scc(self) -> tuple[list[tuple[int, int]], list[dict]]:
+        """The pruned graph: nodes and edges of the largest strongly connected component
+        (edge ``u``/``v`` index the returned node list)."""
+        nodes, edges, mask = self._components(only_scc=True)
+        keep = np.flatnonzero(mask)
+        remap = {int(k): n for n, k in enumerate(keep)}
+        out = [
+            dict(e, u=remap[e["u"]], v=remap[e["v"]])
+            for e in edges
+            if e["u"] in remap and e["v"] in remap
+        ]
+        return [nodes[k] for k in keep], out
+
+    def scc_frames(self) -> int:
+        """Number of clip frames covered by the continuation edges of the pruned graph."""
+        _, edges = self.scc()
+        return int(sum(e["frames"] for e in edges if e["kind"] == "clip"))
+
+    # ---- files -----------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return {
+            "format": FORMAT,
+            "version": 1,
+            "metric": self.metric,
+            "window_seconds": self.window,
+            "window_half_frames": self.half,
+            "blend_frames": self.blend,
+            "stride": self.stride,
+            "T": self.T,
+            "clips": [{"path": c.path, "frames": c.frames, "fps": c.fps} for c in self.clips],
+            "transitions": [
+                {
+                    "src_clip": int(self.src_clip[t]),
+                    "src_frame": int(self.src_frame[t]),
+                    "dst_clip": int(self.dst_clip[t]),
+                    "dst_frame": int(self.dst_frame[t]),
+                    "cost": float(self.cost[t]),
+                    "in_scc": bool(self.in_scc[t]),
+                }
+                for t in range(self.num_transitions)
+            ],
+            "ranked_costs": [float(c) for c in self.ranked_costs],
+            "stats": self.stats,
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the graph as JSON (atomically)."""
+        from mocapkit.io._atomic import atomic_write_text
+
+        path = Path(path)
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
+        return path
+
+    def save_graphml(self, path: str | Path) -> Path:
+        """Write the (unpruned) graph as GraphML: nodes ``clip:frame`` with ``clip``, ``frame``,
+        ``path``, ``in_scc``; edges with ``kind``, ``frames`` (continuations), ``cost``
+        (transitions)."""
+        from xml.sax.saxutils import quoteattr
+
+        from mocapkit.io._atomic import atomic_write_text
+
+        nodes, edges = self.edges()
+        scc_nodes = set(self.scc()[0])
+        lines = [
+            '<?xml version="1.0" encoding="UTF-8"?>',
+            '<graphml xmlns="http://graphml.graphdrawing.org/xmlns">',
+            '  <key id="clip" for="node" attr.name="clip" attr.type="int"/>',
+            '  <key id="frame" for="node" attr.name="frame" attr.type="int"/>',
+            '  <key id="path" for="node" attr.name="path" attr.type="string"/>',
+            '  <key id="in_scc" for="node" attr.name="in_scc" attr.type="boolean"/>',
+            '  <key id="kind" for="edge" attr.name="kind" attr.type="string"/>',
+            '  <key id="frames" for="edge" attr.name="frames" attr.type="int"/>',
+            '  <key id="cost" for="edge" attr.name="cost" attr.type="double"/>',
+            '  <graph id="motion_graph" edgedefault="directed">',
+        ]
+        for c, f in nodes:
+            lines.append(
+                f'    <node id="{c}:{f}"><data key="clip">{c}</data><data key="frame">{f}</data>'
+                f'<data key="path">{quoteattr(self.clips[c].path)[1:-1]}</data>'
+                f'<data key="in_scc">{str((c, f) in scc_nodes).lower()}</data></node>'
+            )
+        for e in edges:
+            (cu, fu), (cv, fv) = nodes[e["u"]], nodes[e["v"]]
+            extra = (
+                f'<data key="frames">{e["frames"]}</data>'
+                if e["kind"] == "clip"
+                else f'<data key="cost">{e["cost"]!r}</data>'
+            )
+            lines.append(
+                f'    <edge source="{cu}:{fu}" target="{cv}:{fv}">'
+                f'<data key="kind">{e["kind"]}</data>{extra}</edge>'
+            )
+        lines += ["  </graph>", "</graphml>"]
+        path = Path(path)
+        atomic_write_text(path, "\n".join(lines) + "\n")
+        return path
+
+    @classmethod
+    def from_dict(cls, data: dict) -> MotionGraph:
+        if data.get("format") != FORMAT:
+            raise ValueError(f"not a motion graph file (format {data.get('format')!r})")
+        try:
+            clips = [
+                ClipInfo(str(c["path"]), int(c["frames"]), float(c["fps"])) for c in data["clips"]
+            ]
+            tr = data["transitions"]
+            cols = {
+                k: [t[k] for t in tr]
+                for k in ("src_clip", "src_frame", "dst_clip", "dst_frame", "cost")
+            }
+            in_scc = [bool(t.get("in_scc", True)) for t in tr] if tr else None
+        except (KeyError, TypeError) as e:
+            raise ValueError(f"malformed motion graph file: missing {e}") from None
+        return cls(
+            clips,
+            cols["src_clip"], cols["src_frame"], cols["dst_clip"], cols["dst_frame"],
+            cols["cost"],
+            metric=str(data.get("metric", "dynamics")),
+            window=float(data.get("window_seconds", 1 / 3)),
+            half=int(data.get("window_half_frames", 5)),
+            blend=int(data.get("blend_frames", 5)),
+            stride=int(data.get("stride", 1)),
+            ranked_costs=np.asarray(data.get("ranked_costs", []), dtype=np.float64),
+            T=int(data.get("T", len(tr))),
+            in_scc=in_scc,
+            stats=dict(data.get("stats", {})),
+        )  # fmt: skip
+
+    def clip_paths(self, base: Path | None = None) -> list[Path]:
+        """Clip paths; relative ones are resolved against ``base`` (the graph file's folder)
+        when they do not exist as given."""
+        out = []
+        for c in self.clips:
+            p = Path(c.path)
+            if not p.is_absolute() and not p.exists() and base is not None:
+                p = base / p
+            out.append(p)
+        return out
+
+
+def default_stride(num_frames: int) -> int:
+    """The grid stride :func:`build_graph` uses by default: 1 up to 20,000 frames, else 2."""
+    return 1 if num_frames <= 20000 else 2
+
+
+def load_graph(path: str | Path) -> MotionGraph:
+    """Read a graph JSON written by :meth:`MotionGraph.save`."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not valid JSON ({e})") from None
+    g = MotionGraph.from_dict(data)
+    g.stats.setdefault("graph_file", str(path))
+    return g
+
+
+def build_graph(
+    motions: Sequence[Motion],
+    metric: str = "dynamics",
+    *,
+    paths: Sequence[str] | None = None,
+    transitions: int | None = None,
+    threshold: float | None = None,
+    window: float = 1.0 / 3.0,
+    blend: int | None = None,
+    stride: int | None = None,
+    tile: int = 1024,
+    dtype: type | None = None,
+    masses: dict[str, float] | None = None,
+    max_candidates: int = 200_000,
+    progress: Callable[[int, int], None] | None = None,
+    database: CostDatabase | None = None,
+) -> tuple[MotionGraph, CostDatabase, MinimaResult]:
+    """Build a motion graph: tiled local minima of the aligned window cost, merged and ranked
+    candidates, T chosen by the knee rule (or ``transitions`` / ``threshold``), pruning to the
+    largest strongly connected component.
+
+    Args:
+        motions: clips with one skeleton and frame rate.
+        paths: their file paths (stored in the graph; default "clip0", ...).
+        metric: "dynamics", "uniform" or "torso".
+        transitions: T, the number of transitions to keep; threshold: a cost cut instead.
+        window: comparison window in seconds.
+        blend: blend length in frames (default: the window half-width, at least 1).
+        stride: evaluate the cost on every stride-th frame of each clip and refine the chosen
+            minima at full resolution (default 1 up to 20,000 frames, else 2).
+        tile, dtype: tile size and precision of the matrix products (default float64 up to
+            20,000 frames, else float32; candidates are re-scored exactly in float64).
+        masses: joint name -> kg overrides.
+        progress: ``progress(done, total)`` after each tile.
+        database: a prebuilt :func:`build_database` result (reused, e.g. to compare metrics).
+    """
+    db = database or build_database(motions, metric, window, masses=masses)
+    if stride is None:
+        stride = default_stride(db.num_frames)
+    if dtype is None:
+        dtype = np.float64 if db.num_frames <= 20000 else np.float32
+    blend = max(1, db.half) if blend is None else int(blend)
+    if blend < 1 or blend > max(db.half, 1):
+        raise ValueError(f"blend must be 1..{max(db.half, 1)} frames (the window half-width)")
+    minima = tiled_local_minima(
+        db, stride, tile, dtype, max_candidates=max_candidates, progress=progress
+    )
+    chosen, merged, T = select_transitions(db, minima, transitions, threshold)
+    chosen = _fit_blend(db, chosen, blend)
+    cs, cd = db.clip_of(chosen.src), db.clip_of(chosen.dst)
+    paths = list(paths) if paths is not None else [f"clip{c}" for c in range(len(motions))]
+    clips = [ClipInfo(str(p), m.num_frames, m.fps) for p, m in zip(paths, motions, strict=True)]
+    g = MotionGraph(
+        clips,
+        cs, chosen.src - db.starts[cs], cd, chosen.dst - db.starts[cd], chosen.cost,
+        metric=db.metric, window=window, half=db.half, blend=blend, stride=stride,
+        ranked_costs=merged.cost, T=T,
+        stats={
+            "frames": db.num_frames,
+            "pairs_evaluated": minima.pairs,
+            "gflop": minima.flops / 1e9,
+            "tile_seconds": minima.seconds,
+            "candidates": len(merged),
+        },
+    )  # fmt: skip
+    return g, db, minima
+
+
+def _fit_blend(db: CostDatabase, cand: Candidates, blend: int) -> Candidates:
+    """Drop transitions whose blend (and landing frame) would leave the clip."""
+    cd = db.clip_of(cand.dst)
+    cs = db.clip_of(cand.src)
+    ok = (cand.dst + blend <= db.starts[cd + 1] - 1) & (cand.src + blend <= db.starts[cs + 1])
+    return cand.take(np.flatnonzero(ok))

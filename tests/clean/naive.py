@@ -1,0 +1,123 @@
+"""Readable reference implementations the fast kernels of mocapkit.clean are tested against."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+
+def pose_distance(a: np.ndarray, b: np.ndarray, trim: int) -> float:
+    """Eq. 1 with log-maps: sum_k ||log(q_bk^-1 q_ak)||^2 over joints, trim largest dropped."""
+    from mocapkit.core import rotations as rot
+
+    rel = rot.quat_mul(rot.quat_inv(b), a)
+    terms = np.sum(rot.quat_log(rel) ** 2, axis=-1)
+    # log of q and -q differ; take the shorter one (the geodesic on SO(3))
+    terms = np.minimum(terms, np.sum(rot.quat_log(-rel) ** 2, axis=-1))
+    terms = sorted(terms.tolist())
+    return float(sum(terms[: len(terms) - trim]))
+
+
+def _paths(N: int, M: int, max_run: int):
+    """All constrained paths from (0,0) that stop when they first reach row N-1 or column M-1."""
+    out = []
+
+    def rec(path, run_dir, run_len):
+        i, j = path[-1]
+        if i == N - 1 or j == M - 1:
+            out.append(list(path))
+            return
+        for di, dj in ((1, 1), (1, 0), (0, 1)):
+            d = (di, dj)
+            if d == (1, 1):
+                nd, nl = None, 0
+            else:
+                nd = d
+                nl = run_len + 1 if run_dir == d else 1
+                if max_run and nl > max_run:
+                    continue
+            path.append((i + di, j + dj))
+            rec(path, nd, nl)
+            path.pop()
+
+    if N == 1 or M == 1:
+        return [[(0, 0)]]
+    rec([(0, 0)], None, 0)
+    return out
+
+
+def constrained_dtw(D: np.ndarray, max_run: int) -> tuple[float, list[tuple[int, int]]]:
+    """Brute force over all paths: per end cell the least-sum path (ties: shorter), then the end
+    cell with the least mean. Only for tiny blocks."""
+    N, M = D.shape
+    best_per_end: dict[tuple[int, int], tuple[float, int, list]] = {}
+    for p in _paths(N, M, max_run):
+        s = float(sum(D[i, j] for i, j in p))
+        key = p[-1]
+        cur = best_per_end.get(key)
+        if cur is None or (s, len(p)) < (cur[0], cur[1]):
+            best_per_end[key] = (s, len(p), p)
+    best = min(best_per_end.values(), key=lambda t: (t[0] / t[1], t[1]))
+    return best[0] / best[1], best[2]
+
+
+def dtw_dp(D: np.ndarray, max_run: int) -> float:
+    """Readable dynamic programme over (cell, state) with dictionaries."""
+    N, M = D.shape
+    if N == 1 or M == 1:
+        return float(D[0, 0])
+    INF = float("inf")
+    # state: ("d", 0) diagonal/start, ("h", k), ("v", k)
+    best: dict = {((0, 0), ("d", 0)): (float(D[0, 0]), 1)}
+    for i, j in itertools.product(range(N), range(M)):
+        if (i, j) == (0, 0):
+            continue
+        cands: dict = {}
+
+        def offer(state, c, n, cands=cands):
+            cur = cands.get(state, (INF, 0))
+            if (c, n) < cur:
+                cands[state] = (c, n)
+
+        for (cell, st), (c, n) in list(best.items()):
+            pi, pj = cell
+            if pi == N - 1 or pj == M - 1:
+                continue  # paths stop at end cells
+            if (pi, pj) == (i - 1, j - 1):
+                offer(("d", 0), c + D[i, j], n + 1)
+            elif (pi, pj) == (i - 1, j):
+                k = st[1] + 1 if st[0] == "v" else 1
+                if max_run == 0:
+                    offer(("d", 0), c + D[i, j], n + 1)
+                elif k <= max_run:
+                    offer(("v", k), c + D[i, j], n + 1)
+            elif (pi, pj) == (i, j - 1):
+                k = st[1] + 1 if st[0] == "h" else 1
+                if max_run == 0:
+                    offer(("d", 0), c + D[i, j], n + 1)
+                elif k <= max_run:
+                    offer(("h", k), c + D[i, j], n + 1)
+        for st, v in cands.items():
+            best[((i, j), st)] = v
+    per_end: dict = {}
+    for ((i, j), _), (c, n) in best.items():
+        if i == N - 1 or j == M - 1:
+            per_end[(i, j)] = min(per_end.get((i, j), (INF, 0)), (c, n))
+    return min((c / n, n) for c, n in per_end.values())[0]
+
+
+def knn_minima(dist: np.ndarray, k: int, exclude: tuple[int, int] | None) -> list[int]:
+    """The k smallest strict-or-left-plateau local minima of a 1-D function, skipping indices in
+    the half-open range ``exclude``."""
+    n = len(dist)
+    mins = []
+    for c in range(n):
+        if exclude is not None and exclude[0] <= c < exclude[1]:
+            continue
+        left = dist[c - 1] if c > 0 else np.inf
+        right = dist[c + 1] if c < n - 1 else np.inf
+        if dist[c] < left and dist[c] <= right:
+            mins.append(c)
+    mins.sort(key=lambda c: (dist[c], c))
+    return mins[:k]

@@ -1,0 +1,167 @@
+"""The estimator end to end on procedural takes: detection, MDM, repair, two-stage, baselines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mocapkit import datasets
+from mocapkit.clean import (
+    RotationBaseline,
+    SelfSimilarityCleaner,
+    inject,
+    movement_digression_map,
+    repair_cells,
+)
+from mocapkit.clean.evaluate import corrupt, repair_error, unit_matrix
+from mocapkit.clean.repair import dilate, runs
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+
+
+@pytest.fixture(scope="module")
+def takes() -> tuple[Motion, Motion]:
+    a = datasets.procedural_motion("walk", seconds=6.0, seed=5).motion
+    b = datasets.procedural_motion("walk", seconds=6.0, seed=6).motion
+    return a, b
+
+
+@pytest.fixture(scope="module")
+def corrupted(takes):
+    walk, _ = takes
+    rng = np.random.default_rng(1)
+    names = list(walk.skeleton.names)
+    cur = walk
+    truth = np.zeros((walk.num_frames, walk.num_joints), dtype=bool)
+    for kind, joint, start in (("spike", "LeftForeArm", 40), ("offset", "RightUpLeg", 100)):
+        inj = inject(cur, kind, names.index(joint), rng, start=start)
+        cur = inj.motion
+        truth[inj.frames, inj.joint] = True
+    return cur, truth
+
+
+@pytest.fixture(scope="module")
+def fitted(takes, corrupted):
+    _, ctx = takes
+    cur, _ = corrupted
+    return SelfSimilarityCleaner().fit(cur, [ctx])
+
+
+def test_mdm_flags_the_injected_errors(fitted, corrupted, takes) -> None:
+    cur, truth = corrupted
+    mdm = fitted.scores()
+    assert mdm.shape == (cur.num_frames, cur.num_joints)
+    assert mdm.min() >= 0.0 and mdm.max() <= 1.0
+    # every injected error is flagged on its joint
+    for j in np.flatnonzero(truth.any(axis=0)):
+        assert mdm[truth[:, j], j].max() > 0.9
+    # few false alarms elsewhere
+    t = unit_matrix(truth, cur.fps)
+    f = unit_matrix(fitted.mask(), cur.fps)
+    assert (t & f).sum() == t.sum()
+    assert (f & ~t).sum() <= 0.5 * t.sum()
+    segs = fitted.segments()
+    assert {s.joint for s in segs} >= {"LeftForeArm", "RightUpLeg"}
+    for s in segs:
+        assert 0 <= s.start <= s.end < cur.num_frames and 0.5 < s.peak <= 1.0
+
+
+def test_repair_touches_only_written_cells_and_fixes_errors(fitted, corrupted, takes) -> None:
+    cur, truth = corrupted
+    walk, _ = takes
+    res = fitted.repair()
+    assert np.array_equal(res.written, dilate(res.flagged, res.margin))
+    assert np.array_equal(res.flagged, fitted.mask())
+    # bit-identical outside the written cells; root translation untouched
+    assert np.array_equal(res.motion.rotations[~res.written], cur.rotations[~res.written])
+    assert np.array_equal(res.motion.root_positions, cur.root_positions)
+    bad = truth.any(axis=1)
+    before = repair_error(walk, cur)[bad].mean()
+    after = repair_error(walk, res.motion)[bad].mean()
+    assert after < 0.2 * before
+    assert np.allclose(np.linalg.norm(res.motion.rotations, axis=-1), 1.0)
+
+
+def test_repair_margin_semantics() -> None:
+    m = datasets.procedural_motion("idle", seconds=2.0, seed=0).motion
+    F, J = m.num_frames, m.num_joints
+    flagged = np.zeros((F, J), dtype=bool)
+    flagged[20:25, 3] = True
+    rep = rot.quat_mul(m.rotations, rot.rotvec_to_quat(np.array([0.0, 0.0, 0.5])))
+    res = repair_cells(m, flagged, rep, margin=3)
+    changed = np.any(res.motion.rotations != m.rotations, axis=-1)
+    assert changed[:, 3].any()
+    assert not changed[:17, 3].any() and not changed[28:, 3].any()
+    assert not changed[:, [j for j in range(J) if j != 3]].any()
+    assert runs(res.written[:, 3]) == [(17, 27)]
+    # the flagged cells moved towards the replacement, the margins only partly
+    ang_mid = rot.quat_angle(res.motion.rotations[22, 3], m.rotations[22, 3])
+    ang_edge = rot.quat_angle(res.motion.rotations[17, 3], m.rotations[17, 3])
+    assert ang_mid > 0.3 and ang_edge < ang_mid
+    with pytest.raises(ValueError):
+        repair_cells(m, flagged[:-1], rep)
+
+
+def test_two_stage_agrees_with_full_search(takes, corrupted) -> None:
+    _, ctx = takes
+    cur, truth = corrupted
+    two = SelfSimilarityCleaner(two_stage=True).fit(cur, [ctx])
+    assert hasattr(two, "stage1_flagged_") and two.stage1_flagged_.any()
+    for j in np.flatnonzero(truth.any(axis=0)):
+        assert two.scores()[truth[:, j], j].max() > 0.9
+
+
+def test_local_context_and_inputs(takes) -> None:
+    walk, _ = takes
+    cl = SelfSimilarityCleaner().fit(walk)
+    assert cl.mask().mean() < 0.02  # a clean take is (nearly) all clean
+    with pytest.raises(ValueError):
+        SelfSimilarityCleaner().fit(walk[:5])
+    small = Motion(walk.skeleton, walk.rotations[:, :], walk.root_positions, walk.frame_time)
+    assert SelfSimilarityCleaner(k=2).fit(small).mdm_.shape == walk.rotations.shape[:2]
+    with pytest.raises(RuntimeError):
+        SelfSimilarityCleaner().scores()
+    with pytest.raises(ValueError):
+        SelfSimilarityCleaner(threshold=2.0)
+
+
+def test_mdm_normalisation() -> None:
+    M = np.array([[0.1, 0.0], [0.3, 0.0], [2.0, 0.0]])
+    paper = movement_digression_map(M, "mean", 1.0, 0.0)
+    assert paper[:, 0] == pytest.approx(1 - np.exp(-((M[:, 0] / M[:, 0].mean()) ** 2)))
+    assert np.all(paper[:, 1] == 0.0)
+    floored = movement_digression_map(M, "mean", 1.0, 1.0)
+    assert floored[2, 0] == pytest.approx(1 - np.exp(-4.0))
+    with pytest.raises(ValueError):
+        movement_digression_map(M, "max")
+
+
+def test_baselines(takes) -> None:
+    walk, ctx = takes
+    rng = np.random.default_rng(3)
+    cor = corrupt(walk, rng, kinds=["flip"], every_seconds=3.0)
+    for kind in ("a", "b", "c"):
+        b = RotationBaseline(kind).fit([ctx, walk])
+        assert not b.mask(walk).any()
+        m = b.mask(cor.motion)
+        assert m.shape == cor.truth.shape
+    c = RotationBaseline("c").fit([ctx])
+    assert (c.mask(cor.motion) & cor.truth).any()
+    with pytest.raises(ValueError):
+        RotationBaseline("d")
+
+
+def test_injectors_change_only_their_joint_and_window(takes) -> None:
+    walk, _ = takes
+    from mocapkit.clean.inject import ERROR_KINDS, hinge_joints
+
+    rng = np.random.default_rng(0)
+    for kind in ERROR_KINDS:
+        j = hinge_joints(walk)[0] if kind == "bend" else 7
+        inj = inject(walk, kind, j, rng, start=50)
+        diff = rot.quat_angle(inj.motion.rotations, walk.rotations) > 1e-9
+        assert not diff[:, [k for k in range(walk.num_joints) if k != j]].any()
+        fr = np.flatnonzero(inj.frames)
+        assert len(fr) >= 1 and fr.min() >= 50 and fr.max() < 50 + 41
+    with pytest.raises(ValueError):
+        inject(walk, "nope", 1, rng)

@@ -1,0 +1,121 @@
+"""``mocapkit clean`` / ``mocapkit reconstruct`` / the demo step, in-process."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from mocapkit import datasets
+from mocapkit.clean import inject
+from mocapkit.cli import main
+from mocapkit.io import read_motion, write_motion
+
+
+def run(*args: str):
+    res = CliRunner().invoke(main, list(args))
+    return res.exit_code, res.stdout, res.stderr
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("clean")
+    walk = datasets.procedural_motion("walk", seconds=5.0, seed=7).motion
+    names = list(walk.skeleton.names)
+    inj = inject(walk, "flip", names.index("LeftForeArm"), np.random.default_rng(0), start=60)
+    ctx_dir = d / "ctx"
+    ctx_dir.mkdir()
+    for s in (8, 9):
+        m = datasets.procedural_motion("walk", seconds=4.0, seed=s).motion
+        write_motion(m, ctx_dir / f"walk{s}.bvh")
+    return {
+        "dir": d,
+        "input": write_motion(inj.motion, d / "take.bvh"),
+        "clean": write_motion(walk, d / "clean.bvh"),
+        "ctx": ctx_dir,
+        "frames": np.flatnonzero(inj.frames),
+    }
+
+
+def test_clean_writes_report_mdm_plot_and_repair(files) -> None:
+    d = files["dir"]
+    out, rep, mdm, png = d / "fixed.bvh", d / "r.json", d / "m.npy", d / "m.png"
+    code, _, stderr = run(
+        "clean", str(files["input"]), "--context", str(files["ctx"]), "--out", str(out),
+        "--report", str(rep), "--mdm", str(mdm), "--plot", str(png), "--quiet",
+    )  # fmt: skip
+    assert code == 0, stderr
+    report = json.loads(rep.read_text())
+    take = read_motion(files["input"])
+    for key in ("input", "fps", "frames", "joints", "threshold", "segments", "repaired_cells"):
+        assert key in report
+    assert report["frames"] == take.num_frames
+    assert report["joints"] == list(take.skeleton.names)
+    assert report["threshold"] == 0.5
+    seg = [s for s in report["segments"] if s["joint"] == "LeftForeArm"]
+    fr = files["frames"]
+    assert any(s["start"] <= fr.min() and s["end"] >= fr.max() for s in seg)
+    for s in report["segments"]:
+        assert {"joint", "start", "end", "peak"} <= set(s)
+    arr = np.load(mdm)
+    assert arr.dtype == np.float32 and arr.shape == (take.num_frames, take.num_joints)
+    assert arr.min() >= 0.0 and arr.max() <= 1.0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    fixed = read_motion(out)
+    assert fixed.num_frames == take.num_frames
+    assert report["repaired_cells"] > 0
+
+
+def test_clean_without_out_writes_only_the_report(files, tmp_path) -> None:
+    rep = tmp_path / "only.json"
+    code, stdout, _ = run("clean", str(files["input"]), "--report", str(rep))
+    assert code == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["only.json"]
+    assert "LeftForeArm" in stdout
+
+
+def test_clean_baseline_and_errors(files, tmp_path) -> None:
+    rep = tmp_path / "b.json"
+    code, _, stderr = run(
+        "clean", str(files["input"]), "--context", str(files["ctx"]), "--baseline", "c",
+        "--report", str(rep), "--quiet",
+    )  # fmt: skip
+    assert code == 0, stderr
+    assert json.loads(rep.read_text())["method"] == "baseline c"
+    code, _, stderr = run("clean", str(files["input"]), "--baseline", "a")
+    assert code == 2 and "--context" in stderr
+    code, _, stderr = run("clean", str(files["input"]), "--out", str(files["input"]))
+    assert code == 2 and "overwrite" in stderr
+    code, _, stderr = run("clean", str(files["input"]), "--context", str(tmp_path / "nope"))
+    assert code == 2 and "no such" in stderr
+
+
+def test_reconstruct_command(files, tmp_path) -> None:
+    full = read_motion(files["clean"])
+    keep = ["Neck", "LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftUpLeg",
+            "RightUpLeg", "LeftLeg", "RightLeg"]  # fmt: skip
+    out = tmp_path / "full.bvh"
+    code, _, stderr = run(
+        "reconstruct", str(files["clean"]), "--database", str(files["ctx"]), "--out", str(out),
+        "--joints", ",".join(keep),
+    )  # fmt: skip
+    assert code == 0, stderr
+    rec = read_motion(out)
+    assert rec.num_frames == full.num_frames and rec.num_joints == full.num_joints
+
+
+def test_demo_includes_cleaning(tmp_path) -> None:
+    from mocapkit.cli.clean_commands import cleaning_step
+    from mocapkit.cli.demo import DEMO_STEPS
+
+    assert any(rank == 30 and step is cleaning_step for rank, _, step in DEMO_STEPS)
+    from click import Command
+
+    res = CliRunner().invoke(Command("x", callback=lambda: cleaning_step(tmp_path)), [])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "humanoid_walk_repaired.bvh").exists()
+    assert (tmp_path / "humanoid_walk_mdm.png").exists()
+    assert "recall 1.00" in res.output

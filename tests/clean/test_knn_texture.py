@@ -1,0 +1,125 @@
+"""Textures, groups, word layout, local minima and the KNN search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mocapkit import datasets, features
+from mocapkit.clean import knn, texture
+from mocapkit.clean.texture import JointGroup
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+
+from . import naive
+
+
+@pytest.fixture(scope="module")
+def walk() -> Motion:
+    return datasets.procedural_motion("walk", seconds=5.0, seed=2, heading=0.7).motion
+
+
+def test_word_lengths_scale_with_rate() -> None:
+    assert texture.word_lengths(24.0) == (15, 5, 20)
+    assert texture.word_lengths(48.0) == (30, 10, 40)
+    starts = texture.source_word_starts(50, 15, 5)
+    assert starts[0] == 0 and starts[-1] == 35 and np.all(np.diff(starts) <= 5)
+    assert texture.source_word_starts(10, 15, 5).tolist() == [0]
+
+
+def test_default_groups_follow_the_body(walk: Motion) -> None:
+    sk = walk.skeleton
+    groups = {g.name: g for g in texture.default_groups(sk)}
+    assert set(groups) == {"body", "upper", "lower", "left", "right"}
+    names = lambda g: {sk.names[j] for j in groups[g].joints}  # noqa: E731
+    assert groups["body"].trim == 3 and groups["upper"].trim == 1
+    assert "LeftLeg" in names("lower") and "LeftLeg" not in names("upper")
+    assert "LeftForeArm" in names("upper") and "LeftForeArm" in names("left")
+    assert "RightForeArm" not in names("left") and "RightForeArm" in names("right")
+    assert "Spine" in names("left") and "Spine" in names("right")  # groups may overlap
+
+
+def test_texture_removes_heading_and_root_translation(walk: Motion) -> None:
+    tex = texture.make_texture(walk, 24.0)
+    assert tex.rotations.shape[0] == round(walk.duration * 24)
+    assert tex.file_rotations.shape == walk.rotations.shape
+    aligned = Motion(walk.skeleton, tex.file_rotations, walk.root_positions, walk.frame_time)
+    h = features.heading_angles(aligned)
+    assert np.max(np.abs(h)) < 1e-6
+    # only the pelvis column changes
+    pel = features.pelvis_index(walk.skeleton)
+    other = [j for j in range(walk.num_joints) if j != pel]
+    assert np.allclose(rot.quat_angle(tex.file_rotations[:, other], walk.rotations[:, other]), 0)
+    # turning the whole take about up leaves the texture unchanged
+    turn = rot.rotvec_to_quat(np.array([0.0, 1.2, 0.0]))
+    q = walk.rotations.copy()
+    q[:, 0] = rot.quat_mul(turn, q[:, 0])
+    turned = Motion(walk.skeleton, q, walk.root_positions + 3.0, walk.frame_time)
+    t2 = texture.make_texture(turned, 24.0)
+    assert np.max(rot.quat_angle(t2.rotations, tex.rotations)) < 1e-6
+
+
+def test_local_minima_and_knn_selection_match_reference() -> None:
+    rng = np.random.default_rng(0)
+    dist = rng.random((6, 40))
+    seg = np.zeros(40, dtype=np.int64)
+    centres = np.arange(40)
+    lo = np.array([5, 0, 10, 30, 0, 0])
+    hi = np.array([12, 3, 20, 40, 0, 0])
+    sel = knn.select_knn(dist, seg, centres, 5, lo, hi)
+    for w in range(6):
+        ref = naive.knn_minima(dist[w], 5, (lo[w], hi[w]))
+        got = [c for c in sel[w] if c >= 0]
+        assert got == ref
+    # segment edges: minima never compare across takes
+    d = np.array([[3.0, 1.0, 2.0, 0.5, 4.0]])
+    s = np.array([0, 0, 0, 1, 1])
+    assert knn.local_minima(d, s).tolist() == [[False, True, False, True, False]]
+
+
+def test_search_finds_the_other_cycles_of_a_periodic_take() -> None:
+    # a joint group rotating periodically (period 24 frames): neighbours lie a whole period away
+    F, J = 120, 3
+    t = np.arange(F)
+    rv = np.zeros((F, J, 3))
+    for j in range(J):
+        rv[:, j, j % 3] = 0.6 * np.sin(2 * np.pi * t / 24 + j)
+    q = texture.texture_from_rotations(rot.rotvec_to_quat(rv))
+    ctx = knn.Context.build([q], self_clip=0)
+    group = JointGroup("g", (0, 1, 2), 0)
+    starts = np.array([24, 48])
+    gn = knn.search_group(q, ctx, group, starts, 15, 20, k=3)
+    for w, a in enumerate(starts):
+        # DTW anchors both words at their first frame: matches start a whole period apart
+        off = (gn.index[w] - a) % 24
+        assert np.all(np.minimum(off, 24 - off) <= 1)
+        assert np.all(np.abs(gn.index[w] - a) >= 12)
+        assert np.all(gn.distance[w] < 1e-3)
+    assert gn.words.shape == (2, 3, 15, 3, 4)
+    assert np.allclose(np.linalg.norm(gn.words, axis=-1), 1.0)
+
+
+def test_pruned_scan_selects_the_same_neighbours() -> None:
+    from mocapkit.clean import dtw
+
+    take = datasets.procedural_motion("walk", seconds=6.0, seed=21).motion
+    others = [datasets.procedural_motion(k, seconds=5.0, seed=22).motion for k in ("walk", "run")]
+    src = texture.make_texture(take).rotations
+    ctx = knn.Context.build(
+        [src] + [texture.make_texture(m).rotations for m in others], self_clip=0
+    )
+    groups = texture.default_groups(take.skeleton)
+    P = dtw.pose_distance_matrices(src, ctx.rotations, groups)
+    starts = texture.source_word_starts(src.shape[0], 15, 5)
+    tst = ctx.target_starts(20)
+    seg = ctx.clip[tst]
+    lo, hi = starts - 7, starts + 22
+    for g in range(len(groups)):
+        full = dtw.scan_words(P[g], starts, 15, tst, 20, 2)
+        pruned, n = dtw.scan_words_pruned(P[g], starts, 15, tst, seg, 20, 5, lo, hi)
+        assert n < full.size
+        exact = np.isfinite(pruned)
+        np.testing.assert_array_equal(pruned[exact], full[exact])
+        a = knn.select_knn(pruned, seg, tst + 10, 5, lo, hi)
+        b = knn.select_knn(full, seg, tst + 10, 5, lo, hi)
+        np.testing.assert_array_equal(a, b)

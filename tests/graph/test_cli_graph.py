@@ -1,0 +1,148 @@
+"""``mocapkit graph build / synth / report`` end to end, and the real-data checks."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from mocapkit import datasets
+from mocapkit.cli import main
+from mocapkit.features import root_trajectory
+from mocapkit.io import read_motion, write_motion
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    res = CliRunner().invoke(main, list(args))
+    return res.exit_code, res.stdout, res.stderr
+
+
+@pytest.fixture(scope="module")
+def clip_dir(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("clips")
+    for n, (kind, secs) in enumerate((("walk", 3.0), ("run", 2.5), ("walk", 3.0))):
+        write_motion(
+            datasets.procedural_motion(kind, secs, seed=20 + n).motion, d / f"c{n}_{kind}.bvh"
+        )
+    return d
+
+
+def test_build_report_synth(clip_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "g.json"
+    code, so, se = run(
+        "graph",
+        "build",
+        str(clip_dir),
+        "--out",
+        str(out),
+        "--transitions",
+        "30",
+        "--plot",
+        str(tmp_path / "c.png"),
+        "--graphml",
+        str(tmp_path / "g.graphml"),
+        "--quiet",
+    )
+    assert code == 0, so + se
+    assert (tmp_path / "c.png").stat().st_size > 1000 and (tmp_path / "g.graphml").exists()
+    data = json.loads(out.read_text())
+    assert [c["frames"] for c in data["clips"]] == [90, 75, 90]
+    assert all(c["fps"] == 30.0 for c in data["clips"])
+    assert 0 < len(data["transitions"]) <= 30
+    t = data["transitions"][0]
+    assert {"src_clip", "src_frame", "dst_clip", "dst_frame", "cost"} <= set(t)
+    assert (clip_dir / Path(data["clips"][0]["path"]).name).exists()
+
+    code, so, _ = run("graph", "report", str(out), "--json")
+    assert code == 0
+    rep = json.loads(so)
+    assert rep["transitions"] == len(data["transitions"])
+    assert rep["foot_skate"]["transitions"] == rep["transitions"]
+    code, so, _ = run("graph", "report", str(out))
+    assert code == 0 and "foot skate" in so
+
+    bvh = tmp_path / "w.bvh"
+    code, so, se = run(
+        "graph", "synth", str(out), "--seconds", "6", "--out", str(bvh), "--seed", "2"
+    )
+    assert code == 0, so + se
+    m = read_motion(bvh)
+    assert m.num_frames == 180
+    csv = tmp_path / "p.csv"
+    csv.write_text("x,z\n0,0\n0,2\n0,4\n")
+    code, so, se = run(
+        "graph",
+        "synth",
+        str(out),
+        "--path",
+        str(csv),
+        "--out",
+        str(tmp_path / "f.bvh"),
+        "--blend",
+        "inertialize",
+    )
+    assert code == 0, so + se
+    tr = root_trajectory(read_motion(tmp_path / "f.bvh"))
+    assert np.linalg.norm(tr[-1] - [0, 4]) < 1.0
+
+
+def test_cli_errors(clip_dir: Path, tmp_path: Path) -> None:
+    code, _, err = run(
+        "graph",
+        "build",
+        str(clip_dir),
+        "--out",
+        str(tmp_path / "g.json"),
+        "--transitions",
+        "3",
+        "--threshold",
+        "1",
+    )
+    assert code == 2 and "not both" in err
+    code, _, err = run("graph", "build", str(tmp_path / "nope"), "--out", "x.json")
+    assert code == 2 and "no such file" in err
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    code, _, err = run("graph", "report", str(bad))
+    assert code == 2 and "format" in err
+    code, _, err = run("graph", "synth", str(bad), "--out", str(tmp_path / "o.bvh"))
+    assert code == 2 and "exactly one" in err
+
+
+def _bandai(shared_path, kinds):
+    d = shared_path("bandai1/data")
+    return [p for p in sorted(d.glob("*.bvh")) if p.stem.split("_")[1] in kinds]
+
+
+def test_bandai_walk_has_no_root_jump(shared_path) -> None:
+    from mocapkit.graph.graph import build_graph
+    from mocapkit.graph.synth import random_walk
+
+    paths = [
+        p for p in _bandai(shared_path, ("walk", "run")) if "normal" in p.name or "active" in p.name
+    ]
+    motions = [read_motion(p) for p in paths]
+    g, _, _ = build_graph(motions, "dynamics", transitions=60)
+    assert g.in_scc.any()
+    m = random_walk(g, motions, 20.0, seed=0)
+    step = np.linalg.norm(np.diff(root_trajectory(m), axis=0), axis=1)
+    src = max(np.linalg.norm(np.diff(root_trajectory(c), axis=0), axis=1).max() for c in motions)
+    assert step.max() <= 1.25 * src
+
+
+def test_bandai_fighting_dynamics_skates_least(shared_path) -> None:
+    from mocapkit.graph.graph import build_graph
+    from mocapkit.graph.skate import transition_skate
+
+    paths = _bandai(shared_path, ("kick", "punch", "slash", "dance-short"))
+    motions = [read_motion(p) for p in paths]
+    T = None
+    means = {}
+    for metric in ("dynamics", "uniform", "torso"):
+        g, _, _ = build_graph(motions, metric, transitions=T)
+        T = g.T if T is None else T
+        means[metric] = transition_skate(g, motions).summary()["start_to_end_cm"]["mean"]
+    assert means["dynamics"] < means["uniform"] and means["dynamics"] < means["torso"]

@@ -1,0 +1,149 @@
+"""Transition selection, graph pruning, files, synthesis and foot skate."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mocapkit import datasets
+from mocapkit.features import root_trajectory
+from mocapkit.graph.graph import MotionGraph, build_graph, load_graph
+from mocapkit.graph.select import Candidates, knee_rank, merge_nearby
+from mocapkit.graph.skate import transition_skate
+from mocapkit.graph.synth import Synthesizer, follow_path, random_walk
+from mocapkit.io import read_motion, write_motion
+
+
+@pytest.fixture(scope="module")
+def clips():
+    kinds = [("walk", 3.0), ("run", 3.0), ("walk", 3.0), ("idle", 2.0)]
+    return [
+        datasets.procedural_motion(k, seconds=s, fps=30, seed=n).motion
+        for n, (k, s) in enumerate(kinds)
+    ]
+
+
+@pytest.fixture(scope="module")
+def built(clips):
+    return build_graph(clips, "dynamics", transitions=40, paths=[f"c{k}.bvh" for k in range(4)])
+
+
+def test_knee_rank():
+    x = np.arange(200.0)
+    costs = np.where(x < 60, x * 0.01, 0.6 + (x - 60) * 0.2)
+    assert abs(knee_rank(costs, fraction=1.0) - 60) <= 2
+    assert knee_rank(np.array([])) == 0
+    assert knee_rank(np.array([1.0, 2.0])) == 2
+
+
+def test_merge_nearby(built):
+    _, db, _ = built
+    s = db.starts
+    cand = Candidates(
+        np.array([s[0] + 20, s[0] + 22, s[0] + 40, s[1] + 20]),
+        np.array([s[2] + 30, s[2] + 31, s[2] + 30, s[2] + 30]),
+        np.array([1.0, 0.5, 2.0, 3.0]),
+    )
+    m = merge_nearby(db, cand, radius=7)
+    assert m.src.tolist() == [s[0] + 22, s[0] + 40, s[1] + 20]
+
+
+def test_build_graph(built, clips):
+    g, db, _minima = built
+    assert g.num_transitions <= 40 and g.num_transitions > 10
+    assert np.all(np.diff(g.cost) >= 0)
+    assert g.in_scc.any()
+    # every chosen transition is a full-resolution local minimum of the exact cost
+    from mocapkit.graph.distance import pair_costs
+
+    i = db.starts[g.src_clip] + g.src_frame
+    j = db.starts[g.dst_clip] + g.dst_frame
+    np.testing.assert_allclose(g.cost, pair_costs(db, i, j), rtol=1e-9)
+    ok = db.valid_centres()
+    for a, b, c in zip(i[:10], j[:10], g.cost[:10], strict=True):
+        for da in (-1, 0, 1):
+            for dbb in (-1, 0, 1):
+                if (
+                    ok[a + da]
+                    and ok[b + dbb]
+                    and db.clip_of(a + da) == db.clip_of(a)
+                    and db.clip_of(b + dbb) == db.clip_of(b)
+                ):
+                    assert pair_costs(db, np.array([a + da]), np.array([b + dbb]))[0] >= c - 1e-9
+
+
+def test_threshold_and_both_errors(clips, built):
+    _, db, _ = built
+    g, _, _ = build_graph(clips, threshold=float(built[0].cost[5]), database=db)
+    assert 3 <= g.num_transitions <= 10
+    with pytest.raises(ValueError):
+        build_graph(clips, transitions=3, threshold=1.0, database=db)
+
+
+def test_json_roundtrip_and_graphml(built, tmp_path):
+    g = built[0]
+    p = g.save(tmp_path / "g.json")
+    data = json.loads(p.read_text())
+    assert data["clips"][0] == {"path": "c0.bvh", "frames": 90, "fps": 30.0}
+    t0 = data["transitions"][0]
+    assert set(t0) >= {"src_clip", "src_frame", "dst_clip", "dst_frame", "cost"}
+    h = load_graph(p)
+    assert np.array_equal(h.src_frame, g.src_frame) and np.array_equal(h.in_scc, g.in_scc)
+    gm = g.save_graphml(tmp_path / "g.graphml")
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(gm).getroot()
+    ns = {"g": "http://graphml.graphdrawing.org/xmlns"}
+    edges = root.findall(".//g:edge", ns)
+    assert len(edges) > g.num_transitions // 2
+    with pytest.raises(ValueError, match="format"):
+        MotionGraph.from_dict({"format": "x"})
+
+
+def test_scc_walk_never_gets_stuck(built, clips):
+    g = built[0]
+    syn = Synthesizer(g, clips)
+    nodes = set(range(len(syn.nodes)))
+    assert all(syn.out[n] for n in nodes)  # every node of the pruned graph has a way out
+    steps = syn.random_walk(300.0, seed=3)
+    assert sum(s.frames for s in steps) >= 300 * 30
+    assert sum(s.kind == "transition" for s in steps) > 20
+
+
+def test_random_walk_bvh_is_continuous(built, clips, tmp_path):
+    g = built[0]
+    for blend in ("crossfade", "inertialize"):
+        m = random_walk(g, clips, 12.0, seed=5, blend=blend)
+        assert m.num_frames == 360
+        p = write_motion(m, tmp_path / f"walk_{blend}.bvh")
+        back = read_motion(p)
+        assert back.num_frames == 360 and back.allclose(m, rot_atol=1e-4, pos_atol=1e-4)
+        tr = root_trajectory(back)
+        step = np.linalg.norm(np.diff(tr, axis=0), axis=1)
+        src = max(np.linalg.norm(np.diff(root_trajectory(c), axis=0), axis=1).max() for c in clips)
+        assert step.max() <= 1.5 * src  # no root jump at transitions
+    a = random_walk(g, clips, 5.0, seed=1)
+    b = random_walk(g, clips, 5.0, seed=1)
+    assert a.allclose(b)
+
+
+def test_follow_straight_path(built, clips):
+    g = built[0]
+    path = np.array([[0.0, 0.0], [0.0, 4.0], [0.0, 8.0]])
+    m = follow_path(g, clips, path, seed=0)
+    tr = root_trajectory(m)
+    assert np.linalg.norm(tr[0] - path[0]) < 0.05
+    assert np.linalg.norm(tr[-1] - path[-1]) < 1.0
+    assert np.abs(tr[:, 0]).max() < 1.0
+
+
+def test_skate(built, clips):
+    g = built[0]
+    rep = transition_skate(g, clips)
+    s = rep.summary()
+    assert s["transitions"] == g.num_transitions
+    assert s["supported"] > 0
+    assert np.all(rep.arc_length[rep.supported] >= rep.start_to_end[rep.supported] - 1e-9)
+    assert 0 <= s["start_to_end_cm"]["mean"] < 50
