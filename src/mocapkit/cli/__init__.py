@@ -12,6 +12,7 @@ from mocapkit.cli import (  # noqa: F401
     graph_commands,
     io_commands,
     stitch_commands,
+    view_commands,
 )
 from mocapkit.cli.common import CLIError, main
 

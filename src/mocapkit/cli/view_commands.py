@@ -1,0 +1,1 @@
+"""``mocapkit view`` (registered on import; see mocapkit.cli)."""
