@@ -43,6 +43,7 @@ def main() -> int:
     ap.add_argument("--window", type=float, default=1.0 / 3.0)
     ap.add_argument("--json", default=None)
     ap.add_argument("--sets", default="fighting,locomotion")
+    ap.add_argument("--plots", default=None, help="Folder for the Figure 3/4 style plots.")
     args = ap.parse_args()
     data = Path(args.data)
     results = {}
@@ -51,15 +52,17 @@ def main() -> int:
         motions = [read_motion(p) for p in paths]
         frames = sum(m.num_frames for m in motions)
         graphs = {}
+        dbs = {}
         T = args.T
         for metric in ("dynamics", "uniform", "torso"):
             t0 = time.perf_counter()
-            g, _db, _minima = build_graph(
+            g, db, _ = build_graph(
                 motions, metric, paths=[str(p) for p in paths], window=args.window, transitions=T
             )
             if T is None:
                 T = g.T  # the knee rule on the dynamics metric, then the same T for all
             graphs[metric] = (g, time.perf_counter() - t0)
+            dbs[metric] = db
         row = {"clips": len(paths), "frames": frames, "T": T}
         for metric, (g, secs) in graphs.items():
             rep = transition_skate(g, motions).summary()
@@ -78,6 +81,17 @@ def main() -> int:
                 f"{r['supported']:5d}/{r['transitions']}"
             )
         sys.stdout.flush()
+        if args.plots:
+            from mocapkit.graph.plots import plot_cost_comparison
+
+            Path(args.plots).mkdir(parents=True, exist_ok=True)
+            for other in ("uniform", "torso"):
+                p = plot_cost_comparison(
+                    Path(args.plots) / f"costs_{name}_dynamics_vs_{other}.png",
+                    {"dynamics": dbs["dynamics"], other: dbs[other]},
+                    {"dynamics": graphs["dynamics"][0], other: graphs[other][0]},
+                )
+                print(f"  wrote {p}")
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
     return 0

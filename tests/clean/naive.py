@@ -63,48 +63,38 @@ def constrained_dtw(D: np.ndarray, max_run: int) -> tuple[float, list[tuple[int,
 
 
 def dtw_dp(D: np.ndarray, max_run: int) -> float:
-    """Readable dynamic programme over (cell, state) with dictionaries."""
+    """Readable dynamic programme over (cell, state): state ("d", 0) after a diagonal step or at
+    the start, ("h", k) / ("v", k) after k consecutive (0,1) / (1,0) steps."""
     N, M = D.shape
     if N == 1 or M == 1:
         return float(D[0, 0])
     INF = float("inf")
-    # state: ("d", 0) diagonal/start, ("h", k), ("v", k)
-    best: dict = {((0, 0), ("d", 0)): (float(D[0, 0]), 1)}
+    best: dict = {(0, 0): {("d", 0): (float(D[0, 0]), 1)}}
     for i, j in itertools.product(range(N), range(M)):
         if (i, j) == (0, 0):
             continue
         cands: dict = {}
-
-        def offer(state, c, n, cands=cands):
-            cur = cands.get(state, (INF, 0))
-            if (c, n) < cur:
-                cands[state] = (c, n)
-
-        for (cell, st), (c, n) in list(best.items()):
-            pi, pj = cell
-            if pi == N - 1 or pj == M - 1:
-                continue  # paths stop at end cells
-            if (pi, pj) == (i - 1, j - 1):
-                offer(("d", 0), c + D[i, j], n + 1)
-            elif (pi, pj) == (i - 1, j):
-                k = st[1] + 1 if st[0] == "v" else 1
-                if max_run == 0:
-                    offer(("d", 0), c + D[i, j], n + 1)
-                elif k <= max_run:
-                    offer(("v", k), c + D[i, j], n + 1)
-            elif (pi, pj) == (i, j - 1):
-                k = st[1] + 1 if st[0] == "h" else 1
-                if max_run == 0:
-                    offer(("d", 0), c + D[i, j], n + 1)
-                elif k <= max_run:
-                    offer(("h", k), c + D[i, j], n + 1)
-        for st, v in cands.items():
-            best[((i, j), st)] = v
-    per_end: dict = {}
-    for ((i, j), _), (c, n) in best.items():
-        if i == N - 1 or j == M - 1:
-            per_end[(i, j)] = min(per_end.get((i, j), (INF, 0)), (c, n))
-    return min((c / n, n) for c, n in per_end.values())[0]
+        for (pi, pj), kind in (((i - 1, j - 1), "d"), ((i - 1, j), "v"), ((i, j - 1), "h")):
+            if pi < 0 or pj < 0 or pi == N - 1 or pj == M - 1:
+                continue  # outside, or an end cell (paths stop there)
+            for st, (c, n) in best.get((pi, pj), {}).items():
+                if kind == "d" or max_run == 0:
+                    new = ("d", 0)
+                else:
+                    k = st[1] + 1 if st[0] == kind else 1
+                    if k > max_run:
+                        continue
+                    new = (kind, k)
+                cand = (c + float(D[i, j]), n + 1)
+                if cand < cands.get(new, (INF, 0)):
+                    cands[new] = cand
+        best[(i, j)] = cands
+    per_end = [
+        min(states.values())
+        for (i, j), states in best.items()
+        if (i == N - 1 or j == M - 1) and states
+    ]
+    return min((c / n, n) for c, n in per_end)[0]
 
 
 def knn_minima(dist: np.ndarray, k: int, exclude: tuple[int, int] | None) -> list[int]:
@@ -121,3 +111,47 @@ def knn_minima(dist: np.ndarray, k: int, exclude: tuple[int, int] | None) -> lis
             mins.append(c)
     mins.sort(key=lambda c: (dist[c], c))
     return mins[:k]
+
+
+def knn_search(
+    source: np.ndarray,
+    context: np.ndarray,
+    joints: list[int],
+    trim: int,
+    starts: list[int],
+    n: int,
+    m: int,
+    k: int,
+    exclude: int,
+    max_run: int,
+) -> list[list[int]]:
+    """Reference KNN: for every source word, the naive DTW (readable DP over log-map pose
+    distances) against the target word starting at every context frame, then the k smallest
+    local minima outside ``[start - exclude, start + n + exclude)`` (target centres; the context
+    is the take itself). Returns target start frames per word."""
+    out = []
+    tstarts = list(range(0, context.shape[0] - m + 1))
+    for a in starts:
+        D_all = np.array(
+            [
+                [
+                    pose_distance(source[a + i, joints], context[t, joints], trim)
+                    for t in range(context.shape[0])
+                ]
+                for i in range(n)
+            ]
+        )
+        dist = np.array([dtw_dp(D_all[:, t : t + m], max_run) for t in tstarts])
+        centres = np.array(tstarts) + m // 2
+        lo, hi = a - exclude, a + n + exclude
+        mins = []
+        for c in range(len(dist)):
+            if lo <= centres[c] < hi:
+                continue
+            left = dist[c - 1] if c > 0 else np.inf
+            right = dist[c + 1] if c < len(dist) - 1 else np.inf
+            if dist[c] < left and dist[c] <= right:
+                mins.append(c)
+        mins.sort(key=lambda c: (dist[c], c))
+        out.append([tstarts[c] for c in mins[:k]])
+    return out

@@ -165,3 +165,31 @@ def test_injectors_change_only_their_joint_and_window(takes) -> None:
         assert len(fr) >= 1 and fr.min() >= 50 and fr.max() < 50 + 41
     with pytest.raises(ValueError):
         inject(walk, "nope", 1, rng)
+
+
+def test_contact_constraint_pins_the_effector(takes) -> None:
+    from mocapkit.clean import ContactConstraint
+    from mocapkit.core.kinematics import forward_kinematics
+
+    synth = datasets.procedural_motion("walk", seconds=6.0, seed=5)
+    walk, (_, ctx) = synth.motion, takes
+    names = list(walk.skeleton.names)
+    toe = names.index("LeftToe")
+    stance = np.flatnonzero(synth.contacts[:, 0])
+    runs_ = [r for r in runs(synth.contacts[:, 0]) if r[1] - r[0] >= 12 and r[0] > 20]
+    a, b = runs_[0]
+    inj = inject(walk, "offset", names.index("LeftLeg"), np.random.default_rng(2), start=a + 2)
+    pos, _ = forward_kinematics(walk)
+    contact = ContactConstraint(toe, a + 2, b - 2, tuple(pos[a + 2, toe]))
+    cl = SelfSimilarityCleaner().fit(inj.motion, [ctx])
+    plain = cl.repair()
+    pinned = cl.repair(contacts=[contact])
+    target = np.asarray(contact.position)
+    from mocapkit.clean.repair import effector_error
+
+    e_plain = effector_error(plain.motion, contact, target)
+    e_pin = effector_error(pinned.motion, contact, target)
+    assert e_pin.mean() < e_plain.mean()
+    w = pinned.written
+    assert np.array_equal(pinned.motion.rotations[~w], inj.motion.rotations[~w])
+    assert len(stance) > 0

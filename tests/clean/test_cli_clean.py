@@ -119,3 +119,16 @@ def test_demo_includes_cleaning(tmp_path) -> None:
     assert (tmp_path / "humanoid_walk_repaired.bvh").exists()
     assert (tmp_path / "humanoid_walk_mdm.png").exists()
     assert "recall 1.00" in res.output
+
+
+def test_clean_with_contact(files, tmp_path) -> None:
+    out = tmp_path / "c.bvh"
+    code, _, stderr = run(
+        "clean", str(files["input"]), "--out", str(out), "--contact", "LeftHand:55-70", "--quiet",
+    )  # fmt: skip
+    assert code == 0, stderr
+    assert read_motion(out).num_frames == read_motion(files["input"]).num_frames
+    code, _, stderr = run("clean", str(files["input"]), "--contact", "Nope:1-2")
+    assert code == 2 and "Nope" in stderr
+    code, _, stderr = run("clean", str(files["input"]), "--contact", "LeftHand:5-2000")
+    assert code == 2

@@ -123,3 +123,16 @@ def test_pruned_scan_selects_the_same_neighbours() -> None:
         a = knn.select_knn(pruned, seg, tst + 10, 5, lo, hi)
         b = knn.select_knn(full, seg, tst + 10, 5, lo, hi)
         np.testing.assert_array_equal(a, b)
+
+
+def test_search_group_matches_the_naive_reference() -> None:
+    take = datasets.procedural_motion("walk", seconds=2.0, seed=31).motion
+    src = texture.make_texture(take).rotations  # 48 analysis frames
+    ctx = knn.Context.build([src], self_clip=0)
+    group = JointGroup("g", (1, 2, 5, 6, 7, 13, 14), 1)
+    starts = np.array([0, 20])
+    for prune in (True, False):
+        gn = knn.search_group(src, ctx, group, starts, 15, 20, k=3, prune=prune)
+        ref = naive.knn_search(src, src, list(group.joints), 1, [0, 20], 15, 20, 3, 7, 2)
+        for w in range(2):
+            assert [int(t) for t in gn.index[w] if t >= 0] == ref[w]

@@ -12,7 +12,15 @@ sparse-joint reconstruction and the paper's rotation baselines.
 """
 
 from mocapkit.clean.baselines import BASELINES, RotationBaseline
-from mocapkit.clean.cleaner import FLOOR_DEG, THRESHOLD, Segment, SelfSimilarityCleaner, clean
+from mocapkit.clean.cleaner import (
+    FLOOR_DEG,
+    GAIN,
+    SCALE,
+    THRESHOLD,
+    Segment,
+    SelfSimilarityCleaner,
+    clean,
+)
 from mocapkit.clean.dtw import (
     MAX_RUN,
     constrained_dtw,
@@ -23,8 +31,13 @@ from mocapkit.clean.dtw import (
 )
 from mocapkit.clean.inject import ERROR_KINDS, Injected, inject
 from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group, select_knn
-from mocapkit.clean.mdm import mean_texture, median_texture, movement_digression_map
-from mocapkit.clean.repair import RepairResult, repair_cells
+from mocapkit.clean.mdm import (
+    mean_texture,
+    median_texture,
+    movement_digression_map,
+    neighbour_spread,
+)
+from mocapkit.clean.repair import ContactConstraint, RepairResult, repair_cells
 from mocapkit.clean.sparse import reconstruct
 from mocapkit.clean.texture import (
     ANALYSIS_FPS,
@@ -40,9 +53,12 @@ __all__ = [
     "BASELINES",
     "ERROR_KINDS",
     "FLOOR_DEG",
+    "GAIN",
     "K_NEIGHBOURS",
     "MAX_RUN",
+    "SCALE",
     "THRESHOLD",
+    "ContactConstraint",
     "Context",
     "GroupNeighbours",
     "Injected",
@@ -61,6 +77,7 @@ __all__ = [
     "mean_texture",
     "median_texture",
     "movement_digression_map",
+    "neighbour_spread",
     "pose_distance",
     "pose_distance_matrices",
     "reconstruct",

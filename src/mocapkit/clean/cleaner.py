@@ -10,7 +10,16 @@ import numpy as np
 from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.dtw import MAX_RUN, pose_distance_matrices
 from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group
-from mocapkit.clean.repair import RepairResult, default_margin, repair_cells, runs
+from mocapkit.clean.repair import (
+    ContactConstraint,
+    RepairResult,
+    chain_of,
+    default_margin,
+    effector_error,
+    pin_with_ik,
+    repair_cells,
+    runs,
+)
 from mocapkit.clean.texture import (
     ANALYSIS_FPS,
     JointGroup,
@@ -21,6 +30,7 @@ from mocapkit.clean.texture import (
     source_word_starts,
     word_lengths,
 )
+from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 
 Progress = Callable[[str, int, int], None]
@@ -29,12 +39,19 @@ Progress = Callable[[str, int, int], None]
 THRESHOLD = 0.5
 """MDM value above which a cell is erroneous (the paper's 0.5)."""
 
-FLOOR_DEG = 18.0
-"""Lower bound (degrees) on each joint's MDM scale. The paper divides each joint's digression by
-the joint's mean, which puts an average cell at 1 - e^-1 = 0.63 > 0.5: on clean Bandai takes that
-flags about half of all cells. With the floor a cell needs a digression above
-``0.83 * max(mean, 18 deg)`` to cross 0.5 (clean takes stay below ~15 deg at the 99th
-percentile; the injected errors are 15-180 deg)."""
+SCALE = "spread"
+GAIN = 4.0
+FLOOR_DEG = 15.0
+"""MDM normalisation defaults: ``MDM = 1 - exp(-(M / max(GAIN * spread, FLOOR_DEG))²)``.
+
+The paper divides each joint's digression ``M`` by the joint's mean (``scale="mean", gain=1,
+floor_deg=0``), which puts an average cell at ``1 - e^-1 = 0.63 > 0.5``: on clean Bandai takes
+that flags about half of all cells. Here each cell's digression is measured against how much its
+K neighbours disagree there (their mean angle from their mean, "spread"; a joint the context
+cannot pin down gets a wider tolerance), times ``GAIN``, and never against less than
+``FLOOR_DEG`` degrees: a cell crosses 0.5 when ``M > 0.83 * max(4 * spread, 15 deg)``. Chosen on
+injected errors in Bandai walks (bench/eval_clean.py); ``scale="mean", gain=1, floor_deg=0``
+reproduces the paper."""
 
 
 @dataclass
@@ -83,13 +100,17 @@ class SelfSimilarityCleaner:
         exclude: minima within this many frames of the source word are skipped (default N // 2).
         threshold: MDM threshold (0.5).
         scale, gain, floor_deg: MDM normalisation (see
-            :func:`~mocapkit.clean.mdm.movement_digression_map`): the paper divides each joint's
-            row by its mean (``scale="mean", gain=1``); ``floor_deg`` bounds the scale from below
-            (:data:`FLOOR_DEG`; 0 reproduces the paper).
+            :func:`~mocapkit.clean.mdm.movement_digression_map` and :data:`SCALE`); the paper's
+            is ``scale="mean", gain=1, floor_deg=0``.
         two_stage: stage 1 searches the take itself with whole-body words; stage 2 searches the
             context with the sub-group words, only for the words stage 1 flagged (MDM above
             ``stage1_threshold`` on any of their cells).
         stage1_threshold: stage-1 flagging level (default ``0.6 * threshold``).
+        weight_power: weight each word's vote by its KNN distance to this power (0: equal).
+        robust: a second pass recomputes T̄ without the votes that words holding a flagged
+            cell (first pass) cast for their other joints: an error on one joint bends the
+            time-warped neighbours of every word around it, which otherwise shows up as false
+            alarms on the joints next to it.
     """
 
     def __init__(
@@ -100,12 +121,13 @@ class SelfSimilarityCleaner:
         max_run: int = MAX_RUN,
         exclude: int | None = None,
         threshold: float = THRESHOLD,
-        scale: str = "mean",
-        gain: float = 1.0,
+        scale: str = SCALE,
+        gain: float = GAIN,
         floor_deg: float = FLOOR_DEG,
         two_stage: bool = False,
         stage1_threshold: float | None = None,
         weight_power: float = 0.0,
+        robust: bool = True,
     ) -> None:
         if k < 1:
             raise ValueError("k must be >= 1")
@@ -125,6 +147,7 @@ class SelfSimilarityCleaner:
         self.two_stage = bool(two_stage)
         self.stage1_threshold = stage1_threshold
         self.weight_power = float(weight_power)
+        self.robust = bool(robust)
 
     # ---------------------------------------------------------------------------- fitting
     def fit(
@@ -263,33 +286,48 @@ class SelfSimilarityCleaner:
         return [stage1_kept, *stage2]
 
     def _mdm_from(
-        self, neighbours: Sequence[GroupNeighbours], analysis: bool = False
+        self,
+        neighbours: Sequence[GroupNeighbours],
+        analysis: bool = False,
+        outliers: np.ndarray | None = None,
     ) -> np.ndarray:
+        """MDM on the analysis frames, or on the file's frames (keeping digression/spread).
+        ``outliers``: (F_analysis, J) cells whose words may not vote for other joints."""
         tex = self.texture_
-        tbar, covered = mdm_mod.mean_texture(tex.rotations, neighbours, self.weight_power)
+        tbar, covered = mdm_mod.mean_texture(tex.rotations, neighbours, self.weight_power, outliers)
+        spread = None
+        if self.scale == "spread":
+            spread = mdm_mod.neighbour_spread(tex.rotations, neighbours)
         if analysis:
             dig = mdm_mod.digression(tex.rotations, tbar)
         else:
             tbar_f = interpolate_track(tbar, tex.fps, tex.file_times())
             dig = mdm_mod.digression(tex.file_rotations, tbar_f)
-        active = self.active_.copy()
-        covered_j = covered.any(axis=0)
-        active &= covered_j
+            if spread is not None:
+                t_a, t_f = tex.analysis_times(), tex.file_times()
+                spread = np.stack(
+                    [np.interp(t_f, t_a, spread[:, j]) for j in range(spread.shape[1])], axis=1
+                )
+            self.mean_texture_ = tbar
+            self.digression_ = dig
+            self.spread_ = spread
+        active = self.active_ & covered.any(axis=0)
         return mdm_mod.movement_digression_map(
-            dig, self.scale, self.gain, np.radians(self.floor_deg), active
+            dig, self.scale, self.gain, np.radians(self.floor_deg), active, spread
         )
 
     def _finish_maps(self) -> None:
-        tex = self.texture_
-        tbar, covered = mdm_mod.mean_texture(tex.rotations, self.neighbours_, self.weight_power)
-        self.mean_texture_ = tbar
-        tbar_f = interpolate_track(tbar, tex.fps, tex.file_times())
-        self.digression_ = mdm_mod.digression(tex.file_rotations, tbar_f)
-        active = self.active_ & covered.any(axis=0)
-        self.mdm_ = mdm_mod.movement_digression_map(
-            self.digression_, self.scale, self.gain, np.radians(self.floor_deg), active
-        )
         self.mdm_analysis_ = self._mdm_from(self.neighbours_, analysis=True)
+        outliers = None
+        if self.robust:
+            # second pass: words holding a flagged cell on one joint do not vote for the others
+            outliers = self.mdm_analysis_ > self.threshold
+            if outliers.any():
+                self.mdm_analysis_ = self._mdm_from(self.neighbours_, True, outliers)
+            else:
+                outliers = None
+        self.outliers_ = outliers
+        self.mdm_ = self._mdm_from(self.neighbours_, outliers=outliers)
 
     # ---------------------------------------------------------------------------- results
     def _check(self) -> None:
@@ -335,22 +373,88 @@ class SelfSimilarityCleaner:
         threshold: float | None = None,
         margin: int | None = None,
         mask: np.ndarray | None = None,
+        contacts: Sequence[ContactConstraint] = (),
     ) -> RepairResult:
         """Replace the flagged cells by the median KNN words, blended (see
         :mod:`mocapkit.clean.repair`); everything else is copied bit for bit.
 
-        ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's."""
+        ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's. ``contacts``: for the
+        effector chains of these constraints, the KNN word that keeps the effector nearest its
+        contact point replaces the median, then IK pins the effector (changing only the written
+        cells of the chain)."""
         self._check()
         tex = self.texture_
         margin = default_margin(self.motion_.fps) if margin is None else margin
-        return repair_cells(
+        flagged = self.mask(threshold) if mask is None else np.asarray(mask, dtype=bool)
+        replacement = self.replacement()
+        for c in contacts:
+            replacement = self._contact_replacement(c, replacement, flagged)
+        result = repair_cells(
             self.motion_,
-            self.mask(threshold) if mask is None else mask,
-            self.replacement(),
+            flagged,
+            replacement,
             margin,
             to_file=tex.pelvis_align,
             pelvis=tex.pelvis,
         )
+        motion = result.motion
+        for c in contacts:
+            motion = pin_with_ik(motion, c, result.written, c.target(self.motion_))
+        result.motion = motion
+        return result
+
+    def _contact_replacement(
+        self, contact: ContactConstraint, replacement: np.ndarray, flagged: np.ndarray
+    ) -> np.ndarray:
+        """Per source word overlapping the contact, the KNN word (of the smallest group holding
+        the effector's chain) whose effector lands nearest the contact point."""
+        motion = self.motion_
+        fr = contact.frames(motion.num_frames)
+        chain = chain_of(motion, contact.joint)
+        if not flagged[np.ix_(fr, chain)].any():
+            return replacement
+        target = contact.target(motion)
+        cands = [
+            gn for gn in self.neighbours_ if set(chain) <= set(gn.group.joints) and len(gn.starts)
+        ]
+        if not cands:
+            return replacement
+        gn = min(cands, key=lambda g: len(g.group.joints))
+        tex = self.texture_
+        js = list(gn.group.joints)
+        cols = [js.index(c) for c in chain]
+        N = gn.words.shape[2]
+        ta = tex.analysis_times()
+        tf = tex.file_times()
+        out = replacement.copy()
+        for w, a in enumerate(gn.starts):
+            span = (tf >= ta[a]) & (tf <= ta[min(a + N - 1, len(ta) - 1)])
+            span[: fr[0]] = False
+            span[fr[-1] + 1 :] = False
+            fidx = np.flatnonzero(span)
+            if len(fidx) == 0:
+                continue
+            aidx = np.clip(np.rint(tf[fidx] * tex.fps).astype(int) - a, 0, N - 1)
+            best, best_err = None, np.inf
+            for k in range(gn.index.shape[1]):
+                if gn.index[w, k] < 0:
+                    continue
+                trial = motion.rotations.copy()
+                vals = gn.words[w, k][aidx][:, cols]  # (n, len(chain), 4)
+                for ci, c in enumerate(chain):
+                    v = vals[:, ci]
+                    if c == tex.pelvis and tex.pelvis_align is not None:
+                        v = rot.quat_mul(rot.quat_inv(tex.pelvis_align[fidx]), v)
+                    trial[fidx, c] = v
+                m = Motion(motion.skeleton, trial, motion.root_positions, motion.frame_time)
+                sub = ContactConstraint(contact.joint, int(fidx[0]), int(fidx[-1]), None)
+                err = float(effector_error(m, sub, target).mean())
+                if err < best_err:
+                    best, best_err = vals, err
+            if best is not None:
+                for ci, c in enumerate(chain):
+                    out[fidx, c] = best[:, ci]
+        return out
 
 
 def clean(

@@ -37,10 +37,16 @@ def _accumulate(
     word_values: Sequence[np.ndarray],
     weights: np.ndarray | None,
     power: float = 0.0,
+    outliers: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted sums of the words covering each cell. With ``outliers`` ((F, J) bool), a word
+    does not vote for joint ``j`` when it holds an outlier cell on another of its joints (its
+    neighbours were matched around that error); cells no clean word covers keep all votes."""
     F, J = shape
     acc = np.zeros((F, J, 4))
     cnt = np.zeros((F, J))
+    acc_all = np.zeros((F, J, 4)) if outliers is not None else acc
+    cnt_all = np.zeros((F, J)) if outliers is not None else cnt
     for gn, vals in zip(neighbours, word_values, strict=True):
         js = np.asarray(gn.group.joints)
         N = vals.shape[1]
@@ -52,8 +58,24 @@ def _accumulate(
                 continue
             ref = reference[a : a + N][:, js]
             v = np.where(np.sum(v * ref, axis=-1, keepdims=True) < 0, -v, v)
-            acc[a : a + N, js] += v * (ww[w] * w_t)[:, None, None]
-            cnt[a : a + N, js] += (ww[w] * w_t)[:, None]
+            wt = ww[w] * w_t
+            if outliers is not None:
+                acc_all[a : a + N, js] += v * wt[:, None, None]
+                cnt_all[a : a + N, js] += wt[:, None]
+                bad = outliers[a : a + N][:, js].any(axis=0)  # (m,)
+                keep = (bad.sum() - bad) == 0
+                if not keep.any():
+                    continue
+                kj = js[keep]
+                acc[a : a + N, kj] += v[:, keep] * wt[:, None, None]
+                cnt[a : a + N, kj] += wt[:, None]
+            else:
+                acc[a : a + N, js] += v * wt[:, None, None]
+                cnt[a : a + N, js] += wt[:, None]
+    if outliers is not None:
+        none = cnt <= 0
+        acc[none] = acc_all[none]
+        cnt[none] = cnt_all[none]
     return acc, cnt
 
 
@@ -93,12 +115,16 @@ def median_word(gn: GroupNeighbours) -> np.ndarray:
 
 
 def mean_texture(
-    reference: np.ndarray, neighbours: Sequence[GroupNeighbours], power: float = 0.0
+    reference: np.ndarray,
+    neighbours: Sequence[GroupNeighbours],
+    power: float = 0.0,
+    outliers: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """T̄ (F, J, 4) and a (F, J) bool mask of the cells some word covered (others copy
-    ``reference``, the analysed texture). ``power``: see :func:`word_weights`."""
+    ``reference``, the analysed texture). ``power``: see :func:`word_weights`; ``outliers``:
+    see :func:`_accumulate`."""
     vals = [mean_word(gn) for gn in neighbours]
-    acc, cnt = _accumulate(reference.shape[:2], reference, neighbours, vals, None, power)
+    acc, cnt = _accumulate(reference.shape[:2], reference, neighbours, vals, None, power, outliers)
     return _finish(acc, cnt, reference)
 
 
@@ -125,15 +151,18 @@ def movement_digression_map(
     gain: float = 1.0,
     floor: float = 0.0,
     active: np.ndarray | None = None,
+    spread: np.ndarray | None = None,
 ) -> np.ndarray:
-    """MDM = 1 - exp(-(M / (gain * s_j))²) per joint column ``j`` (frames are rows here).
+    """MDM = 1 - exp(-(M / s)²) with ``s = max(gain * scale, floor)`` (frames are rows here).
 
     Args:
         M: (F, J) digression angles (radians).
-        scale: per-joint scale ``s_j``: "mean" (the paper) or "median" of the joint's column.
+        scale: "mean" (the paper: each joint's column mean), "median" (column median) or
+            "spread" (per cell: ``spread``, how much the KNN words disagree there).
         gain: multiplies the scale (1 in the paper).
-        floor: lower bound on ``s_j`` in radians (joints that barely move).
+        floor: lower bound on the scale in radians.
         active: (J,) bool, joints analysed; others get MDM 0.
+        spread: (F, J) for ``scale="spread"`` (:func:`neighbour_spread`).
 
     Returns:
         (F, J) float64 in [0, 1].
@@ -143,8 +172,12 @@ def movement_digression_map(
         s = M.mean(axis=0) if M.shape[0] else np.ones(M.shape[1])
     elif scale == "median":
         s = np.median(M, axis=0) if M.shape[0] else np.ones(M.shape[1])
+    elif scale == "spread":
+        if spread is None or np.shape(spread) != M.shape:
+            raise ValueError("scale='spread' needs a spread array shaped like M")
+        s = np.asarray(spread, dtype=np.float64)
     else:
-        raise ValueError(f"scale must be 'mean' or 'median', got {scale!r}")
+        raise ValueError(f"scale must be 'mean', 'median' or 'spread', got {scale!r}")
     s = np.maximum(gain * s, max(float(floor), 1e-12))
     out = 1.0 - np.exp(-((M / s) ** 2))
     if active is not None:

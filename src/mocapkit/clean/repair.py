@@ -126,3 +126,98 @@ def repair_cells(
         None if motion.translations is None else motion.translations.copy(),
     )
     return RepairResult(result, flagged, written, margin)
+
+
+# ------------------------------------------------------------------------ contact constraints
+
+
+@dataclass(frozen=True)
+class ContactConstraint:
+    """An end effector that must touch a point over a range of the take's frames.
+
+    Attributes:
+        joint: the end-effector joint index.
+        start, end: first and last frame (inclusive, the take's frames).
+        position: (3,) world position (file units); ``None``: where the input has the effector
+            at ``start`` (a planted hand or foot).
+    """
+
+    joint: int
+    start: int
+    end: int
+    position: tuple[float, float, float] | None = None
+
+    def frames(self, num_frames: int) -> np.ndarray:
+        if self.start > self.end:
+            raise ValueError(f"contact: start {self.start} after end {self.end}")
+        if self.start < 0 or self.end >= num_frames:
+            raise ValueError(f"contact frames {self.start}-{self.end} outside 0-{num_frames - 1}")
+        return np.arange(self.start, self.end + 1)
+
+    def target(self, motion: Motion) -> np.ndarray:
+        if self.position is not None:
+            return np.asarray(self.position, dtype=np.float64)
+        from mocapkit.core.kinematics import forward_kinematics
+
+        pos, _ = forward_kinematics(motion[self.start : self.start + 1])
+        return pos[0, self.joint].copy()
+
+
+def chain_of(motion: Motion, joint: int, length: int = 2) -> list[int]:
+    """The ``length`` ancestors of ``joint`` that move it (parent first), e.g. elbow, shoulder."""
+    out = []
+    p = int(motion.skeleton.parents[joint])
+    while p >= 0 and len(out) < length:
+        out.append(p)
+        p = int(motion.skeleton.parents[p])
+    return out
+
+
+def effector_error(motion: Motion, contact: ContactConstraint, target: np.ndarray) -> np.ndarray:
+    """(n,) distance of the effector from the target over the contact's frames."""
+    from mocapkit.core.kinematics import forward_kinematics
+
+    fr = contact.frames(motion.num_frames)
+    pos, _ = forward_kinematics(motion[int(fr[0]) : int(fr[-1]) + 1])
+    return np.linalg.norm(pos[:, contact.joint] - target, axis=-1)
+
+
+def pin_with_ik(
+    motion: Motion,
+    contact: ContactConstraint,
+    writable: np.ndarray,
+    target: np.ndarray,
+    iterations: int = 12,
+) -> Motion:
+    """Cyclic-coordinate-descent IK on the effector's chain, changing only ``writable`` (F, J)
+    cells; returns a new Motion."""
+    from mocapkit.core.kinematics import forward_kinematics
+
+    fr = contact.frames(motion.num_frames)
+    chain = chain_of(motion, contact.joint)
+    q = motion.rotations.copy()
+    sub = slice(int(fr[0]), int(fr[-1]) + 1)
+    for _ in range(iterations):
+        for c in chain:
+            ok = writable[sub, c]
+            if not ok.any():
+                continue
+            m = Motion(motion.skeleton, q[sub], motion.root_positions[sub], motion.frame_time)
+            pos, grot = forward_kinematics(m)
+            e = pos[:, contact.joint] - pos[:, c]
+            t = target[None, :] - pos[:, c]
+            r = rot.quat_between(e, t)
+            p = int(motion.skeleton.parents[c])
+            gp = grot[:, p] if p >= 0 else rot.quat_identity((len(fr),))
+            new_local = rot.quat_mul(rot.quat_inv(gp), rot.quat_mul(r, grot[:, c]))
+            new_local = np.where(
+                np.sum(new_local * q[sub, c], -1, keepdims=True) < 0, -new_local, new_local
+            )
+            q[sub, c] = np.where(ok[:, None], new_local, q[sub, c])
+    return Motion(
+        motion.skeleton,
+        q,
+        motion.root_positions.copy(),
+        motion.frame_time,
+        None if motion.translations is None else motion.translations.copy(),
+    )

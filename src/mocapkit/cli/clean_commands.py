@@ -47,6 +47,34 @@ def expand_takes(items: Sequence[str], exclude: Sequence[str] = ()) -> list[Path
     return result
 
 
+def parse_contact(spec: str, motion: Motion) -> Any:
+    """``JOINT:START-END[:X,Y,Z]`` -> a ContactConstraint (frames inclusive, 0-based)."""
+    from mocapkit.clean import ContactConstraint
+
+    parts = spec.split(":")
+    if len(parts) not in (2, 3):
+        raise CLIError(f"--contact {spec!r}: expected JOINT:START-END[:X,Y,Z]")
+    names = list(motion.skeleton.names)
+    if parts[0] not in names:
+        raise CLIError(f"--contact {spec!r}: no joint named {parts[0]!r}")
+    try:
+        a, b = (int(x) for x in parts[1].split("-"))
+        pos = None
+        if len(parts) == 3:
+            xyz = [float(x) for x in parts[2].split(",")]
+            if len(xyz) != 3:
+                raise ValueError
+            pos = (xyz[0], xyz[1], xyz[2])
+    except ValueError:
+        raise CLIError(f"--contact {spec!r}: expected JOINT:START-END[:X,Y,Z]") from None
+    c = ContactConstraint(names.index(parts[0]), a, b, pos)
+    try:
+        c.frames(motion.num_frames)
+    except ValueError as e:
+        raise CLIError(f"--contact {spec!r}: {e}") from None
+    return c
+
+
 def plot_mdm(
     mdm: np.ndarray,
     names: Sequence[str],
@@ -116,6 +144,7 @@ def clean_take(
     two_stage: bool = False,
     baseline: str | None = None,
     show_progress: bool = False,
+    contacts: Sequence[Any] = (),
 ) -> tuple[Any, np.ndarray, np.ndarray, list[dict[str, Any]], Any]:
     """Run the analysis: (cleaner, mdm (F, J) float32, mask, segments, repair result)."""
     from mocapkit.clean import RotationBaseline, SelfSimilarityCleaner
@@ -140,7 +169,7 @@ def clean_take(
             for j in range(mask.shape[1])
             for a, b in runs(mask[:, j])
         ]
-    result = cleaner.repair(mask=mask)
+    result = cleaner.repair(mask=mask, contacts=contacts)
     return cleaner, mdm, mask, segments, result
 
 
@@ -187,6 +216,15 @@ def clean_take(
     help="Detect with a baseline instead: (a) rotation limits, (b) rotation-change rate, "
     "(c) both, learned from the --context takes (repair still uses the KNN words).",
 )
+@click.option(
+    "--contact",
+    "contact_specs",
+    multiple=True,
+    metavar="JOINT:START-END[:X,Y,Z]",
+    help="Keep an end effector on a contact point over frames START-END (inclusive) while "
+    "repairing: the KNN word that keeps it nearest wins, then IK pins it. Without X,Y,Z the "
+    "point is where the input has the joint at START. Repeatable.",
+)
 @LENIENT
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")
 @friendly_errors
@@ -200,6 +238,7 @@ def clean_command(
     mdm_path: str | None,
     plot_path: str | None,
     baseline: str | None,
+    contact_specs: tuple[str, ...],
     lenient: bool,
     quiet: bool,
 ) -> None:
@@ -224,9 +263,10 @@ def clean_command(
     for o in outputs:
         refuse_overwrite(o, [str(p) for p in ctx_paths])
     context = _load_all(ctx_paths, lenient)
+    contacts = [parse_contact(c, motion) for c in contact_specs]
     t0 = time.perf_counter()
     _, mdm, mask, segments, result = clean_take(
-        motion, context, threshold, two_stage, baseline, show_progress=not quiet
+        motion, context, threshold, two_stage, baseline, show_progress=not quiet, contacts=contacts
     )
     elapsed = time.perf_counter() - t0
     names = list(motion.skeleton.names)

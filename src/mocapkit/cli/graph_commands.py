@@ -12,6 +12,7 @@ import numpy as np
 
 from mocapkit.cli.common import CLIError, friendly_errors, load, main, progress
 from mocapkit.cli.demo import DEMO_STEPS
+from mocapkit.graph.distance import DEFAULT_WINDOW
 
 READABLE_EXT = (".bvh", ".npz")
 
@@ -81,8 +82,8 @@ def _rel(path: Path, base: Path) -> str:
 @click.option(
     "--window",
     type=float,
-    default=1.0 / 3.0,
-    show_default="0.333",
+    default=DEFAULT_WINDOW,
+    show_default="1/3",
     help="Comparison window in seconds.",
 )
 @click.option(
@@ -249,7 +250,7 @@ def synth(graph_file, seconds, path_csv, out, seed, blend):
     else:
         pts = _read_path_csv(path_csv)
         steps = syn.follow_path(pts, seed)
-        m = syn.render(steps, blend, start=syn._start_transform)
+        m = syn.render(steps, blend, start=syn.start_transform)
     write_motion(m, out)
     n_tr = sum(s.kind == "transition" for s in steps)
     click.echo(f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {n_tr} transitions)")

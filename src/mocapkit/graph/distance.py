@@ -46,6 +46,7 @@ from mocapkit.graph.weights import (
 )
 
 __all__ = [
+    "DEFAULT_WINDOW",
     "CostDatabase",
     "build_database",
     "cost_matrix",
@@ -55,6 +56,10 @@ __all__ = [
     "tiled_local_minima",
     "window_weights",
 ]
+
+
+#: Default comparison window (seconds): about a third of a second, as in Kovar et al.
+DEFAULT_WINDOW = 1.0 / 3.0
 
 
 def window_weights(half: int) -> np.ndarray:
@@ -131,7 +136,7 @@ class CostDatabase:
 def build_database(
     motions: Sequence[Motion],
     metric: str = "dynamics",
-    window: float = 1.0 / 3.0,
+    window: float = DEFAULT_WINDOW,
     *,
     masses: dict[str, float] | None = None,
     contacts: Sequence[np.ndarray] | None = None,
@@ -431,13 +436,135 @@ def _tile_sums(r: _Side, c: _Side, Wk_s: np.ndarray) -> tuple[np.ndarray, ...]:
     return (rw + cw, Ax, Az, Bx, Bz, Saa, Sbb, Syy, Sdot, Scrs)
 
 
+@numba.njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
+def _finish_kernel(
+    prod, pb, syy, pd, rw, rx, rz, raa, cw, cx, cz, cbb, has_s, out
+):  # pragma: no cover
+    """Cost of every cell from the products (one pass, float64 arithmetic): ``prod`` (n, 3m) =
+    [Bx | Bz | Sbb] row parts, ``pb`` (3n, m) = [Ax; Az; Saa] column parts, ``syy`` (n, m),
+    ``pd`` (n, 2m) = [Sdot | Scrs]; the r*/c* vectors are the row / column scalar terms."""
+    n, m = out.shape
+    for i in range(n):
+        for j in range(m):
+            W = rw[i] + cw[j]
+            ax = rx[i]
+            az = rz[i]
+            saa = raa[i]
+            if has_s:
+                ax += pb[i, j]
+                az += pb[n + i, j]
+                saa += pb[2 * n + i, j]
+            bx = prod[i, j] + cx[j]
+            bz = prod[i, m + j] + cz[j]
+            sbb = prod[i, 2 * m + j] + cbb[j]
+            inv = 1.0 / W
+            num = pd[i, m + j] - (ax * bz - az * bx) * inv
+            den = pd[i, j] - (ax * bx + az * bz) * inv
+            c = saa + sbb - 2.0 * syy[i, j] - (ax * ax + az * az + bx * bx + bz * bz) * inv
+            c -= 2.0 * np.sqrt(num * num + den * den)
+            out[i, j] = c if c > 0.0 else 0.0
+
+
+@dataclass(eq=False)
+class _RowPack:
+    """Row-side matrices of a block, ready for the products of :func:`_tile_cost`."""
+
+    u: np.ndarray  # (n, KP)
+    ab: np.ndarray | None  # (3n, KPs): [W x; W z; W |a|^2] on support points
+    y: np.ndarray  # (n, KP [+ KPs])
+    d: np.ndarray  # (n, 2KP [+ 2KPs])
+    rw: np.ndarray
+    rx: np.ndarray
+    rz: np.ndarray
+    raa: np.ndarray
+
+
+@dataclass(eq=False)
+class _ColPack:
+    """Column-side matrices of a block (transposed, so the products are plain ``A @ B``)."""
+
+    b3: np.ndarray  # (KP, 3m): [x | z | |b|^2]
+    beta: np.ndarray | None  # (KPs, m)
+    y: np.ndarray  # (KP [+ KPs], m)
+    d: np.ndarray  # (2KP [+ 2KPs], 2m): [dot | cross]
+    cw: np.ndarray
+    cx: np.ndarray
+    cz: np.ndarray
+    cbb: np.ndarray
+
+
+def _row_pack(r: _Side, Wk_s: np.ndarray) -> _RowPack:
+    f64 = np.float64
+    ux, uz = r.u * r.x, r.u * r.z
+    has_s = r.f.shape[1] > 0
+    if has_s:
+        ab = np.concatenate([Wk_s * r.xs, Wk_s * r.zs, Wk_s * r.sqs], axis=0)
+        y = np.concatenate([r.u * r.y, Wk_s * r.ys], axis=1)
+        d = np.concatenate([ux, uz, Wk_s * r.xs, Wk_s * r.zs], axis=1)
+    else:
+        ab = None
+        y = r.u * r.y
+        d = np.concatenate([ux, uz], axis=1)
+    return _RowPack(
+        r.u, ab, y, d,
+        r.u.sum(1, dtype=f64), ux.sum(1, dtype=f64), uz.sum(1, dtype=f64),
+        (r.u * r.sq).sum(1, dtype=f64),
+    )  # fmt: skip
+
+
+def _col_pack(c: _Side, Wk_s: np.ndarray) -> _ColPack:
+    f64 = np.float64
+    has_s = c.f.shape[1] > 0
+    b3 = np.ascontiguousarray(np.concatenate([c.x, c.z, c.sq], axis=0).T)
+    if has_s:
+        beta = c.f / Wk_s  # beta_{j+k,p} (window weight divided back out)
+        y = np.concatenate([c.y, beta * c.ys], axis=1)
+        d = np.concatenate(
+            [
+                np.concatenate([c.x, c.z, beta * c.xs, beta * c.zs], axis=1),
+                np.concatenate([c.z, -c.x, beta * c.zs, -beta * c.xs], axis=1),
+            ],
+            axis=0,
+        )
+        beta = np.ascontiguousarray(beta.T)
+    else:
+        beta = None
+        y = c.y
+        d = np.concatenate(
+            [np.concatenate([c.x, c.z], axis=1), np.concatenate([c.z, -c.x], axis=1)], axis=0
+        )
+    return _ColPack(
+        b3, beta, np.ascontiguousarray(y.T), np.ascontiguousarray(d.T),
+        c.f.sum(1, dtype=f64), (c.f * c.xs).sum(1, dtype=f64), (c.f * c.zs).sum(1, dtype=f64),
+        (c.f * c.sqs).sum(1, dtype=f64),
+    )  # fmt: skip
+
+
+def _tile_cost_packed(r: _RowPack, c: _ColPack) -> np.ndarray:
+    """Costs (n, m): four matrix products finished by one compiled pass."""
+    n, m = r.u.shape[0], c.b3.shape[1] // 3
+    prod = r.u @ c.b3
+    has_s = r.ab is not None and c.beta is not None
+    pb = r.ab @ c.beta if has_s else np.zeros((1, 1), dtype=prod.dtype)
+    syy = r.y @ c.y
+    pd = r.d @ c.d
+    out = np.empty((n, m), dtype=prod.dtype)
+    _finish_kernel(prod, pb, syy, pd, r.rw, r.rx, r.rz, r.raa, c.cw, c.cx, c.cz, c.cbb, has_s, out)
+    return out
+
+
+def _tile_cost(r: _Side, c: _Side, Wk_s: np.ndarray) -> np.ndarray:
+    """Costs (n, m) of every (row, column) pair (same algebra as :func:`_tile_sums`)."""
+    return _tile_cost_packed(_row_pack(r, Wk_s), _col_pack(c, Wk_s))
+
+
 def _support_window(db: CostDatabase, dtype: type) -> np.ndarray:
     Ps = len(db.support)
     return np.ascontiguousarray(np.repeat(db.window, Ps)[None, :], dtype=dtype)
 
 
 def _tile(db: CostDatabase, r: _Side, c: _Side, dtype: type) -> np.ndarray:
-    return _finish(_tile_sums(r, c, _support_window(db, dtype)))[0]
+    return _tile_cost(r, c, _support_window(db, dtype))
 
 
 def cost_tile(
@@ -494,7 +621,29 @@ def candidate_grid(db: CostDatabase, stride: int = 1) -> np.ndarray:
     return np.concatenate(out).astype(np.int64)
 
 
+@numba.njit(cache=True, nogil=True)
+def _local_minima_kernel(t, out):  # pragma: no cover - compiled
+    n, m = t.shape
+    for i in range(1, n - 1):
+        for j in range(1, m - 1):
+            v = t[i, j]
+            ok = v < np.inf
+            if ok:
+                for di in range(-1, 2):
+                    for dj in range(-1, 2):
+                        if (di != 0 or dj != 0) and not v <= t[i + di, j + dj]:
+                            ok = False
+            out[i - 1, j - 1] = ok
+
+
 def _local_minima(t: np.ndarray) -> np.ndarray:
+    """(n-2, m-2) bool: interior cells <= their 8 neighbours and finite (compiled)."""
+    out = np.empty((t.shape[0] - 2, t.shape[1] - 2), dtype=np.bool_)
+    _local_minima_kernel(t, out)
+    return out
+
+
+def _local_minima_numpy(t: np.ndarray) -> np.ndarray:
     """(n-2, m-2) bool: interior cells <= their 8 neighbours and finite."""
     c = t[1:-1, 1:-1]
     ok = np.isfinite(c)
@@ -560,17 +709,19 @@ def tiled_local_minima(
     keep_j: list[np.ndarray] = []
     keep_c: list[np.ndarray] = []
     kept = 0
+    col_cache: dict[int, _ColPack] = {}
     for ra in starts:
         rb = min(ra + tile, G - 1)
         rows = np.arange(ra - 1, rb + 1)
-        rside = _side(db, idx[rows], dtype)
+        rpack = _row_pack(_side(db, idx[rows], dtype), Wk_s)
         for ca in starts:
             if ca < ra:
                 continue
             cb = min(ca + tile, G - 1)
             cols = np.arange(ca - 1, cb + 1)
-            cside = _side(db, idx[cols], dtype)
-            t = _finish(_tile_sums(rside, cside, Wk_s))[0]
+            if ca not in col_cache:
+                col_cache[ca] = _col_pack(_side(db, idx[cols], dtype), Wk_s)
+            t = _tile_cost_packed(rpack, col_cache[ca])
             t[sep[rows], :] = np.inf
             t[:, sep[cols]] = np.inf
             pairs += t.size
@@ -595,6 +746,7 @@ def tiled_local_minima(
             done += 1
             if progress is not None:
                 progress(done, total)
+        col_cache.pop(ra, None)  # later row blocks never use this column block again
     ci, cj, cc = (np.concatenate(v) if v else np.zeros(0) for v in (keep_i, keep_j, keep_c))
     if len(cc) > max_candidates:
         part = np.argpartition(cc, max_candidates)[:max_candidates]

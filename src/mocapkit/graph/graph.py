@@ -19,6 +19,7 @@ import numpy as np
 
 from mocapkit.core.motion import Motion
 from mocapkit.graph.distance import (
+    DEFAULT_WINDOW,
     CostDatabase,
     MinimaResult,
     build_database,
@@ -60,7 +61,7 @@ class MotionGraph:
     dst_frame: np.ndarray
     cost: np.ndarray
     metric: str = "dynamics"
-    window: float = 1.0 / 3.0
+    window: float = DEFAULT_WINDOW
     half: int = 5
     blend: int = 5
     stride: int = 1
@@ -331,7 +332,7 @@ def build_graph(
     paths: Sequence[str] | None = None,
     transitions: int | None = None,
     threshold: float | None = None,
-    window: float = 1.0 / 3.0,
+    window: float = DEFAULT_WINDOW,
     blend: int | None = None,
     stride: int | None = None,
     tile: int = 1024,

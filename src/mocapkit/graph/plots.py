@@ -17,7 +17,7 @@ __all__ = ["plot_cost_comparison", "sampled_cost_matrix"]
 
 def sampled_cost_matrix(db: CostDatabase, max_size: int = 1200) -> tuple[np.ndarray, np.ndarray]:
     """The cost matrix on every k-th frame (k chosen so that it is at most ``max_size``
-    square), normalised to [0, 1] over its finite entries; and the sampled frames."""
+    square), divided by its 95th percentile and clipped to [0, 1]; and the sampled frames."""
     N = db.num_frames
     k = max(1, -(-N // max_size))
     frames = np.arange(0, N, k)
@@ -29,7 +29,9 @@ def sampled_cost_matrix(db: CostDatabase, max_size: int = 1200) -> tuple[np.ndar
         m[np.ix_(ok, ok)] = t
     fin = np.isfinite(m)
     if fin.any():
-        m[fin] /= max(float(m[fin].max()), 1e-300)
+        # robust normalisation: a few extreme frames (a T-pose, a fall) would darken the rest
+        scale = max(float(np.percentile(m[fin], 95.0)), 1e-300)
+        m[fin] = np.minimum(m[fin] / scale, 1.0)
     return m, frames
 
 
@@ -49,23 +51,25 @@ def plot_cost_comparison(
 
     names = list(dbs)[:2]
     mats = {}
-    frames = None
+
     for n in names:
-        mats[n], frames = sampled_cost_matrix(dbs[n], max_size)
+        mats[n], _ = sampled_cost_matrix(dbs[n], max_size)
     first = dbs[names[0]]
-    step = frames[1] - frames[0] if frames is not None and len(frames) > 1 else 1
+    extent = (0, first.num_frames, first.num_frames, 0)  # axes in frames of the whole library
     fig, axes = plt.subplots(
         1, 4 if len(names) == 2 else 2, figsize=(22 if len(names) == 2 else 11, 5.2)
     )
     for ax, n in zip(axes, names, strict=False):
-        im = ax.imshow(mats[n], cmap="viridis", origin="upper", interpolation="nearest")
+        im = ax.imshow(mats[n], cmap="viridis", interpolation="nearest", extent=extent)
         ax.set_title(f"normalised cost: {n}")
         fig.colorbar(im, ax=ax, fraction=0.046)
     if len(names) == 2:
         ax = axes[2]
         diff = mats[names[0]] - mats[names[1]]
         lim = np.nanmax(np.abs(diff)) if np.isfinite(diff).any() else 1.0
-        im = ax.imshow(diff, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest")
+        im = ax.imshow(
+            diff, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest", extent=extent
+        )
         ax.set_title(f"difference ({names[0]} - {names[1]})")
         fig.colorbar(im, ax=ax, fraction=0.046)
         pts = {}
@@ -91,8 +95,8 @@ def plot_cost_comparison(
         ):
             sel = arr[mask]
             ax.scatter(
-                sel[:, 1] / step,
-                sel[:, 0] / step,
+                sel[:, 1],
+                sel[:, 0],
                 s=14,
                 c=col,
                 edgecolors="k",

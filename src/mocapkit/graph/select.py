@@ -178,34 +178,32 @@ def refine(db: CostDatabase, cand: Candidates, radius: int, max_steps: int = 50)
     cs, cd = clip(src), clip(dst)
     gap = 2 * db.half + 1
 
-    def best_in(offsets: np.ndarray, src: np.ndarray, dst: np.ndarray):
-        a = src[:, None] + offsets[None, :, 0]
-        b = dst[:, None] + offsets[None, :, 1]
+    def best_in(offsets: np.ndarray, sel: np.ndarray):
+        """Best cell of ``(src, dst)[sel] + offsets`` (same clips, valid, off the diagonal)."""
+        cs_, cd_ = cs[sel], cd[sel]
+        a = src[sel, None] + offsets[None, :, 0]
+        b = dst[sel, None] + offsets[None, :, 1]
         ac = np.clip(a, 0, db.num_frames - 1)
         bc = np.clip(b, 0, db.num_frames - 1)
         valid = (a == ac) & (b == bc) & ok[ac] & ok[bc]
-        valid &= (clip(ac) == cs[:, None]) & (clip(bc) == cd[:, None])
-        valid &= ~((cs == cd)[:, None] & (np.abs(ac - bc) < gap))
+        valid &= (clip(ac) == cs_[:, None]) & (clip(bc) == cd_[:, None])
+        valid &= ~((cs_ == cd_)[:, None] & (np.abs(ac - bc) < gap))
         cost = np.full(a.shape, np.inf)
         cost[valid] = pair_costs(db, ac[valid], bc[valid])
         k = np.argmin(cost, axis=1)
-        rows = np.arange(len(src))
+        rows = np.arange(len(sel))
         return ac[rows, k], bc[rows, k], cost[rows, k]
 
     r = np.arange(-radius, radius + 1)
     offs = np.stack(np.meshgrid(r, r, indexing="ij"), -1).reshape(-1, 2)
-    src, dst, cost = best_in(offs, src, dst)
+    src, dst, cost = best_in(offs, np.arange(len(src)))
     nb = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], indexing="ij"), -1).reshape(-1, 2)
     active = np.isfinite(cost)
     for _ in range(max_steps):
         if not active.any():
             break
         idx = np.flatnonzero(active)
-        # evaluate only the active ones (keep clip arrays aligned)
-        cs_all, cd_all = cs, cd
-        cs, cd = cs_all[idx], cd_all[idx]
-        s2, d2, c2 = best_in(nb, src[idx], dst[idx])
-        cs, cd = cs_all, cd_all
+        s2, d2, c2 = best_in(nb, idx)
         moved = c2 < cost[idx]
         src[idx[moved]], dst[idx[moved]], cost[idx[moved]] = s2[moved], d2[moved], c2[moved]
         active[:] = False

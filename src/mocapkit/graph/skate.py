@@ -93,4 +93,3 @@ def transition_skate(
             best_a = max(best_a, float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))))
         ste[n], arc[n], sup[n] = best_s * cm, best_a * cm, True
     return SkateReport(ste, arc, sup)
-

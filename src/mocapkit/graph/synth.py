@@ -109,6 +109,7 @@ class Synthesizer:
         self._traj = [root_trajectory(m, self.up) for m in self.motions]
         self._head = [heading_angles(m, self.up) for m in self.motions]
         self._pos: dict[int, np.ndarray] = {}
+        self.start_transform: GroundTransform | None = None  # set by follow_path
 
     # ---- pieces --------------------------------------------------------------------------
     def _positions(self, c: int) -> np.ndarray:
@@ -182,7 +183,9 @@ class Synthesizer:
         distance between the character's pelvis after travelling arc length s and the path's
         point at arc length s; the first edge of the best sequence is taken, until the
         character has travelled the path's length (or ``max_seconds``, default 3 x the path's
-        length at the clips' mean speed, at least 10 s)."""
+        length at the clips' mean speed, at least 10 s). The walk starts at a seeded random node
+        placed at the path's first point, facing along it: render it with
+        ``start=self.start_transform``."""
         path = np.asarray(path, dtype=np.float64)
         if path.ndim != 2 or path.shape[1] != 2 or len(path) < 2:
             raise ValueError("path must be (M >= 2, 2) ground points")
@@ -250,7 +253,7 @@ class Synthesizer:
                         stack.append((e["v"], g2, p[-1], float(sarr[-1]), fr + len(p), e_err, f0))
                 if count >= max_branches:
                     stack.clear()
-            e = best[1] if best[1] is not None else outs[0]
+            e = best[1] if best[1] is not None else self.out[node][0]
             p, G = piece(e, G)
             pts = np.concatenate([last[None], p])
             s_done += float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
@@ -258,8 +261,7 @@ class Synthesizer:
             steps.append(self.step_of(e))
             frames += steps[-1].frames
             node = e["v"]
-        self._path_start = (node, G)
-        self._start_transform = _start_transform(ang, path, self._traj[c][f], self.up)
+        self.start_transform = _start_transform(ang, path, self._traj[c][f], self.up)
         return steps
 
     # ---- rendering -----------------------------------------------------------------------
@@ -403,7 +405,7 @@ def follow_path(
     """A rendered walk following the 2-D ground path (see :meth:`Synthesizer.follow_path`)."""
     syn = Synthesizer(graph, motions)
     steps = syn.follow_path(path, seed, horizon)
-    return syn.render(steps, blend, start=syn._start_transform)
+    return syn.render(steps, blend, start=syn.start_transform)
 
 
 def render(
