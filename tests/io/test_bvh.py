@@ -424,3 +424,13 @@ def test_joint_rotating_without_rotation_channels_gets_them() -> None:
     back = parse_bvh(format_bvh(m))
     assert back.skeleton.has_rotation[2]
     assert np.all(rot.quat_angle(back.rotations, m.rotations) < 1e-9)
+
+
+def test_outputs_get_normal_file_permissions(tmp_path) -> None:
+    import os
+    import stat
+
+    p = write_bvh(parse_bvh(SMALL), tmp_path / "perm.bvh")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~umask
