@@ -50,13 +50,17 @@ def synthetic_motion(frames: int, joints: int, fps: float = 60.0, seed: int = 0)
     return Motion(sk, rot, root, 1.0 / fps)
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=10_000)
     ap.add_argument("--joints", type=int, default=60)
     ap.add_argument("--seconds", type=float, default=4.0, help="measurement window")
     ap.add_argument("--keep", help="also write the page here")
-    args = ap.parse_args()
+    ap.add_argument("--shot", help="save a screenshot (PNG) of the playing page here")
+    ap.add_argument(
+        "--no-mdm", action="store_true", help="without the cleaning overlay (MDM heat map)"
+    )
+    args = ap.parse_args(argv)
 
     from mocapkit.viz import ViewMotion, write_page
     from mocapkit.viz.browser import Browser, find_chromium
@@ -65,11 +69,24 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         page = Path(args.keep) if args.keep else Path(tmp) / "bench_view.html"
         t0 = time.perf_counter()
-        write_page(page, [ViewMotion(m, "synthetic")], up="Y", units="cm")
+        kw = {}
+        if not args.no_mdm:  # the heaviest page: joints coloured by an MDM, heat map timeline
+            rng = np.random.default_rng(1)
+            mdm = np.clip(rng.normal(0.1, 0.05, (args.frames, args.joints)), 0, 1)
+            segs = []
+            for j, a in zip(
+                rng.integers(1, args.joints, 20), rng.integers(0, args.frames - 50, 20), strict=True
+            ):
+                mdm[a : a + 40, j] = 1.0
+                segs.append({"joint": f"j{j}", "start": int(a), "end": int(a) + 39, "peak": 1.0})
+            kw = {"mdm": mdm.astype(np.float32), "clean_report": {"segments": segs}}
+        write_page(page, [ViewMotion(m, "synthetic")], up="Y", units="cm", **kw)
         build_s = time.perf_counter() - t0
         size = page.stat().st_size / 1e6
-        print(f"page: {args.frames} frames x {args.joints} joints, {size:.1f} MB, built in "
-              f"{build_s:.2f} s")
+        print(
+            f"page: {args.frames} frames x {args.joints} joints"
+            f"{'' if args.no_mdm else ' + MDM overlay'}, {size:.1f} MB, built in {build_s:.2f} s"
+        )
         if not find_chromium():
             print("no Chromium found (install chromium or set MOCAPKIT_CHROMIUM)")
             return 2
@@ -83,6 +100,8 @@ def main() -> int:
             b.eval("mocapkitViewer.resetStats()")
             b.sleep(args.seconds)
             st = b.eval("mocapkitViewer.fpsStats()")
+            if args.shot:
+                Path(args.shot).write_bytes(b.screenshot())
             f1 = b.eval("mocapkitViewer.frame")
             renderer = b.eval(
                 "(() => { const g = document.createElement('canvas').getContext('webgl');"

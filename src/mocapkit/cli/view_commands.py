@@ -1,1 +1,179 @@
 """``mocapkit view`` (registered on import; see mocapkit.cli)."""
+
+from __future__ import annotations
+
+import json
+import webbrowser
+from pathlib import Path
+from typing import Any
+
+import click
+
+from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main
+from mocapkit.cli.demo import DEMO_STEPS
+
+
+def _read_json(path: str | Path, what: str) -> dict[str, Any]:
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CLIError(f"{what} not found: {path}") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise CLIError(f"cannot read {what} {path}: {e}") from None
+    if not isinstance(data, dict):
+        raise CLIError(f"{what} {path}: expected a JSON object")
+    return data
+
+
+def _read_mdm(path: str | Path):
+    import numpy as np
+
+    try:
+        return np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise CLIError(f"MDM not found: {path}") from None
+    except (OSError, ValueError) as e:
+        raise CLIError(f"cannot read the MDM {path}: {e}") from None
+
+
+def view_files(
+    files: list[str],
+    out: str | Path,
+    clean_report: str | None = None,
+    mdm: str | None = None,
+    stitch: str | None = None,
+    graph: str | None = None,
+    lenient: bool = False,
+    up: str | None = None,
+    units: str | None = None,
+) -> Path:
+    """Read the motions and overlays and write the viewer page; returns its path."""
+    from mocapkit.viz import ViewMotion, write_page
+
+    motions = [ViewMotion(load(f, lenient), f) for f in files]
+    return write_page(
+        out,
+        motions,
+        up=up,
+        units=units,
+        clean_report=_read_json(clean_report, "cleaning report") if clean_report else None,
+        mdm=_read_mdm(mdm) if mdm else None,
+        stitch=_read_json(stitch, "stitch result") if stitch else None,
+        graph=_read_json(graph, "motion graph") if graph else None,
+        graph_dir=Path(graph).parent if graph else None,
+    )
+
+
+@main.command("view")
+@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option(
+    "--clean-report",
+    type=click.Path(dir_okay=False),
+    help="Cleaning REPORT.json (mocapkit clean --report): flagged segments on the timeline.",
+)
+@click.option(
+    "--mdm",
+    type=click.Path(dir_okay=False),
+    help="MDM.npy (mocapkit clean --mdm): joints coloured by it, heat map under the player.",
+)
+@click.option(
+    "--stitch",
+    "stitch_json",
+    type=click.Path(dir_okay=False),
+    help="Stitch RESULT.json (mocapkit stitch --json): take-off/injected/landing frames, L_k(k).",
+)
+@click.option(
+    "--graph",
+    "graph_json",
+    type=click.Path(dir_okay=False),
+    help="Motion graph GRAPH.json: the transitions a synthesised FILE took, with their costs.",
+)
+@click.option(
+    "--out",
+    "out_path",
+    type=click.Path(dir_okay=False),
+    help="The HTML page to write (default: FILE's name with .html, beside it).",
+)
+@click.option("--open", "open_page", is_flag=True, help="Open the page in the web browser.")
+@click.option("--up", help="Up axis (Y, Z, -Y, ...; default: detected from the first FILE).")
+@click.option(
+    "--units",
+    type=click.Choice(["m", "cm", "mm", "inch"]),
+    help="Length unit of the files (default: detected from the first FILE).",
+)
+@LENIENT
+@friendly_errors
+def view_cmd(
+    files: tuple[str, ...],
+    clean_report: str | None,
+    mdm: str | None,
+    stitch_json: str | None,
+    graph_json: str | None,
+    out_path: str | None,
+    open_page: bool,
+    up: str | None,
+    units: str | None,
+    lenient: bool,
+) -> None:
+    """Write a self-contained HTML viewer (works offline) for one or more motions.
+
+    Several FILEs are overlaid (two) or side by side (three or more; a checkbox switches).
+    The page: orbit/zoom camera, play/pause, frame scrubber, speed, loop, frame and time
+    readout, ground grid in metres on the skeleton's up axis; with overlays, a timeline under
+    the player (click it to jump).
+
+    \b
+    Examples:
+      mocapkit view walk.bvh
+      mocapkit view take.bvh fixed.bvh --clean-report report.json --mdm mdm.npy --out v.html
+      mocapkit view stitched.bvh --stitch best.json --open
+      mocapkit view synth.bvh --graph graph.json
+    """
+    out = Path(out_path) if out_path else Path(files[0]).with_suffix(".html")
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise CLIError(f"--out must end in .html, got {out}")
+    page = view_files(
+        list(files), out, clean_report, mdm, stitch_json, graph_json, lenient, up, units
+    )
+    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
+    if open_page:
+        webbrowser.open(page.resolve().as_uri())
+
+
+# ------------------------------------------------------------------------------------ demo
+def view_demo_step(out: Path) -> None:
+    """A viewer page for each example the earlier demo steps wrote (missing ones skipped)."""
+    examples: list[tuple[str, list[str], dict[str, str]]] = [
+        ("view_humanoid_walk.html", ["humanoid_walk.bvh"], {}),
+        (
+            "view_cleaning.html",
+            ["humanoid_walk_corrupted.bvh", "humanoid_walk_repaired.bvh"],
+            {"clean_report": "humanoid_walk_clean_report.json", "mdm": "humanoid_walk_mdm.npy"},
+        ),
+        (
+            "view_stitch.html",
+            ["stitch_walk_idle.bvh"],
+            {"stitch": "stitch_walk_idle.json"},
+        ),
+        ("view_graph.html", ["graph_random_walk.bvh"], {"graph": "humanoid_graph.json"}),
+    ]
+    wrote = 0
+    for name, files, overlays in examples:
+        missing = [f for f in files if not (out / f).exists()]
+        if missing:
+            click.echo(f"  skipped {name}: {', '.join(missing)} not in {out}")
+            continue
+        kw = {k: str(out / v) for k, v in overlays.items() if (out / v).exists()}
+        lost = sorted(set(overlays) - set(kw))
+        try:
+            page = view_files([str(out / f) for f in files], out / name, **kw)
+        except (CLIError, ValueError, OSError) as e:
+            click.echo(f"  skipped {name}: {getattr(e, 'message', e)}")
+            continue
+        note = f" (without {', '.join(lost)}: not found)" if lost else ""
+        click.echo(f"  wrote {page}{note}")
+        wrote += 1
+    click.echo(f"  {wrote} viewer page(s); open them in any web browser (they work offline)")
+
+
+DEMO_STEPS.append((90, "viewer: an offline HTML page for each example", view_demo_step))

@@ -1,0 +1,512 @@
+/* mocapkit viewer: three.js skeleton player with cleaning / stitch / motion-graph overlays.
+ * Data: the JSON in <script id="mocapkit-data"> (see mocapkit/viz/viewer.py).
+ * Test hook: window.mocapkitViewer (frame, play(), pause(), seek(f), jointColor(m, j), ...). */
+(function () {
+  'use strict';
+  var D = JSON.parse(document.getElementById('mocapkit-data').textContent);
+  var $ = function (id) { return document.getElementById(id); };
+
+  function b64bytes(s) {
+    var bin = atob(s), n = bin.length, out = new Uint8Array(n);
+    for (var i = 0; i < n; i++) out[i] = bin.charCodeAt(i);
+    return out;
+  }
+  function hexRgb(h) {
+    var c = new THREE.Color(h);
+    return [c.r, c.g, c.b];
+  }
+  function ramp(v) { // MDM colour: blue (0) -> yellow (0.5) -> red (1)
+    v = Math.max(0, Math.min(1, v));
+    if (v < 0.5) { var t = v * 2; return [0.19 + 0.81 * t, 0.38 + 0.54 * t, 1.0 - 0.8 * t]; }
+    var u = (v - 0.5) * 2;
+    return [1.0, 0.92 - 0.82 * u, 0.2 - 0.2 * u];
+  }
+
+  // ---------------------------------------------------------------- motions
+  var motions = D.motions.map(function (m) {
+    var q = new Uint16Array(b64bytes(m.pos).buffer);
+    var n = m.names.length, P = new Float32Array(q.length);
+    for (var i = 0; i < q.length; i += 3) {
+      P[i] = m.lo[0] + q[i] * m.step[0];
+      P[i + 1] = m.lo[1] + q[i + 1] * m.step[1];
+      P[i + 2] = m.lo[2] + q[i + 2] * m.step[2];
+    }
+    var bones = [];
+    for (var j = 0; j < n; j++) if (m.parents[j] >= 0) bones.push([m.parents[j], j]);
+    return { meta: m, P: P, n: n, bones: bones, rgb: hexRgb(m.color), frame: 0 };
+  });
+  var fps = motions[0].meta.fps;
+  var duration = Math.max.apply(null, motions.map(function (m) { return m.meta.frames / m.meta.fps; }));
+  var nFrames = Math.max(1, Math.round(duration * fps));
+  var clean = D.clean, stitch = D.stitch, graph = D.graph;
+  var mdm = null;
+  if (clean && clean.mdm) mdm = b64bytes(clean.mdm);
+
+  // ---------------------------------------------------------------- scene
+  var stage = $('stage');
+  // software WebGL (SwiftShader: headless, no GPU) cannot afford multisampling at 30+ fps
+  var software = (function () {
+    try {
+      var gl = document.createElement('canvas').getContext('webgl');
+      var ext = gl && gl.getExtension('WEBGL_debug_renderer_info');
+      var name = ext ? String(gl.getParameter(ext.UNMASKED_RENDERER_WEBGL)) : '';
+      var lose = gl && gl.getExtension('WEBGL_lose_context');
+      if (lose) lose.loseContext();
+      return /swiftshader|llvmpipe|software/i.test(name);
+    } catch (e) { return false; }
+  })();
+  var renderer = new THREE.WebGLRenderer({ antialias: !software });
+  renderer.setPixelRatio(software ? 1 : (window.devicePixelRatio || 1));
+  renderer.setClearColor(0x1d1f27, 1);
+  stage.appendChild(renderer.domElement);
+  var scene = new THREE.Scene();
+  var camera = new THREE.PerspectiveCamera(45, 1, 0.01, 2000);
+  var controls = new THREE.OrbitControls(camera, renderer.domElement);
+  controls.enableDamping = false;
+
+  var groundY = Math.min.apply(null, motions.map(function (m) { return m.meta.ground; }));
+  var charH = Math.max(0.1, Math.max.apply(null, motions.map(function (m) { return m.meta.height; })));
+  var width = Math.max(0.3, Math.max.apply(null, motions.map(function (m) { return m.meta.width; })));
+  // grid in metres: 1 m cells (0.1 m for small characters), big enough for the whole take
+  var ext = 0;
+  motions.forEach(function (m) {
+    for (var a = 0; a < 3; a += 2) {
+      var lo = m.meta.lo[a], hi = lo + m.meta.step[a] * 65535;
+      ext = Math.max(ext, Math.abs(lo), Math.abs(hi));
+    }
+  });
+  var cell = charH < 0.5 ? 0.1 : 1.0;
+  // at most 40 x 40 cells; the grid moves with the camera target in whole cells
+  var half = Math.min(20 * cell, Math.max(5 * cell, Math.ceil((ext + 2 * charH) / cell) * cell));
+  // the grid as one segment per cell edge: a long line crossing the camera plane is dropped
+  // whole by some software rasterisers (SwiftShader), a short one only when behind the camera
+  var grid = (function () {
+    var n = Math.round(2 * half / cell), v = [], c = [], major = [0.33, 0.35, 0.42], minor = [0.2, 0.21, 0.25];
+    for (var i = 0; i <= n; i++) {
+      var a = -half + i * cell, col = (i % 5 === n / 2 % 5) ? major : minor;
+      for (var k = 0; k < n; k++) {
+        var b0 = -half + k * cell, b1 = b0 + cell;
+        v.push(a, 0, b0, a, 0, b1, b0, 0, a, b1, 0, a);
+        for (var r = 0; r < 4; r++) c.push(col[0], col[1], col[2]);
+      }
+    }
+    var geo = new THREE.BufferGeometry();
+    geo.setAttribute('position', new THREE.Float32BufferAttribute(v, 3));
+    geo.setAttribute('color', new THREE.Float32BufferAttribute(c, 3));
+    return new THREE.LineSegments(geo, new THREE.LineBasicMaterial({ vertexColors: true }));
+  })();
+  grid.position.y = groundY;
+  scene.add(grid);
+  var axes = new THREE.AxesHelper(Math.min(0.5, cell));
+  axes.position.y = groundY + 0.001;
+  scene.add(axes);
+
+  var sideBySide = motions.length > 2;
+  $('side').checked = sideBySide;
+  motions.forEach(function (m, i) {
+    var g = new THREE.Group();
+    var lineBuf = new Float32Array(m.bones.length * 6);
+    var lg = new THREE.BufferGeometry();
+    lg.setAttribute('position', new THREE.BufferAttribute(lineBuf, 3));
+    var lmat = new THREE.LineBasicMaterial({ color: m.meta.color });
+    var lines = new THREE.LineSegments(lg, lmat);
+    lines.frustumCulled = false;
+    var ptBuf = new Float32Array(m.n * 3), colBuf = new Float32Array(m.n * 3);
+    for (var j = 0; j < m.n; j++) colBuf.set(m.rgb, 3 * j);
+    var pg = new THREE.BufferGeometry();
+    pg.setAttribute('position', new THREE.BufferAttribute(ptBuf, 3));
+    pg.setAttribute('color', new THREE.BufferAttribute(colBuf, 3));
+    var pmat = new THREE.PointsMaterial({ size: 7, sizeAttenuation: false, vertexColors: true });
+    var pts = new THREE.Points(pg, pmat);
+    pts.frustumCulled = false;
+    // the first motion (the analysed one, with MDM colours) is drawn last, i.e. on top
+    lines.renderOrder = 2 * (motions.length - i); pts.renderOrder = 2 * (motions.length - i) + 1;
+    g.add(lines); g.add(pts);
+    scene.add(g);
+    m.group = g; m.lineBuf = lineBuf; m.lg = lg; m.lmat = lmat; m.ptBuf = ptBuf; m.colBuf = colBuf; m.pg = pg;
+    m.index = i;
+  });
+  var selJoint = null; // {m, j}
+  var selGeom = new THREE.BufferGeometry();
+  selGeom.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3), 3));
+  var selPts = new THREE.Points(selGeom, new THREE.PointsMaterial({ size: 16, sizeAttenuation: false, color: 0xffffff, transparent: true, opacity: 0.55 }));
+  selPts.visible = false; selPts.frustumCulled = false;
+  scene.add(selPts);
+
+  function layout() {
+    motions.forEach(function (m, i) {
+      m.group.position.x = sideBySide ? (i - (motions.length - 1) / 2) * (width + 0.6 * charH) : 0;
+    });
+  }
+  layout();
+
+  // ---------------------------------------------------------------- state
+  var frame = 0, playing = false, loop = true, speed = 1, tPlay = 0, lastNow = null;
+  var follow = true, lastCentre = null;
+  var GEN_RGB = hexRgb('#ffeb3b');
+
+  function motionFrame(m, f) {
+    var t = f / fps;
+    return Math.max(0, Math.min(m.meta.frames - 1, Math.round(t * m.meta.fps)));
+  }
+  function mdmAt(f, j) {
+    if (!mdm || j >= clean.joints) return 0;
+    f = Math.max(0, Math.min(clean.frames - 1, f));
+    return mdm[f * clean.joints + j] / 255;
+  }
+  function centre() {
+    var m = motions[0], f = m.frame, P = m.P, o = f * m.n * 3;
+    return new THREE.Vector3(P[o] + m.group.position.x, P[o + 1], P[o + 2]);
+  }
+
+  function updatePose() {
+    motions.forEach(function (m) {
+      var f = motionFrame(m, frame); m.frame = f;
+      var P = m.P, o = f * m.n * 3, L = m.lineBuf, b;
+      for (var k = 0; k < m.bones.length; k++) {
+        var p = o + 3 * m.bones[k][0], c = o + 3 * m.bones[k][1]; b = 6 * k;
+        L[b] = P[p]; L[b + 1] = P[p + 1]; L[b + 2] = P[p + 2];
+        L[b + 3] = P[c]; L[b + 4] = P[c + 1]; L[b + 5] = P[c + 2];
+      }
+      m.lg.attributes.position.needsUpdate = true;
+      m.ptBuf.set(P.subarray(o, o + m.n * 3));
+      m.pg.attributes.position.needsUpdate = true;
+      var injected = stitch && stitch.motion === m.index && f >= stitch.generated[0] && f < stitch.generated[1];
+      m.lmat.color.setRGB.apply(m.lmat.color, injected ? GEN_RGB : m.rgb);
+      var C = m.colBuf;
+      if (mdm && clean.motion === m.index) {
+        for (var j = 0; j < m.n; j++) C.set(j < m.meta.numJoints ? ramp(mdmAt(f, j)) : m.rgb, 3 * j);
+      } else {
+        for (var j2 = 0; j2 < m.n; j2++) C.set(injected ? GEN_RGB : m.rgb, 3 * j2);
+      }
+      m.pg.attributes.color.needsUpdate = true;
+    });
+    if (selJoint) {
+      var sm = motions[selJoint.m], so = (sm.frame * sm.n + selJoint.j) * 3;
+      var sp = selGeom.attributes.position.array;
+      sp[0] = sm.P[so] + sm.group.position.x; sp[1] = sm.P[so + 1]; sp[2] = sm.P[so + 2];
+      selGeom.attributes.position.needsUpdate = true;
+    }
+    if (follow) {
+      var c = centre();
+      if (lastCentre) {
+        var d = c.clone().sub(lastCentre); d.y = 0;
+        camera.position.add(d); controls.target.add(d);
+      }
+      lastCentre = c;
+    }
+  }
+
+  function readout() {
+    var t = frame / fps;
+    var el = $('readout');
+    el.textContent = 'frame ' + frame + ' / ' + (nFrames - 1) + ' \u00b7 ' + t.toFixed(3) + ' s';
+    el.setAttribute('data-frame', String(frame));
+    $('scrubber').value = String(frame);
+  }
+
+  function setFrame(f) {
+    f = Math.max(0, Math.min(nFrames - 1, Math.floor(f)));
+    frame = f;
+    updatePose();
+    readout();
+  }
+
+  function seek(f) { setFrame(f); tPlay = frame / fps; drawTimeline(); }
+  function play() {
+    if (frame >= nFrames - 1 && !loop) seek(0);
+    playing = true; lastNow = null; $('play').innerHTML = '&#10074;&#10074;';
+  }
+  function pause() { playing = false; $('play').innerHTML = '&#9654;'; }
+
+  // ---------------------------------------------------------------- camera
+  function fitCamera() {
+    var box = new THREE.Box3();
+    motions.forEach(function (m) {
+      var o = m.frame * m.n * 3;
+      for (var j = 0; j < m.n; j++) {
+        box.expandByPoint(new THREE.Vector3(m.P[o + 3 * j] + m.group.position.x, m.P[o + 3 * j + 1], m.P[o + 3 * j + 2]));
+      }
+    });
+    var c = box.getCenter(new THREE.Vector3()), s = box.getSize(new THREE.Vector3());
+    var r = Math.max(s.x, s.y, s.z, 0.5);
+    controls.target.copy(c);
+    camera.position.set(c.x + 0.9 * r, c.y + 0.5 * r, c.z + 1.9 * r);
+    camera.near = r / 100; camera.far = Math.max(100, half * 8);
+    camera.updateProjectionMatrix();
+    controls.update();
+    lastCentre = centre();
+  }
+  function resize() {
+    var w = stage.clientWidth || 800, h = stage.clientHeight || 450;
+    renderer.setSize(w, h, false);
+    renderer.domElement.style.width = w + 'px'; renderer.domElement.style.height = h + 'px';
+    camera.aspect = w / h; camera.updateProjectionMatrix();
+    sizeTimeline();
+  }
+
+  // ---------------------------------------------------------------- timeline
+  var tl = $('timeline'), tctx = tl.getContext('2d');
+  var BAND = 22; // marker band height (css px)
+  var heat = null; // offscreen canvas: MDM, one column per frame (scaled when drawn)
+  var rowH = 0, nRows = 0;
+  if (mdm) {
+    nRows = clean.joints;
+    rowH = Math.max(2, Math.min(8, Math.floor(260 / nRows)));
+    var cols = Math.min(clean.frames, 4096), step = clean.frames / cols;
+    heat = document.createElement('canvas'); heat.width = cols; heat.height = nRows;
+    var hctx = heat.getContext('2d'), img = hctx.createImageData(cols, nRows);
+    for (var x = 0; x < cols; x++) {
+      var f0 = Math.floor(x * step), f1 = Math.max(f0 + 1, Math.floor((x + 1) * step));
+      for (var j = 0; j < nRows; j++) {
+        var v = 0;
+        for (var f = f0; f < f1; f++) v = Math.max(v, mdm[f * nRows + j]);
+        var rgb = ramp(v / 255), o = 4 * (j * cols + x);
+        img.data[o] = 255 * rgb[0]; img.data[o + 1] = 255 * rgb[1]; img.data[o + 2] = 255 * rgb[2]; img.data[o + 3] = 255;
+      }
+    }
+    hctx.putImageData(img, 0, 0);
+  }
+  function tlHeight() { return BAND + (heat ? nRows * rowH : 18); }
+  function sizeTimeline() {
+    var w = tl.parentNode.clientWidth || 800, dpr = window.devicePixelRatio || 1;
+    tl.style.height = tlHeight() + 'px';
+    tl.width = Math.round(w * dpr); tl.height = Math.round(tlHeight() * dpr);
+    tctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    drawTimeline();
+  }
+  function fx(f, w) { return (f / Math.max(1, nFrames - 1)) * (w - 1); }
+  function mfx(mi, f, w) { // a frame of motion mi on the timeline
+    return fx(f / motions[mi].meta.fps * fps, w);
+  }
+  function drawTimeline() {
+    var w = tl.clientWidth || 800, h = tlHeight();
+    tctx.clearRect(0, 0, w, h);
+    tctx.fillStyle = '#262833'; tctx.fillRect(0, 0, w, BAND);
+    if (heat) {
+      tctx.imageSmoothingEnabled = false;
+      var x1 = mfx(clean.motion, clean.frames - 1, w) + 1;
+      tctx.drawImage(heat, 0, BAND, x1, nRows * rowH);
+      tctx.strokeStyle = '#ffffff'; tctx.lineWidth = 1;
+      clean.segments.forEach(function (s) {
+        var a = mfx(clean.motion, s.start, w), b = mfx(clean.motion, s.end + 1, w);
+        tctx.strokeRect(a - 0.5, BAND + s.joint * rowH - 0.5, Math.max(2, b - a) + 1, rowH + 1);
+      });
+      if (selJoint && selJoint.m === clean.motion) {
+        tctx.fillStyle = 'rgba(255,255,255,0.25)';
+        tctx.fillRect(0, BAND + selJoint.j * rowH, w, rowH);
+      }
+    } else {
+      tctx.fillStyle = '#30323d'; tctx.fillRect(0, BAND + 4, w, 10);
+      if (clean) { // a report without its MDM: the flagged segments as red bars
+        tctx.fillStyle = '#e53935';
+        clean.segments.forEach(function (s) {
+          var a = mfx(clean.motion, s.start, w), b = mfx(clean.motion, s.end + 1, w);
+          tctx.fillRect(a, BAND + 4, Math.max(2, b - a), 10);
+        });
+      }
+    }
+    if (stitch) {
+      var mi = stitch.motion;
+      var g0 = mfx(mi, stitch.generated[0], w), g1 = mfx(mi, stitch.generated[1], w);
+      tctx.fillStyle = 'rgba(255,235,59,0.45)'; tctx.fillRect(g0, 0, Math.max(2, g1 - g0), h);
+      mark(mfx(mi, stitch.takeoff, w), '#4fc3f7', 'take-off');
+      mark(mfx(mi, stitch.landing, w), '#81c784', 'landing');
+    }
+    if (graph) {
+      graph.transitions.forEach(function (t) {
+        var a = mfx(graph.motion, t.frame, w), b = mfx(graph.motion, t.end, w);
+        tctx.fillStyle = 'rgba(255,138,101,0.35)'; tctx.fillRect(a, 0, Math.max(2, b - a), h);
+        tctx.fillStyle = '#ff8a65';
+        tctx.beginPath(); tctx.moveTo(a - 5, 0); tctx.lineTo(a + 5, 0); tctx.lineTo(a, 9); tctx.fill();
+        if (t.cost !== null) {
+          tctx.font = '10px sans-serif'; tctx.fillText(t.cost.toFixed(2), a + 4, 19);
+        }
+      });
+    }
+    moveCursor();
+  }
+  var cursor = $('tl-cursor');
+  function moveCursor() { // a positioned div: moving it costs no canvas redraw
+    var w = tl.clientWidth || 800;
+    cursor.style.height = tlHeight() + 'px';
+    cursor.style.transform = 'translateX(' + (fx(frame, w) - 1).toFixed(1) + 'px)';
+  }
+  function mark(x, color, label) {
+    tctx.fillStyle = color; tctx.fillRect(x - 1, 0, 2, tlHeight());
+    tctx.font = '10px sans-serif'; tctx.fillText(label, x + 3, 10);
+  }
+  function tlHit(ev) {
+    var r = tl.getBoundingClientRect(), x = ev.clientX - r.left, y = ev.clientY - r.top;
+    var f = Math.round(x / Math.max(1, r.width - 1) * (nFrames - 1));
+    var j = null;
+    if (heat && y >= BAND) j = Math.min(nRows - 1, Math.floor((y - BAND) / rowH));
+    return { frame: Math.max(0, Math.min(nFrames - 1, f)), joint: j };
+  }
+  tl.addEventListener('click', function (ev) {
+    var h = tlHit(ev);
+    pause();
+    if (h.joint !== null) selectJoint(clean.motion, h.joint);
+    seek(h.frame);
+  });
+  tl.addEventListener('mousemove', function (ev) {
+    var h = tlHit(ev), s = 'frame ' + h.frame;
+    if (h.joint !== null) {
+      var mi = clean.motion, mf = motionFrame(motions[mi], h.frame);
+      s += ' \u00b7 ' + motions[mi].meta.names[h.joint] + ' \u00b7 MDM ' + mdmAt(mf, h.joint).toFixed(2);
+    }
+    var w = tl.clientWidth || 800, x = fx(h.frame, w);
+    if (graph) {
+      graph.transitions.forEach(function (t) {
+        if (Math.abs(mfx(graph.motion, t.frame, w) - x) <= 4) {
+          s += ' \u00b7 transition ' + t.src_name + ' @' + t.src_frame + ' \u2192 ' + t.dst_name + ' @' + t.dst_frame +
+            (t.cost !== null ? ', cost ' + t.cost.toFixed(3) : '');
+        }
+      });
+    }
+    if (stitch) {
+      var mi2 = stitch.motion, mf2 = motionFrame(motions[mi2], h.frame);
+      if (mf2 === stitch.takeoff) s += ' \u00b7 take-off';
+      else if (mf2 >= stitch.generated[0] && mf2 < stitch.generated[1]) s += ' \u00b7 injected frame ' + (mf2 - stitch.generated[0] + 1) + ' of ' + (stitch.generated[1] - stitch.generated[0]);
+      else if (mf2 === stitch.landing) s += ' \u00b7 landing (data frame ' + stitch.landingData + ')';
+    }
+    $('hover-info').textContent = s;
+  });
+  function selectJoint(mi, j) {
+    selJoint = { m: mi, j: j };
+    selPts.visible = true;
+    var name = motions[mi].meta.names[j];
+    $('hover-info').textContent = 'selected ' + name;
+    $('info-sel').textContent = 'selected joint: ' + name;
+    updatePose();
+  }
+
+  // ---------------------------------------------------------------- side panel
+  function info(text, id) {
+    var d = document.createElement('div'); d.textContent = text; if (id) d.id = id;
+    $('info').appendChild(d); return d;
+  }
+  $('title').textContent = D.title;
+  function base(p) { return String(p).split(/[\\/]/).pop(); }
+  motions.forEach(function (m) {
+    var s = document.createElement('span'); s.className = 'sw'; s.style.background = m.meta.color;
+    $('legend').appendChild(s);
+    $('legend').appendChild(document.createTextNode(base(m.meta.name) + ' (' + m.meta.frames + ' frames, ' + m.meta.fps.toFixed(3).replace(/\.?0+$/, '') + ' fps, ' + m.meta.numJoints + ' joints)'));
+  });
+  info('up axis ' + D.up + ' \u00b7 units ' + D.units + ' (grid ' + (cell === 1 ? '1 m' : '10 cm') + ' cells)');
+  info('', 'info-sel');
+  if (clean) {
+    info('cleaning: ' + clean.segments.length + ' flagged segment(s)' + (clean.threshold != null ? ', threshold ' + clean.threshold : '') +
+      (clean.repairedCells != null ? ', ' + clean.repairedCells + ' repaired cells' : '') + '; joints of ' + base(motions[clean.motion].meta.name) + ' coloured by MDM (blue 0 \u2192 red 1)');
+  }
+  if (stitch) {
+    info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
+      ' (k = ' + stitch.k + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
+    if (stitch.lscoreByK.length) { $('lk-wrap').hidden = false; drawLk(); }
+  }
+  if (graph) {
+    info('motion graph: ' + graph.transitions.length + ' transition(s) taken by ' + motions[graph.motion].meta.name +
+      ' (of ' + graph.numTransitions + ' in the graph)' + (graph.missingClips.length ? '; clips not found: ' + graph.missingClips.join(', ') : ''));
+    graph.transitions.forEach(function (t) {
+      var d = document.createElement('div');
+      d.textContent = 'frame ' + t.frame + ': ' + t.src_name + ' @' + t.src_frame + ' \u2192 ' + t.dst_name + ' @' + t.dst_frame +
+        (t.cost !== null ? ' (cost ' + t.cost.toFixed(3) + ')' : ' (no matching graph transition)');
+      d.addEventListener('click', function () { pause(); seek(t.frame / motions[graph.motion].meta.fps * fps); });
+      $('transitions').appendChild(d);
+    });
+  }
+  function drawLk() {
+    var c = $('lk'), x = c.getContext('2d'), L = stitch.lscoreByK, W = c.width, H = c.height;
+    var pad = 28, finite = L.filter(isFinite), lo = Math.min.apply(null, finite), hi = Math.max.apply(null, finite);
+    if (!(hi > lo)) { hi = lo + 1; }
+    x.clearRect(0, 0, W, H);
+    x.strokeStyle = '#667'; x.strokeRect(pad, 6, W - pad - 6, H - pad - 6);
+    var px = function (k) { return pad + (k / Math.max(1, L.length - 1)) * (W - pad - 8); };
+    var py = function (v) { return 6 + (1 - (v - lo) / (hi - lo)) * (H - pad - 8); };
+    x.strokeStyle = '#4fc3f7'; x.lineWidth = 1.5; x.beginPath();
+    var started = false;
+    L.forEach(function (v, k) { if (!isFinite(v)) return; if (!started) { x.moveTo(px(k), py(v)); started = true; } else x.lineTo(px(k), py(v)); });
+    x.stroke();
+    if (stitch.k < L.length && isFinite(L[stitch.k])) {
+      x.fillStyle = '#ffeb3b'; x.beginPath(); x.arc(px(stitch.k), py(L[stitch.k]), 4, 0, 7); x.fill();
+    }
+    x.fillStyle = '#aab'; x.font = '10px sans-serif';
+    x.fillText('k = 0', pad, H - 10); x.fillText(String(L.length - 1), W - 22, H - 10);
+    x.fillText('k* = ' + stitch.k, px(stitch.k) + 6, 18);
+    x.fillText(hi.toPrecision(3), 0, 14); x.fillText(lo.toPrecision(3), 0, H - pad);
+  }
+
+  // ---------------------------------------------------------------- controls
+  var scr = $('scrubber');
+  scr.max = String(nFrames - 1);
+  scr.addEventListener('input', function () { pause(); seek(+scr.value); });
+  $('play').addEventListener('click', function () { if (playing) pause(); else play(); });
+  $('speed').addEventListener('change', function () { speed = +$('speed').value; });
+  $('loop').addEventListener('change', function () { loop = $('loop').checked; });
+  $('follow').addEventListener('change', function () { follow = $('follow').checked; lastCentre = centre(); });
+  $('side').addEventListener('change', function () { sideBySide = $('side').checked; layout(); updatePose(); fitCamera(); });
+  window.addEventListener('keydown', function (ev) {
+    if (ev.target && ev.target.tagName === 'INPUT' && ev.target.type !== 'checkbox') return;
+    if (ev.code === 'Space') { ev.preventDefault(); if (playing) pause(); else play(); }
+    else if (ev.code === 'ArrowRight') { pause(); seek(frame + 1); }
+    else if (ev.code === 'ArrowLeft') { pause(); seek(frame - 1); }
+  });
+  window.addEventListener('resize', resize);
+
+  // ---------------------------------------------------------------- loop
+  var stats = { t0: null, n: 0, last: null, worst: 0 };
+  function tick(now) {
+    requestAnimationFrame(tick);
+    if (stats.t0 === null) stats.t0 = now;
+    else { stats.n++; stats.worst = Math.max(stats.worst, now - stats.last); }
+    stats.last = now;
+    if (playing) {
+      if (lastNow !== null) tPlay += (now - lastNow) / 1000 * speed;
+      lastNow = now;
+      var f = Math.floor(tPlay * fps + 1e-6);
+      if (f >= nFrames) {
+        if (loop) { tPlay = tPlay % (nFrames / fps); f = Math.floor(tPlay * fps + 1e-6) % nFrames; }
+        else { f = nFrames - 1; pause(); }
+      }
+      if (f !== frame) { setFrame(f); moveCursor(); }
+    }
+    controls.update();
+    grid.position.x = Math.round(controls.target.x / cell) * cell;
+    grid.position.z = Math.round(controls.target.z / cell) * cell;
+    renderer.render(scene, camera);
+  }
+
+  setFrame(0);
+  resize();
+  fitCamera();
+  requestAnimationFrame(tick);
+
+  window.mocapkitViewer = {
+    get frame() { return frame; },
+    get playing() { return playing; },
+    nFrames: nFrames,
+    fps: fps,
+    data: D,
+    play: play,
+    pause: pause,
+    seek: seek,
+    setSpeed: function (s) { speed = s; },
+    selectJoint: selectJoint,
+    groupX: function (mi) { return motions[mi].group.position.x; },
+    jointColor: function (mi, j) { var C = motions[mi].colBuf; return [C[3 * j], C[3 * j + 1], C[3 * j + 2]]; },
+    boneColor: function (mi) { var c = motions[mi].lmat.color; return [c.r, c.g, c.b]; },
+    timelinePoint: function (f, j) { // client coordinates of (frame, joint) on the timeline
+      var r = tl.getBoundingClientRect();
+      return { x: r.left + fx(f, r.width), y: r.top + (j === null || j === undefined ? BAND / 2 : BAND + (j + 0.5) * rowH) };
+    },
+    fpsStats: function () {
+      var el = stats.last - stats.t0;
+      return { fps: el > 0 ? stats.n / el * 1000 : 0, frames: stats.n, ms: el, worstMs: stats.worst };
+    },
+    resetStats: function () { stats = { t0: null, n: 0, last: null, worst: 0 }; },
+    errors: window.__mkErrors,
+    three: { scene: scene, camera: camera, renderer: renderer, grid: grid },
+    ready: true
+  };
+  document.body.setAttribute('data-ready', '1');
+})();

@@ -1,0 +1,434 @@
+"""Build the self-contained HTML viewer page (three.js player + overlays, all inlined).
+
+The page needs no server and no network: three.js (vendored, MIT, see ``static/README``), the
+viewer script and style, and every motion's joint positions are written into one HTML file.
+
+Positions are computed here by forward kinematics (End Sites included), turned to three.js'
+Y-up frame from the detected (or given) up axis, scaled to metres, and stored per motion as
+uint16 quantised to the motion's bounding box (base64; < 0.2 mm error for a 10 m box).
+Overlays (cleaning report + MDM, stitch result, motion graph transitions) are JSON.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocapkit.core.kinematics import end_site_positions, forward_kinematics
+from mocapkit.core.motion import Motion
+
+__all__ = [
+    "PALETTE",
+    "ViewMotion",
+    "build_page",
+    "graph_overlay",
+    "match_graph_transitions",
+    "page_data",
+    "to_y_up",
+    "write_page",
+]
+
+PALETTE = ("#4fc3f7", "#ff8a65", "#81c784", "#ba68c8", "#ffd54f", "#e57373")
+"""Motion colours, in order (first motion light blue, second orange, ...)."""
+
+_STATIC = ("three.min.js", "OrbitControls.js", "viewer.js", "viewer.css", "template.html")
+
+
+@dataclass
+class ViewMotion:
+    """One motion to show: the motion, a label and (optional) colour."""
+
+    motion: Motion
+    name: str
+    color: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _static(name: str) -> str:
+    return (
+        resources.files("mocapkit.viz")
+        .joinpath("static")
+        .joinpath(name)
+        .read_text(encoding="utf-8")
+    )
+
+
+def to_y_up(points: np.ndarray, up: str) -> np.ndarray:
+    """Rotate (..., 3) points so that the axis ``up`` ("Y", "Z", "-X", ...) becomes +Y."""
+    p = np.asarray(points, dtype=np.float64)
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    up = up.strip().upper()
+    maps = {
+        "Y": (x, y, z),
+        "-Y": (x, -y, -z),
+        "Z": (x, z, -y),
+        "-Z": (x, -z, y),
+        "X": (-y, x, z),
+        "-X": (y, -x, z),
+    }
+    if up not in maps:
+        raise ValueError(f"unknown up axis {up!r}; expected X, Y, Z or their negations")
+    return np.stack(maps[up], axis=-1)
+
+
+def _b64(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
+
+
+def _motion_record(vm: ViewMotion, color: str, up: str, mpu: float) -> dict[str, Any]:
+    m = vm.motion
+    sk = m.skeleton
+    if m.num_frames == 0:
+        raise ValueError(f"{vm.name}: the motion has no frames")
+    gpos, grot = forward_kinematics(m)
+    ends = end_site_positions(sk, gpos, grot)
+    pos = np.concatenate([gpos, ends], axis=1) if ends.shape[1] else gpos
+    pos = to_y_up(pos, up) * mpu
+    bad = ~np.isfinite(pos)
+    if bad.any():  # keep the page finite: a NaN joint is drawn at the origin
+        pos = np.where(bad, 0.0, pos)
+    lo = pos.reshape(-1, 3).min(axis=0)
+    hi = pos.reshape(-1, 3).max(axis=0)
+    step = np.maximum(hi - lo, 1e-9) / 65535.0
+    q = np.clip(np.rint((pos - lo) / step), 0, 65535).astype("<u2")
+    names = list(sk.names)
+    parents = [int(p) for p in sk.parents]
+    for e, p in enumerate(sk.end_site_parents):
+        label = sk.end_site_names[e] if e < len(sk.end_site_names) else ""
+        names.append(f"{names[int(p)]} End" + (f" ({label})" if label else ""))
+        parents.append(int(p))
+    ground = pos[..., 1].min(axis=1)
+    heights = pos[..., 1].max(axis=1) - ground
+    horiz = np.ptp(pos[..., [0, 2]], axis=1).max(axis=1)
+    return {
+        "name": vm.name,
+        "color": color,
+        "frames": int(m.num_frames),
+        "fps": float(m.fps),
+        "numJoints": int(sk.num_joints),
+        "names": names,
+        "parents": parents,
+        "lo": [float(v) for v in lo],
+        "step": [float(v) for v in step],
+        "pos": _b64(q),
+        "ground": float(np.percentile(ground, 2)),
+        "height": float(np.median(heights)),
+        "width": float(np.median(horiz)),
+        **vm.extra,
+    }
+
+
+def _match_motion(motions: Sequence[ViewMotion], path: str | None, frames: int | None) -> int:
+    """Index of the motion an overlay belongs to: by file name, else by frame count, else 0."""
+    if path:
+        stem = Path(str(path)).name
+        for i, vm in enumerate(motions):
+            if Path(vm.name).name == stem:
+                return i
+        stem = Path(str(path)).stem
+        for i, vm in enumerate(motions):
+            if Path(vm.name).stem == stem:
+                return i
+    if frames is not None:
+        for i, vm in enumerate(motions):
+            if vm.motion.num_frames == frames:
+                return i
+    return 0
+
+
+def clean_overlay(
+    motions: Sequence[ViewMotion], report: dict[str, Any] | None, mdm: np.ndarray | None
+) -> dict[str, Any] | None:
+    """The cleaning overlay: MDM (frames x joints, quantised to uint8) and flagged segments."""
+    if report is None and mdm is None:
+        return None
+    report = report or {}
+    segs = list(report.get("segments") or [])
+    frames = None if mdm is None else int(np.asarray(mdm).shape[0])
+    if frames is None:
+        frames = report.get("frames")
+    idx = _match_motion(motions, report.get("input"), frames)
+    m = motions[idx].motion
+    names = list(m.skeleton.names)
+    out_segs = []
+    for s in segs:
+        j = s.get("joint_index")
+        if j is None and s.get("joint") in names:
+            j = names.index(s["joint"])
+        if j is None:
+            continue
+        out_segs.append(
+            {
+                "joint": int(j),
+                "name": s.get("joint", names[int(j)] if int(j) < len(names) else str(j)),
+                "start": int(s["start"]),
+                "end": int(s["end"]),
+                "peak": float(s.get("peak", 1.0)),
+            }
+        )
+    rec: dict[str, Any] = {
+        "motion": idx,
+        "segments": out_segs,
+        "threshold": report.get("threshold"),
+        "repairedCells": report.get("repaired_cells"),
+    }
+    if mdm is not None:
+        a = np.asarray(mdm, dtype=np.float64)
+        if a.ndim != 2:
+            raise ValueError(f"the MDM must be a (frames, joints) array, got shape {a.shape}")
+        if a.shape[1] != m.num_joints:
+            raise ValueError(
+                f"the MDM has {a.shape[1]} joints but {motions[idx].name} has {m.num_joints}"
+            )
+        a = np.clip(np.nan_to_num(a, nan=0.0), 0.0, 1.0)
+        rec["frames"], rec["joints"] = int(a.shape[0]), int(a.shape[1])
+        rec["mdm"] = _b64(np.rint(a * 255).astype(np.uint8))
+    return rec
+
+
+def stitch_overlay(motions: Sequence[ViewMotion], result: dict[str, Any] | None):
+    """The stitch overlay: take-off, generated (injected) and landing output frames, L_k(k)."""
+    if result is None:
+        return None
+    idx = _match_motion(motions, result.get("output"), result.get("frames"))
+    gen = result.get("generated_frames")
+    takeoff = int(result.get("takeoff", 0))
+    k = int(result.get("k", 0))
+    if not gen or len(gen) != 2:
+        gen = [takeoff + 1, takeoff + 1 + k]
+    landing = result.get("landing_output_frame")
+    if landing is None:
+        landing = int(gen[1])
+    return {
+        "motion": idx,
+        "takeoff": takeoff,
+        "generated": [int(gen[0]), int(gen[1])],
+        "landing": int(landing),
+        "landingData": result.get("landing"),
+        "k": k,
+        "lscore": result.get("lscore"),
+        "lscoreByK": [float(x) for x in result.get("lscore_by_k") or []],
+        "query": result.get("query"),
+        "data": result.get("data"),
+        "method": result.get("method"),
+    }
+
+
+def _nonroot_rotations(m: Motion) -> np.ndarray:
+    r = np.asarray(m.rotations[:, 1:], dtype=np.float64)
+    r = r * np.where(r[..., :1] < 0, -1.0, 1.0)  # q and -q are the same rotation
+    return r.reshape(m.num_frames, -1)
+
+
+def match_graph_transitions(
+    synth: Motion, graph: dict[str, Any], clips: Sequence[Motion | None], tol: float = 1e-4
+) -> list[dict[str, Any]]:
+    """Where a synthesised motion took the graph's transitions.
+
+    The synthesiser copies clip frames verbatim (up to a ground transform of the root) and blends
+    across transitions, so each output frame is matched to the clip frame with the same non-root
+    joint rotations; a jump in the matched (clip, frame) sequence, or a run of unmatched (blended)
+    frames between two matched ones, is a transition, identified in the graph by its clips and
+    nearest frames. Returns ``[{frame, end, src_clip, src_frame, dst_clip, dst_frame, cost,
+    index}]`` in output-frame order (``cost`` None when no graph transition fits).
+    """
+    x = _nonroot_rotations(synth)
+    thr = tol * x.shape[1]
+    best_c = np.full(synth.num_frames, -1)
+    best_f = np.full(synth.num_frames, -1)
+    best_d = np.full(synth.num_frames, np.inf)
+    for c, m in enumerate(clips):
+        if m is None or m.num_joints != synth.num_joints or m.num_frames == 0:
+            continue
+        y = _nonroot_rotations(m)
+        yy = (y * y).sum(1)
+        for a in range(0, len(x), 2048):  # chunks keep the distance matrix small
+            xa = x[a : a + 2048]
+            d2 = (xa * xa).sum(1)[:, None] + yy[None, :] - 2.0 * xa @ y.T
+            f = np.argmin(d2, axis=1)
+            d = d2[np.arange(len(f)), f]
+            better = d < best_d[a : a + 2048]
+            best_c[a : a + 2048][better] = c
+            best_f[a : a + 2048][better] = f[better]
+            best_d[a : a + 2048][better] = d[better]
+    match_c = np.where(best_d < thr, best_c, -1)
+    match_f = best_f.copy()
+    trs = graph.get("transitions") or []
+    out: list[dict[str, Any]] = []
+    prev = None  # (output frame, clip, clip frame) of the last matched frame
+    for i in range(synth.num_frames):
+        c, f = int(match_c[i]), int(match_f[i])
+        if c < 0:
+            continue
+        if prev is not None:
+            pi, pc, pf = prev
+            if not (c == pc and f == pf + (i - pi)):
+                best, best_d = None, math.inf
+                for t, tr in enumerate(trs):
+                    if int(tr["src_clip"]) != pc or int(tr["dst_clip"]) != c:
+                        continue
+                    d = abs(int(tr["src_frame"]) - (pf + 1)) + abs(
+                        int(tr["dst_frame"]) + (i - pi - 1) - f
+                    )
+                    if d < best_d:
+                        best, best_d = t, d
+                rec: dict[str, Any] = {
+                    "frame": pi + 1 if i - pi > 1 else i,
+                    "end": i,
+                    "src_clip": pc,
+                    "src_frame": pf + 1,
+                    "dst_clip": c,
+                    "dst_frame": f,
+                    "cost": None,
+                    "index": None,
+                }
+                if best is not None:
+                    tr = trs[best]
+                    rec.update(
+                        src_frame=int(tr["src_frame"]),
+                        dst_frame=int(tr["dst_frame"]),
+                        cost=float(tr["cost"]),
+                        index=best,
+                    )
+                    # the blend starts where the destination clip's frame dst_frame would be
+                    back = f - int(tr["dst_frame"])
+                    if 0 <= back <= i - pi + 2 * max(1, int(graph.get("blend_frames") or 0)):
+                        rec["frame"] = max(pi + 1 - int(graph.get("blend_frames") or 0), i - back)
+                out.append(rec)
+        prev = (i, c, f)
+    out.sort(key=lambda r: r["frame"])
+    return out
+
+
+def graph_overlay(
+    motions: Sequence[ViewMotion], graph: dict[str, Any] | None, graph_dir: Path | None = None
+) -> dict[str, Any] | None:
+    """The motion-graph overlay for the synthesised motion(s) among ``motions``: the transitions
+    it took (see :func:`match_graph_transitions`), with their costs and source clips."""
+    if graph is None:
+        return None
+    from mocapkit.io import read_motion
+
+    clip_info = graph.get("clips") or []
+    base = graph_dir or Path(".")
+    clip_paths = [Path(c.get("path", "")) for c in clip_info]
+    clip_paths = [p if p.is_absolute() else base / p for p in clip_paths]
+    loaded: list[Motion | None] = []
+    for p in clip_paths:
+        try:
+            loaded.append(read_motion(p))
+        except Exception:  # a missing clip only loses its transitions
+            loaded.append(None)
+    clip_names = [p.name for p in clip_paths]
+    # the synthesised motion: the first one that is not one of the graph's clips
+    idx = 0
+    for i, vm in enumerate(motions):
+        if Path(vm.name).name not in clip_names:
+            idx = i
+            break
+    trans = match_graph_transitions(motions[idx].motion, graph, loaded)
+    for t in trans:
+        t["src_name"] = clip_names[t["src_clip"]] if t["src_clip"] < len(clip_names) else "?"
+        t["dst_name"] = clip_names[t["dst_clip"]] if t["dst_clip"] < len(clip_names) else "?"
+    return {
+        "motion": idx,
+        "clips": clip_names,
+        "missingClips": [n for n, m in zip(clip_names, loaded, strict=True) if m is None],
+        "numTransitions": len(graph.get("transitions") or []),
+        "transitions": trans,
+    }
+
+
+def page_data(
+    motions: Sequence[ViewMotion],
+    up: str | None = None,
+    units: str | None = None,
+    clean_report: dict[str, Any] | None = None,
+    mdm: np.ndarray | None = None,
+    stitch: dict[str, Any] | None = None,
+    graph: dict[str, Any] | None = None,
+    graph_dir: Path | None = None,
+    title: str | None = None,
+) -> dict[str, Any]:
+    """Everything the page shows, JSON-ready."""
+    from mocapkit.features import UNITS, detect_units, detect_up_axis
+
+    if not motions:
+        raise ValueError("nothing to view: give at least one motion")
+    first = motions[0].motion
+    up = up or detect_up_axis(first)
+    if units is None:
+        units, mpu = detect_units(first)
+    else:
+        if units not in UNITS:
+            raise ValueError(f"unknown units {units!r}; expected one of {', '.join(UNITS)}")
+        mpu = float(UNITS[units])
+    recs = [
+        _motion_record(vm, vm.color or PALETTE[i % len(PALETTE)], up, mpu)
+        for i, vm in enumerate(motions)
+    ]
+    return {
+        "title": title or " vs ".join(Path(vm.name).name for vm in motions),
+        "up": up,
+        "units": units,
+        "metresPerUnit": mpu,
+        "motions": recs,
+        "clean": clean_overlay(motions, clean_report, mdm),
+        "stitch": stitch_overlay(motions, stitch),
+        "graph": graph_overlay(motions, graph, graph_dir),
+    }
+
+
+def _script(text: str) -> str:
+    return text.replace("</script", "<\\/script")
+
+
+def build_page(data: dict[str, Any]) -> str:
+    """The HTML text of the page for :func:`page_data`'s result."""
+    blob = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    html = _static("template.html")
+    parts = {
+        "{{TITLE}}": _html_escape(f"mocapkit view: {data['title']}"),
+        "{{CSS}}": _static("viewer.css"),
+        "{{THREE}}": _script(_static("three.min.js")),
+        "{{ORBIT}}": _script(_static("OrbitControls.js")),
+        "{{VIEWER}}": _script(_static("viewer.js")),
+        "{{DATA}}": blob,
+    }
+    # substitute in one pass so that no inlined text is searched for placeholders again
+    out, i = [], 0
+    while True:
+        j = html.find("{{", i)
+        if j < 0:
+            out.append(html[i:])
+            break
+        k = html.find("}}", j)
+        key = html[j : k + 2]
+        if key in parts:
+            out.append(html[i:j])
+            out.append(parts[key])
+        else:
+            out.append(html[i : k + 2])
+        i = k + 2
+    return "".join(out)
+
+
+def _html_escape(s: str) -> str:
+    return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
+
+
+def write_page(path: str | Path, motions: Sequence[ViewMotion], **kwargs: Any) -> Path:
+    """Write the viewer page for ``motions`` (keyword arguments: see :func:`page_data`)."""
+    from mocapkit.io._atomic import atomic_write_text
+
+    p = Path(path)
+    atomic_write_text(p, build_page(page_data(motions, **kwargs)))
+    return p

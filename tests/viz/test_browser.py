@@ -1,0 +1,237 @@
+"""The viewer page in real headless Chromium (DevTools protocol, see mocapkit.viz.browser).
+
+Skips when no Chromium is found, unless MOCAPKIT_REQUIRE_BROWSER=1 (CI), where it fails.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit import datasets
+from mocapkit.clean import inject
+from mocapkit.core.motion import concatenate
+from mocapkit.io import write_motion
+from mocapkit.viz import ViewMotion, write_page
+from mocapkit.viz.browser import Browser, decode_png, find_chromium
+
+from .helpers import random_motion
+
+READY = "window.mocapkitViewer && window.mocapkitViewer.ready"
+SHOTS = os.environ.get("MOCAPKIT_VIEW_SHOTS")  # keep the screenshots here, if set
+
+
+@pytest.fixture(scope="module")
+def browser():
+    if not find_chromium():
+        msg = (
+            "no Chromium found: install the Debian packages chromium and chromium-driver, or "
+            "set MOCAPKIT_CHROMIUM to the binary"
+        )
+        if os.environ.get("MOCAPKIT_REQUIRE_BROWSER") == "1":
+            pytest.fail(f"MOCAPKIT_REQUIRE_BROWSER=1 but {msg}")
+        pytest.skip(msg)
+    with Browser(width=1200, height=860) as b:
+        yield b
+
+
+@pytest.fixture(scope="module")
+def cleaning_page(tmp_path_factory):
+    """Procedural walk with a known injected error on LeftForeArm, the clean walk beside it and
+    an MDM that is 1 on the injected cells (0.05 elsewhere)."""
+    tmp = tmp_path_factory.mktemp("viewpages")
+    walk = datasets.procedural_motion("walk", seconds=4.0, seed=0).motion
+    j = list(walk.skeleton.names).index("LeftForeArm")
+    inj = inject(walk, "offset", j, np.random.default_rng(1), start=40)
+    frames = np.flatnonzero(inj.frames)
+    mdm = np.full((walk.num_frames, walk.num_joints), 0.05, np.float32)
+    mdm[frames, j] = 1.0
+    report = {
+        "input": "corrupted.bvh",
+        "segments": [
+            {"joint": "LeftForeArm", "start": int(frames[0]), "end": int(frames[-1]), "peak": 1}
+        ],
+    }
+    page = write_page(
+        tmp / "cleaning.html",
+        [ViewMotion(inj.motion, "corrupted.bvh"), ViewMotion(walk, "cleaned.bvh")],
+        clean_report=report,
+        mdm=mdm,
+    )
+    return {"page": page, "joint": j, "frames": frames, "n": walk.num_frames}
+
+
+def _open(b: Browser, page: Path) -> None:
+    b.errors.clear()
+    b.open(page, ready=READY)
+
+
+def _assert_no_errors(b: Browser) -> None:
+    assert b.errors == []
+    assert b.eval("window.__mkErrors") == []
+
+
+def _readout_frame(b: Browser) -> int:
+    return int(b.eval("document.getElementById('readout').getAttribute('data-frame')"))
+
+
+def test_loads_and_plays(browser, cleaning_page):
+    b = browser
+    _open(b, cleaning_page["page"])
+    _assert_no_errors(b)
+    assert b.eval("document.getElementById('readout').textContent").startswith("frame 0 / ")
+    assert b.eval("mocapkitViewer.three.renderer.getContext().isContextLost()") is False
+    b.eval("document.getElementById('play').click()")
+    b.sleep(0.8)
+    f = _readout_frame(b)
+    assert f > 3, "the frame readout did not advance while playing"
+    b.sleep(0.3)
+    assert _readout_frame(b) > f
+    b.eval("document.getElementById('play').click()")  # pause
+    f = _readout_frame(b)
+    b.sleep(0.3)
+    assert _readout_frame(b) == f
+    # two motions start overlaid; the checkbox puts them side by side
+    assert b.eval("mocapkitViewer.groupX(0) === mocapkitViewer.groupX(1)")
+    b.eval("document.getElementById('side').click()")
+    assert b.eval("mocapkitViewer.groupX(1) - mocapkitViewer.groupX(0)") > 0.3
+    _assert_no_errors(b)
+
+
+def test_scrubbing_and_timeline_click_jump_to_the_frame(browser, cleaning_page):
+    b = browser
+    _open(b, cleaning_page["page"])
+    b.eval(
+        "(() => { const s = document.getElementById('scrubber'); s.value = '57';"
+        " s.dispatchEvent(new Event('input')); })()"
+    )
+    assert _readout_frame(b) == 57
+    assert b.eval("document.getElementById('readout').textContent").startswith("frame 57 / ")
+    assert b.eval("mocapkitViewer.frame") == 57
+    # a click on the heat map jumps to that frame and selects that joint
+    j = cleaning_page["joint"]
+    p = b.eval(f"mocapkitViewer.timelinePoint(90, {j})")
+    b.click(p["x"], p["y"])
+    assert abs(_readout_frame(b) - 90) <= 1
+    assert "LeftForeArm" in b.eval("document.getElementById('info-sel').textContent")
+    _assert_no_errors(b)
+
+
+def test_joint_colours_follow_the_mdm(browser, cleaning_page):
+    b = browser
+    _open(b, cleaning_page["page"])
+    j, frames = cleaning_page["joint"], cleaning_page["frames"]
+    bad = int(frames[len(frames) // 2])
+    good = int(frames[-1]) + 20
+    b.eval(f"mocapkitViewer.seek({bad})")
+    r, g, bl = b.eval(f"mocapkitViewer.jointColor(0, {j})")
+    assert r > 0.9 and g < 0.3 and bl < 0.3, "an MDM of 1 should be drawn red"
+    r, g, bl = b.eval("mocapkitViewer.jointColor(0, 0)")
+    assert bl > 0.8 and r < 0.4, "a clean joint should be drawn blue"
+    # the second motion (not the analysed one) keeps its own colour
+    assert b.eval(f"mocapkitViewer.jointColor(1, {j})") == pytest.approx(
+        [1.0, 138 / 255, 101 / 255], abs=0.02
+    )
+    b.eval(f"mocapkitViewer.seek({good})")
+    r, g, bl = b.eval(f"mocapkitViewer.jointColor(0, {j})")
+    assert bl > 0.8 and r < 0.4, "after the error the joint should be blue again"
+
+
+def _count_colour(img: np.ndarray, rgb, tol: float = 40.0) -> int:
+    d = np.abs(img[..., :3].astype(np.int32) - np.asarray(rgb)).max(axis=-1)
+    return int((d <= tol).sum())
+
+
+def test_screenshot_shows_a_skeleton(browser, cleaning_page):
+    b = browser
+    _open(b, cleaning_page["page"])
+    frames = cleaning_page["frames"]
+    b.eval(f"mocapkitViewer.seek({int(frames[len(frames) // 2])})")  # inside the error
+    b.sleep(0.3)
+    rect = b.eval(
+        "(() => { const r = document.getElementById('stage').getBoundingClientRect();"
+        " return {x: r.left, y: r.top, width: r.width, height: r.height}; })()"
+    )
+    png = b.screenshot(rect)
+    img = decode_png(png)
+    assert img.shape[0] == round(rect["height"]) and img.shape[1] == round(rect["width"])
+    light = _count_colour(img, (0x4F, 0xC3, 0xF7))  # the first motion's bones (drawn on top)
+    orange = _count_colour(img, (255, 138, 101))  # the second motion's, where they differ
+    blue = _count_colour(img, (48, 97, 255), 60)  # the first motion's joints (MDM 0.05)
+    b.eval(
+        "mocapkitViewer.three.scene.children.forEach(o => { if (o.type === 'Group') "
+        "o.visible = false; })"
+    )
+    b.sleep(0.3)
+    empty = decode_png(b.screenshot(rect))
+    if SHOTS:
+        Path(SHOTS).mkdir(parents=True, exist_ok=True)
+        (Path(SHOTS) / "cleaning_stage.png").write_bytes(png)
+        (Path(SHOTS) / "full_page.png").write_bytes(b.screenshot())
+    assert light > 150, f"only {light} pixels of the first skeleton's colour"
+    assert orange > 10, f"only {orange} pixels of the second skeleton's colour"
+    assert blue > 100, f"only {blue} MDM-coloured joint pixels"
+    assert _count_colour(empty, (255, 138, 101)) + _count_colour(empty, (48, 97, 255), 60) < 20
+    background = _count_colour(empty, (0x1D, 0x1F, 0x27), 4)
+    assert background > 0.5 * empty.shape[0] * empty.shape[1]
+
+
+def test_stitch_and_graph_overlays(browser, tmp_path):
+    b = browser
+    clip = random_motion(120, 5)
+    synth = concatenate([clip[0:50], clip[80:120]])
+    write_motion(clip, tmp_path / "clip.bvh")
+    graph = {
+        "clips": [{"path": "clip.bvh", "frames": 120, "fps": 30.0}],
+        "transitions": [
+            {"src_clip": 0, "src_frame": 50, "dst_clip": 0, "dst_frame": 80, "cost": 0.25}
+        ],
+    }
+    stitch = {
+        "takeoff": 20,
+        "k": 5,
+        "generated_frames": [21, 26],
+        "landing_output_frame": 26,
+        "lscore_by_k": [5.0, 3.0, 2.0, 1.5, 1.2, 1.0, 1.4],
+        "frames": 90,
+        "lscore": 1.0,
+    }
+    page = write_page(
+        tmp_path / "overlays.html",
+        [ViewMotion(synth, "synth.bvh")],
+        stitch=stitch,
+        graph=graph,
+        graph_dir=tmp_path,
+    )
+    _open(b, page)
+    _assert_no_errors(b)
+    assert b.eval("document.getElementById('lk-wrap').hidden") is False
+    items = b.eval("[...document.querySelectorAll('#transitions div')].map(d => d.textContent)")
+    assert len(items) == 1 and "frame 50" in items[0] and "cost 0.250" in items[0]
+    p = b.eval("mocapkitViewer.timelinePoint(50)")
+    b.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": p["x"], "y": p["y"]})
+    hover = b.eval("document.getElementById('hover-info').textContent")
+    assert "clip.bvh @50" in hover and "cost 0.250" in hover
+    b.eval("document.querySelector('#transitions div').click()")
+    assert _readout_frame(b) == 50
+    b.eval("mocapkitViewer.seek(23)")
+    assert b.eval("mocapkitViewer.boneColor(0)") == pytest.approx([1.0, 0xEB / 255, 0x3B / 255])
+    b.eval("mocapkitViewer.seek(30)")
+    assert b.eval("mocapkitViewer.boneColor(0)") != pytest.approx([1.0, 0xEB / 255, 0x3B / 255])
+    _assert_no_errors(b)
+
+
+def test_bench_script_runs_small(browser, capsys):
+    """bench/bench_viewer.py on a small motion (the real run: 10,000 frames x 60 joints)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "bench" / "bench_viewer.py"
+    spec = importlib.util.spec_from_file_location("bench_viewer", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--frames", "300", "--joints", "20", "--seconds", "0.5"]) == 0
+    out = capsys.readouterr().out
+    assert "playback:" in out and "fps" in out
