@@ -156,6 +156,12 @@ def main() -> int:
         f"{g.num_transitions} transitions, {out['transitions_in_scc']} in the SCC "
         f"({out['scc_frames']} frames)"
     )
+    d = out["dense"]
+    print(
+        f"  (not in the total) with T = {d['T']} (10 x the knee): {d['transitions']} "
+        f"transitions, {d['transitions_in_scc']} in the SCC ({d['scc_frames']} frames), "
+        f"selection {d['select_s']:.1f} s"
+    )
     print(
         f"  total {out['total_s']:.1f} s (target 600), peak memory {out['peak_rss_mb']:.0f} MB "
         "(target 4096)"

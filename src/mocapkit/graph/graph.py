@@ -225,45 +225,32 @@ class MotionGraph:
         """Write the (unpruned) graph as GraphML: nodes ``clip:frame`` with ``clip``, ``frame``,
         ``path``, ``in_scc``; edges with ``kind``, ``frames`` (continuations), ``cost``
         (transitions)."""
-        from xml.sax.saxutils import quoteattr
+        import io
 
-        from mocapkit.io._atomic import atomic_write_text
+        from mocapkit._optional import require
+        from mocapkit.io._atomic import atomic_write_bytes
 
+        nx = require("networkx")
         nodes, edges = self.edges()
         scc_nodes = set(self.scc()[0])
-        lines = [
-            '<?xml version="1.0" encoding="UTF-8"?>',
-            '<graphml xmlns="http://graphml.graphdrawing.org/xmlns">',
-            '  <key id="clip" for="node" attr.name="clip" attr.type="int"/>',
-            '  <key id="frame" for="node" attr.name="frame" attr.type="int"/>',
-            '  <key id="path" for="node" attr.name="path" attr.type="string"/>',
-            '  <key id="in_scc" for="node" attr.name="in_scc" attr.type="boolean"/>',
-            '  <key id="kind" for="edge" attr.name="kind" attr.type="string"/>',
-            '  <key id="frames" for="edge" attr.name="frames" attr.type="int"/>',
-            '  <key id="cost" for="edge" attr.name="cost" attr.type="double"/>',
-            '  <graph id="motion_graph" edgedefault="directed">',
-        ]
+        g = nx.MultiDiGraph(id="motion_graph")  # parallel edges stay distinct
         for c, f in nodes:
-            lines.append(
-                f'    <node id="{c}:{f}"><data key="clip">{c}</data><data key="frame">{f}</data>'
-                f'<data key="path">{quoteattr(self.clips[c].path)[1:-1]}</data>'
-                f'<data key="in_scc">{str((c, f) in scc_nodes).lower()}</data></node>'
+            g.add_node(
+                f"{c}:{f}",
+                clip=int(c),
+                frame=int(f),
+                path=self.clips[c].path,
+                in_scc=(c, f) in scc_nodes,
             )
         for e in edges:
             (cu, fu), (cv, fv) = nodes[e["u"]], nodes[e["v"]]
-            extra = (
-                f'<data key="frames">{e["frames"]}</data>'
-                if e["kind"] == "clip"
-                else f'<data key="cost">{e["cost"]!r}</data>'
+            attrs = (
+                {"frames": int(e["frames"])} if e["kind"] == "clip" else {"cost": float(e["cost"])}
             )
-            lines.append(
-                f'    <edge source="{cu}:{fu}" target="{cv}:{fv}">'
-                f'<data key="kind">{e["kind"]}</data>{extra}</edge>'
-            )
-        lines += ["  </graph>", "</graphml>"]
-        path = Path(path)
-        atomic_write_text(path, "\n".join(lines) + "\n")
-        return path
+            g.add_edge(f"{cu}:{fu}", f"{cv}:{fv}", kind=e["kind"], **attrs)
+        buf = io.BytesIO()
+        nx.write_graphml(g, buf)
+        return atomic_write_bytes(path, buf.getvalue())
 
     @classmethod
     def from_dict(cls, data: dict) -> MotionGraph:

@@ -44,10 +44,9 @@ def plot_cost_comparison(
     """Write a figure: the normalised cost matrices of two metrics, their difference with each
     metric's transitions marked (green: first only, magenta: second only, white: both within a
     quarter second), and the rank-ordered cost curves with T."""
-    import matplotlib
+    from mocapkit._optional import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     names = list(dbs)[:2]
     mats = {}
