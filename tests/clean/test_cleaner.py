@@ -193,3 +193,15 @@ def test_contact_constraint_pins_the_effector(takes) -> None:
     w = pinned.written
     assert np.array_equal(pinned.motion.rotations[~w], inj.motion.rotations[~w])
     assert len(stance) > 0
+
+
+def test_robust_second_pass_and_paper_normalisation(takes, corrupted) -> None:
+    _, ctx = takes
+    cur, truth = corrupted
+    rb = SelfSimilarityCleaner(robust=True).fit(cur, [ctx])
+    paper = SelfSimilarityCleaner(scale="mean", gain=1.0, floor_deg=0.0).fit(cur, [ctx])
+    for cl in (rb, paper):
+        for j in np.flatnonzero(truth.any(axis=0)):
+            assert cl.scores()[truth[:, j], j].max() > 0.9
+    # the paper's row-mean normalisation flags far more cells than the default
+    assert paper.mask().sum() > 3 * rb.mask().sum()

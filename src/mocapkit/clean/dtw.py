@@ -976,7 +976,7 @@ def _dtw_s2_one(
 
 @nb.njit(parallel=True, cache=True)
 def _scan_pruned_kernel(
-    D, starts, N, tstarts, seg, M, K, lo, hi, stride, out, nexact
+    D, rowmin, starts, N, tstarts, seg, M, K, lo, hi, stride, out, nexact
 ):  # pragma: no cover - compiled
     W = starts.shape[0]
     C = tstarts.shape[0]
@@ -1021,11 +1021,7 @@ def _scan_pruned_kernel(
         lbr = np.zeros(Fc)
         for i in range(N):
             for x in range(Fc - M + 1):
-                m = D[a + i, x]
-                for j in range(1, M):
-                    if D[a + i, x + j] < m:
-                        m = D[a + i, x + j]
-                lbr[x] += m
+                lbr[x] += rowmin[a + i, x]
         colmin = np.empty(Fc)
         for x in range(Fc):
             m = D[a, x]
@@ -1053,6 +1049,27 @@ def _scan_pruned_kernel(
             )  # fmt: skip
             count += 1
         nexact[w] = count
+
+
+@nb.njit(parallel=True, cache=True)
+def _sliding_row_min(D, rows, M, out):  # pragma: no cover - compiled
+    """out[r, x] = min(D[rows[r], x : x + M]) (van Herk / Gil-Werman: 3 comparisons a cell)."""
+    Fc = D.shape[1]
+    nwin = Fc - M + 1
+    for r in nb.prange(rows.shape[0]):
+        row = D[rows[r]]
+        pre = np.empty(Fc)
+        suf = np.empty(Fc)
+        for b0 in range(0, Fc, M):
+            b1 = min(b0 + M, Fc)
+            pre[b0] = row[b0]
+            for x in range(b0 + 1, b1):
+                pre[x] = min(pre[x - 1], row[x])
+            suf[b1 - 1] = row[b1 - 1]
+            for x in range(b1 - 2, b0 - 1, -1):
+                suf[x] = min(suf[x + 1], row[x])
+        for x in range(nwin):
+            out[r, x] = min(suf[x], pre[x + M - 1])
 
 
 def scan_words_pruned(
@@ -1101,8 +1118,15 @@ def scan_words_pruned(
     out = np.empty((W, C))
     nexact = np.zeros(W, np.int64)
     if W and C:
+        M = int(target_len)
+        rowmin = np.zeros((D.shape[0], D.shape[1]))
+        used = np.unique((starts[:, None] + np.arange(source_len)[None, :]).ravel())
+        tmp = np.empty((len(used), max(0, D.shape[1] - M + 1)))
+        if tmp.shape[1]:
+            _sliding_row_min(D, used, M, tmp)
+            rowmin[used, : tmp.shape[1]] = tmp
         _scan_pruned_kernel(
-            D, starts, int(source_len), tst, seg, int(target_len), int(k), lo, hi, int(stride),
+            D, rowmin, starts, int(source_len), tst, seg, M, int(k), lo, hi, int(stride),
             out, nexact,
         )  # fmt: skip
     return out, int(nexact.sum())
