@@ -309,7 +309,7 @@ def test_detect_on_bandai(bandai):
     ],
 )
 def test_name_parts(name, side, base):
-    assert fe._name_parts(name) == (side, base)
+    assert fe.joint_side_and_base(name) == (side, base)
 
 
 def test_feet_and_pairs_by_name():

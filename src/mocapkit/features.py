@@ -160,7 +160,7 @@ _GLUED_PARTS = (
 _EXCLUDE = re.compile(r"twist|roll|end$|nub|site|^ik|ik$|pole|target|helper|dummy|ctrl|null")
 
 
-def _name_parts(name: str) -> tuple[str, str]:
+def joint_side_and_base(name: str) -> tuple[str, str]:
     """(side, base) of a joint name: side in {"left", "right", ""}, base the lower-case rest."""
     name = name.rsplit(":", 1)[-1]
     tokens: list[str] = []
@@ -204,7 +204,7 @@ def _find_sided(sk: Skeleton, patterns: Sequence[str]) -> dict[str, int]:
     depth = sk.depth()
     best: dict[str, tuple[int, int, int]] = {}
     for j, name in enumerate(sk.names):
-        side, base = _name_parts(name)
+        side, base = joint_side_and_base(name)
         if not side or _EXCLUDE.search(base):
             continue
         for prio, pat in enumerate(patterns):
@@ -220,7 +220,7 @@ def _find_unsided(sk: Skeleton, patterns: Sequence[str]) -> int | None:
     depth = sk.depth()
     best: tuple[int, int, int] | None = None
     for j, name in enumerate(sk.names):
-        side, base = _name_parts(name)
+        side, base = joint_side_and_base(name)
         if side or _EXCLUDE.search(base):
             continue
         for prio, pat in enumerate(patterns):
@@ -288,7 +288,7 @@ def _named_feet(sk: Skeleton) -> list[tuple[str, int]]:
         for j, name in enumerate(sk.names):
             if j == a or a not in _ancestors(sk, j):
                 continue
-            s, base = _name_parts(name)
+            s, base = joint_side_and_base(name)
             if s not in (side, "") or _EXCLUDE.search(base):
                 continue
             for prio, pat in enumerate(_TOE_PATTERNS):
@@ -1017,7 +1017,7 @@ def foot_contacts(
         sides = [s for s, _ in found]
     else:
         joints = [sk.index(f) if isinstance(f, str) else int(f) for f in feet]
-        sides = [_name_parts(sk.names[j])[0] for j in joints]
+        sides = [joint_side_and_base(sk.names[j])[0] for j in joints]
     if not joints:
         raise ValueError("no foot joints found; pass feet= explicitly")
     H = character_height(motion, up)

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.core.motion import Motion
-from mocapkit.features import FootContacts, _name_parts, foot_contacts
+from mocapkit.features import FootContacts, foot_contacts, joint_side_and_base
 from mocapkit.graph.pointcloud import BodyParts
 
 __all__ = [
@@ -99,7 +99,7 @@ def part_categories(parts: BodyParts) -> list[str]:
         if b == 0:
             cats.append("pelvis")
             continue
-        base = _name_parts(name)[1]
+        base = joint_side_and_base(name)[1]
         cat = next((c for c, pat in _CATEGORY_PATTERNS if re.search(pat, base)), "")
         if not cat:
             parent = int(parts.parents[b])
@@ -138,7 +138,7 @@ def part_masses(
     groups: dict[tuple[str, str], list[int]] = {}
     for b, cat in enumerate(cats):
         if cat:
-            side = _name_parts(parts.names[b])[0] if cat != "trunk" else ""
+            side = joint_side_and_base(parts.names[b])[0] if cat != "trunk" else ""
             if cat in ("pelvis", "head", "trunk"):
                 side = ""
             elif not side:
