@@ -16,7 +16,7 @@ from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main, 
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.motion import Motion
 from mocapkit.io import write_motion
-from mocapkit.io._atomic import atomic_write_bytes, atomic_write_text, refuse_overwrite
+from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, refuse_overwrite
 
 MOTION_SUFFIXES = (".bvh", ".npz")
 

@@ -11,7 +11,7 @@ import click
 from mocapkit.cli.common import CLIError, friendly_errors, main
 from mocapkit.cli.io_commands import convert_motion, motion_info, print_info
 from mocapkit.io import read_motion, write_motion
-from mocapkit.io._atomic import atomic_write_text
+from mocapkit.io.atomic import atomic_write_text
 
 DemoStep = Callable[[Path], None]
 """A demo step: writes into the demo folder and prints what it did (click.echo)."""

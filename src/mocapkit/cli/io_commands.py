@@ -11,7 +11,7 @@ import numpy as np
 from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main, progress
 from mocapkit.core.motion import Motion
 from mocapkit.io import write_motion
-from mocapkit.io._atomic import refuse_overwrite
+from mocapkit.io.atomic import refuse_overwrite
 
 
 # --------------------------------------------------------------------------------------- info

@@ -13,7 +13,7 @@ import numpy as np
 from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main, progress
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.io import write_motion
-from mocapkit.io._atomic import atomic_write_text, refuse_overwrite
+from mocapkit.io.atomic import atomic_write_text, refuse_overwrite
 
 METHODS = ("kalman", "crossfade", "slerp", "linear")
 

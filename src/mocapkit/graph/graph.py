@@ -215,7 +215,7 @@ class MotionGraph:
 
     def save(self, path: str | Path) -> Path:
         """Write the graph as JSON (atomically)."""
-        from mocapkit.io._atomic import atomic_write_text
+        from mocapkit.io.atomic import atomic_write_text
 
         path = Path(path)
         atomic_write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
@@ -228,7 +228,7 @@ class MotionGraph:
         import io
 
         from mocapkit._optional import require
-        from mocapkit.io._atomic import atomic_write_bytes
+        from mocapkit.io.atomic import atomic_write_bytes
 
         nx = require("networkx")
         nodes, edges = self.edges()

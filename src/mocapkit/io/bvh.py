@@ -28,7 +28,7 @@ from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion, fill_missing
 from mocapkit.core.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, VALID_CHANNELS, Skeleton
 from mocapkit.io import _numparse
-from mocapkit.io._atomic import atomic_write_text
+from mocapkit.io.atomic import atomic_write_text
 from mocapkit.io.errors import BVHError, RepairWarning
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")

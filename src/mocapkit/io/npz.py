@@ -16,7 +16,7 @@ import numpy as np
 
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
-from mocapkit.io._atomic import atomic_write_bytes
+from mocapkit.io.atomic import atomic_write_bytes
 from mocapkit.io.errors import MocapFileError
 
 FORMAT = "mocapkit-motion-1"

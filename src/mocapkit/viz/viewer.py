@@ -427,7 +427,7 @@ def _html_escape(s: str) -> str:
 
 def write_page(path: str | Path, motions: Sequence[ViewMotion], **kwargs: Any) -> Path:
     """Write the viewer page for ``motions`` (keyword arguments: see :func:`page_data`)."""
-    from mocapkit.io._atomic import atomic_write_text
+    from mocapkit.io.atomic import atomic_write_text
 
     p = Path(path)
     atomic_write_text(p, build_page(page_data(motions, **kwargs)))
