@@ -53,6 +53,29 @@ cannot pin down gets a wider tolerance), times ``GAIN``, and never against less 
 injected errors in Bandai walks (bench/eval_clean.py); ``scale="mean", gain=1, floor_deg=0``
 reproduces the paper."""
 
+DETECT = "hysteresis"
+SEED_THRESHOLD = 0.999
+JUMP_RATIO = 6.0
+JUMP_FLOOR_DEG = 4.0
+JUMP_MIN_MDM = 0.22
+JUMP_RATIO_2 = 3.0
+JUMP_MIN_MDM_2 = 0.8
+FROZEN_SECONDS = 1.0 / 3.0
+DOMINANCE = 0.5
+"""Detection defaults. ``detect="threshold"`` flags every cell with MDM above the threshold (the
+paper). ``detect="hysteresis"`` flags the runs (per joint, along time) of cells above the
+threshold that hold a *seed*: a cell with MDM above ``SEED_THRESHOLD``, or an abrupt cell (angular
+acceleration, median over 3 frames, above ``JUMP_RATIO`` times the joint's median acceleration in
+the take, at least ``JUMP_FLOOR_DEG`` per frame²) whose MDM exceeds ``JUMP_MIN_MDM`` (or above
+``JUMP_RATIO_2`` times with MDM above ``JUMP_MIN_MDM_2``); seeds and
+the cells around them down to the threshold are flagged. A run seeded by the MDM alone is dropped
+when another joint digresses more than ``1 / DOMINANCE`` times as much around it
+(:func:`~mocapkit.clean.mdm.dominated_runs`: a flipped joint spoils the time warping of every
+word around it). Frozen joints (a rotation held for ``FROZEN_SECONDS`` or more while the KNN
+words move, :func:`~mocapkit.clean.mdm.frozen_cells`) are flagged too. On injected Bandai errors
+(bench/eval_clean.py) this removes most isolated false alarms of the plain threshold (weakly
+matched clean cells just above 0.5) and catches frozen and jittery joints whose MDM stays low."""
+
 
 @dataclass
 class Segment:
@@ -112,6 +135,12 @@ class SelfSimilarityCleaner:
             time-warped neighbours of every word around it, which otherwise shows up as false
             alarms on the joints next to it. Off by default: on the Bandai evaluation it did not
             raise precision (fewer votes make T̄ noisier).
+        detect: "hysteresis" (default, see :data:`DETECT`) or "threshold" (the paper: MDM above
+            the threshold).
+        seed_threshold, jump_ratio, jump_floor_deg, jump_min_mdm, jump_ratio_2, jump_min_mdm_2:
+            the hysteresis seeds (see :data:`DETECT`).
+        frozen: also flag frozen joints (hysteresis mode).
+        dominance: drop MDM-only runs dominated by another joint (0: keep; hysteresis mode).
     """
 
     def __init__(
@@ -129,7 +158,18 @@ class SelfSimilarityCleaner:
         stage1_threshold: float | None = None,
         weight_power: float = 0.0,
         robust: bool = False,
+        detect: str = DETECT,
+        seed_threshold: float = SEED_THRESHOLD,
+        jump_ratio: float = JUMP_RATIO,
+        jump_floor_deg: float = JUMP_FLOOR_DEG,
+        jump_min_mdm: float = JUMP_MIN_MDM,
+        jump_ratio_2: float = JUMP_RATIO_2,
+        jump_min_mdm_2: float = JUMP_MIN_MDM_2,
+        frozen: bool = True,
+        dominance: float = DOMINANCE,
     ) -> None:
+        if detect not in ("hysteresis", "threshold"):
+            raise ValueError(f"detect must be 'hysteresis' or 'threshold', got {detect!r}")
         if k < 1:
             raise ValueError("k must be >= 1")
         if not 0.0 <= threshold <= 1.0:
@@ -149,6 +189,15 @@ class SelfSimilarityCleaner:
         self.stage1_threshold = stage1_threshold
         self.weight_power = float(weight_power)
         self.robust = bool(robust)
+        self.detect = detect
+        self.seed_threshold = float(seed_threshold)
+        self.jump_ratio = float(jump_ratio)
+        self.jump_floor_deg = float(jump_floor_deg)
+        self.jump_min_mdm = float(jump_min_mdm)
+        self.jump_ratio_2 = float(jump_ratio_2)
+        self.jump_min_mdm_2 = float(jump_min_mdm_2)
+        self.frozen = bool(frozen)
+        self.dominance = float(dominance)
 
     # ---------------------------------------------------------------------------- fitting
     def fit(
@@ -313,6 +362,13 @@ class SelfSimilarityCleaner:
             self.digression_ = dig
             self.spread_ = spread
         active = self.active_ & covered.any(axis=0)
+        if not analysis:
+            self.analysed_ = active
+            z = mdm_mod.normalised_digression(
+                dig, self.scale, self.gain, np.radians(self.floor_deg), spread
+            )
+            z[:, ~active] = 0.0
+            self.normalised_digression_ = z
         return mdm_mod.movement_digression_map(
             dig, self.scale, self.gain, np.radians(self.floor_deg), active, spread
         )
@@ -329,6 +385,8 @@ class SelfSimilarityCleaner:
                 outliers = None
         self.outliers_ = outliers
         self.mdm_ = self._mdm_from(self.neighbours_, outliers=outliers)
+        self._jump = None
+        self._frozen = None
 
     # ---------------------------------------------------------------------------- results
     def _check(self) -> None:
@@ -346,10 +404,35 @@ class SelfSimilarityCleaner:
         return self.mdm_.copy()
 
     def mask(self, threshold: float | None = None) -> np.ndarray:
-        """(F, J) bool: MDM above the threshold."""
+        """(F, J) bool: the flagged cells (see :data:`DETECT`; ``threshold`` replaces the
+        MDM threshold)."""
         self._check()
         thr = self.threshold if threshold is None else float(threshold)
-        return self.mdm_ > thr
+        weak = self.mdm_ > thr
+        if self.detect == "threshold":
+            return weak
+        fps = self.motion_.fps
+        if self._jump is None:
+            size = max(1, 2 * round(fps / 30.0) + 1)
+            self._jump = mdm_mod.jump_ratio(
+                self.motion_.rotations, np.radians(self.jump_floor_deg), size
+            )
+        jumps = ((self._jump > self.jump_ratio) & (self.mdm_ > self.jump_min_mdm)) | (
+            (self._jump > self.jump_ratio_2) & (self.mdm_ > self.jump_min_mdm_2)
+        )
+        strong = (self.mdm_ > max(self.seed_threshold, thr)) | jumps
+        out = mdm_mod.hysteresis(weak, strong)
+        if self.dominance > 0:
+            z = self.normalised_digression_
+            pad = max(1, round(fps / 6.0))
+            out &= ~mdm_mod.dominated_runs(out, z, jumps, self.dominance, pad)
+        if self.frozen:
+            if self._frozen is None:
+                n = max(2, round(FROZEN_SECONDS * fps))
+                self._frozen = mdm_mod.frozen_cells(self.motion_.rotations, self.digression_, n)
+            out |= self._frozen
+        out[:, ~self.analysed_] = False
+        return out
 
     def segments(self, threshold: float | None = None) -> list[Segment]:
         """Flagged runs per joint, in joint order then time (inclusive file frames)."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy import ndimage
 
 from mocapkit.clean.knn import GroupNeighbours
 from mocapkit.core import rotations as rot
@@ -167,6 +168,22 @@ def movement_digression_map(
     Returns:
         (F, J) float64 in [0, 1].
     """
+    z = normalised_digression(M, scale, gain, floor, spread)
+    out = 1.0 - np.exp(-(z**2))
+    if active is not None:
+        out[:, ~np.asarray(active, dtype=bool)] = 0.0
+    return np.clip(out, 0.0, 1.0)
+
+
+def normalised_digression(
+    M: np.ndarray,
+    scale: str = "mean",
+    gain: float = 1.0,
+    floor: float = 0.0,
+    spread: np.ndarray | None = None,
+) -> np.ndarray:
+    """(F, J) ``M / s``, the ratio :func:`movement_digression_map` feeds into ``1 - exp(-x²)``
+    (unbounded, so very large digressions still compare)."""
     M = np.asarray(M, dtype=np.float64)
     if scale == "mean":
         s = M.mean(axis=0) if M.shape[0] else np.ones(M.shape[1])
@@ -179,10 +196,7 @@ def movement_digression_map(
     else:
         raise ValueError(f"scale must be 'mean', 'median' or 'spread', got {scale!r}")
     s = np.maximum(gain * s, max(float(floor), 1e-12))
-    out = 1.0 - np.exp(-((M / s) ** 2))
-    if active is not None:
-        out[:, ~np.asarray(active, dtype=bool)] = 0.0
-    return np.clip(out, 0.0, 1.0)
+    return M / s
 
 
 def neighbour_spread(reference: np.ndarray, neighbours: Sequence[GroupNeighbours]) -> np.ndarray:
@@ -205,3 +219,108 @@ def neighbour_spread(reference: np.ndarray, neighbours: Sequence[GroupNeighbours
             acc[a : a + N, js] += ang.mean(axis=0)
             cnt[a : a + N, js] += 1.0
     return np.where(cnt > 0, acc / np.where(cnt > 0, cnt, 1.0), 0.0)
+
+
+# ------------------------------------------------------------------------------ detection
+# The MDM compares a cell with its KNN words only. Two cues from the take's own time axis
+# complement it (measured on injected errors in Bandai takes, bench/eval_clean.py): capture
+# errors are abrupt (a jump away from the joint's smooth trajectory and back) and a frozen
+# joint holds a value exactly while its neighbours move on.
+
+
+def angular_acceleration(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: ``angle(q[f+1], q[f] (q[f-1]^-1 q[f]))``, how far the next rotation lies
+    from the constant-velocity prediction through frames ``f-1`` and ``f`` (0 on the edges)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
+    if q.shape[0] < 3:
+        return out
+    step = rot.quat_mul(rot.quat_inv(q[:-2]), q[1:-1])
+    pred = rot.quat_mul(q[1:-1], step)
+    out[1:-1] = rot.quat_angle(q[2:], pred)
+    return out
+
+
+def jump_ratio(rotations: np.ndarray, floor: float, size: int = 3) -> np.ndarray:
+    """(F, J) the angular acceleration (median over ``size`` frames, so a lasting jitter counts
+    more than one kink) over the joint's median acceleration in the take (at least ``floor``,
+    radians)."""
+    raw = angular_acceleration(rotations)
+    if raw.shape[0] == 0:
+        return raw
+    a = ndimage.median_filter(raw, size=(size, 1), mode="nearest") if size > 1 else raw
+    s = np.maximum(np.median(raw, axis=0), floor)
+    return a / s[None, :]
+
+
+def _runs_1d(b: np.ndarray) -> list[tuple[int, int]]:
+    """Inclusive (start, end) of the True runs of a 1-D bool array."""
+    d = np.diff(np.concatenate([[0], b.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1, strict=True))
+
+
+def frozen_cells(
+    rotations: np.ndarray,
+    digression: np.ndarray,
+    min_frames: int,
+    speed: float = np.radians(0.01),
+    min_digression: float = np.radians(5.0),
+    tol: float = np.radians(0.5),
+    max_recur: int = 3,
+) -> np.ndarray:
+    """(F, J) bool: runs of at least ``min_frames`` frames where a joint holds its rotation
+    (frame-to-frame angle below ``speed``) while the KNN words move away from it (digression
+    above ``min_digression`` somewhere in the run), and the held value does not recur elsewhere
+    in the take (fewer than ``max_recur`` frames within ``tol`` outside the run: a joint parked
+    at its limit, e.g. a straight elbow or flat toes, returns to the same value again and
+    again; a frozen marker holds an arbitrary one)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    F, J = q.shape[:2]
+    out = np.zeros((F, J), dtype=bool)
+    if F < 2:
+        return out
+    still = rot.quat_angle(q[:-1], q[1:]) < speed  # (F-1, J): frame f -> f+1
+    for j in range(J):
+        for a, b in _runs_1d(still[:, j]):
+            if b - a + 1 < min_frames:
+                continue
+            fr = slice(a, b + 2)  # the run's frames, f ... f+1
+            if digression[fr, j].max() <= min_digression:
+                continue
+            near = rot.quat_angle(q[:, j], q[a, j][None]) < tol
+            near[max(a - 3, 0) : b + 5] = False
+            if near.sum() < max_recur:
+                out[fr, j] = True
+    return out
+
+
+def hysteresis(weak: np.ndarray, strong: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the runs (along time, per joint) of ``weak | strong`` cells that hold at
+    least one ``strong`` cell."""
+    m = np.asarray(weak, dtype=bool) | np.asarray(strong, dtype=bool)
+    structure = np.array([[0, 1, 0], [0, 1, 0], [0, 1, 0]], dtype=bool)
+    lab, _ = ndimage.label(m, structure=structure)
+    ids = np.unique(lab[np.asarray(strong, dtype=bool)])
+    ids = ids[ids > 0]
+    return np.isin(lab, ids)
+
+
+def dominated_runs(
+    mask: np.ndarray, z: np.ndarray, keep: np.ndarray, ratio: float, pad: int
+) -> np.ndarray:
+    """(F, J) bool: the runs of ``mask`` (per joint) that hold no ``keep`` cell and whose peak
+    ``z`` stays below ``ratio`` times the peak of another joint within ``pad`` frames of the
+    run. A gross error on one joint bends the time-warped neighbours of every word around it,
+    which raises the digression of the other joints there too."""
+    out = np.zeros_like(mask, dtype=bool)
+    J = mask.shape[1]
+    if ratio <= 0 or J < 2:
+        return out
+    for j in range(J):
+        for a, b in _runs_1d(mask[:, j]):
+            if keep[a : b + 1, j].any():
+                continue
+            win = np.delete(z[max(a - pad, 0) : b + 1 + pad], j, axis=1)
+            if z[a : b + 1, j].max() < ratio * win.max():
+                out[a : b + 1, j] = True
+    return out

@@ -194,7 +194,8 @@ def clean_take(
     type=click.FloatRange(0.0, 1.0),
     default=THRESHOLD,
     show_default=True,
-    help="MDM level above which a (joint, frame) cell is erroneous.",
+    help="MDM level a flagged stretch of a joint extends down to; a stretch is flagged only "
+    "if it holds a near-certain cell, an abrupt jump or a frozen run.",
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
@@ -246,7 +247,8 @@ def clean_command(
 
     Every short window of each joint group ("motion-word") is compared by constrained DTW with
     every window of the context; joints whose rotation digresses from their nearest neighbours'
-    mean are flagged (MDM > threshold) and, with --out, replaced by the neighbours' median,
+    mean are flagged (stretches with MDM > threshold that hold a near-certain, abrupt or frozen
+    cell) and, with --out, replaced by the neighbours' median,
     blended at the edges. Joints and frames that are not flagged stay bit-identical.
 
     \b
