@@ -12,39 +12,19 @@ import click
 import numpy as np
 
 from mocapkit.clean import THRESHOLD
-from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main, progress
+from mocapkit.cli.common import (
+    LENIENT,
+    CLIError,
+    expand_inputs,
+    friendly_errors,
+    load,
+    main,
+    progress,
+)
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.motion import Motion
 from mocapkit.io import write_motion
 from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, refuse_overwrite
-
-MOTION_SUFFIXES = (".bvh", ".npz")
-
-
-def expand_takes(items: Sequence[str], exclude: Sequence[str] = ()) -> list[Path]:
-    """Files and the motion files (``*.bvh``, ``*.npz``) of folders, sorted, without ``exclude``."""
-    skip = {Path(e).resolve() for e in exclude}
-    out: list[Path] = []
-    for item in items:
-        p = Path(item)
-        if p.is_dir():
-            found = sorted(f for f in p.iterdir() if f.suffix.lower() in MOTION_SUFFIXES)
-            if not found:
-                raise CLIError(f"{p}: no .bvh or .npz files in this folder")
-            out += found
-        elif p.exists():
-            out.append(p)
-        else:
-            raise CLIError(f"{p}: no such file or folder")
-    seen: set[Path] = set()
-    result = []
-    for f in out:
-        r = f.resolve()
-        if r in skip or r in seen:
-            continue
-        seen.add(r)
-        result.append(f)
-    return result
 
 
 def parse_contact(spec: str, motion: Motion) -> Any:
@@ -261,7 +241,7 @@ def clean_command(
     for o in outputs:
         refuse_overwrite(o, [input_path])
     motion = load(input_path, lenient)
-    ctx_paths = expand_takes(contexts, exclude=[input_path])
+    ctx_paths = expand_inputs(contexts, exclude=[input_path])
     for o in outputs:
         refuse_overwrite(o, [str(p) for p in ctx_paths])
     context = _load_all(ctx_paths, lenient)
@@ -359,7 +339,7 @@ def reconstruct_command(
 
     refuse_overwrite(out_path, [sparse_path])
     sparse = load(sparse_path, lenient)
-    db_paths = expand_takes(databases, exclude=[sparse_path])
+    db_paths = expand_inputs(databases, exclude=[sparse_path])
     if not db_paths:
         raise CLIError("the database is empty")
     db = _load_all(db_paths, lenient)

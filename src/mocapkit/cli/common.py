@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import functools
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import click
@@ -93,3 +94,32 @@ def main() -> None:
       mocapkit convert subject.asf walk.amc walk.bvh   (see: mocapkit convert -h)
       mocapkit demo --out demo_out
     """
+
+
+MOTION_SUFFIXES = (".bvh", ".npz")  # what a folder argument contributes
+
+
+def expand_inputs(items: Sequence[str], exclude: Sequence[str] = ()) -> list[Path]:
+    """Files and the motion files (``*.bvh``, ``*.npz``) of folders, sorted, without ``exclude``."""
+    skip = {Path(e).resolve() for e in exclude}
+    out: list[Path] = []
+    for item in items:
+        p = Path(item)
+        if p.is_dir():
+            found = sorted(f for f in p.iterdir() if f.suffix.lower() in MOTION_SUFFIXES)
+            if not found:
+                raise CLIError(f"{p}: no .bvh or .npz files in this folder")
+            out += found
+        elif p.exists():
+            out.append(p)
+        else:
+            raise CLIError(f"{p}: no such file or folder")
+    seen: set[Path] = set()
+    result = []
+    for f in out:
+        r = f.resolve()
+        if r in skip or r in seen:
+            continue
+        seen.add(r)
+        result.append(f)
+    return result

@@ -10,11 +10,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from mocapkit.cli.common import CLIError, friendly_errors, load, main, progress
+from mocapkit.cli.common import CLIError, expand_inputs, friendly_errors, load, main, progress
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
-
-READABLE_EXT = (".bvh", ".npz")
 
 
 @main.group()
@@ -28,22 +26,6 @@ def graph() -> None:
       mocapkit graph synth graph.json --seconds 30 --out walk.bvh --seed 1
       mocapkit graph report graph.json
     """
-
-
-def _collect(inputs: tuple[str, ...]) -> list[Path]:
-    files: list[Path] = []
-    for s in inputs:
-        p = Path(s)
-        if p.is_dir():
-            found = sorted(f for f in p.iterdir() if f.suffix.lower() in READABLE_EXT)
-            if not found:
-                raise CLIError(f"{p}: no .bvh or .npz files in this folder")
-            files += found
-        elif p.exists():
-            files.append(p)
-        else:
-            raise CLIError(f"{p}: no such file or folder")
-    return files
 
 
 def _rel(path: Path, base: Path) -> str:
@@ -134,7 +116,7 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
 
     if T is not None and threshold is not None:
         raise CLIError("give --transitions or --threshold, not both")
-    files = _collect(inputs)
+    files = expand_inputs(inputs)
     motions = []
     with progress(len(files), "reading", enabled=not quiet) as step:
         for f in files:
