@@ -19,14 +19,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-
-REPO_ROOT = Path(__file__).resolve().parent.parent
-
-
-def shared_dir() -> Path:
-    """The shared folder: ``$MOCAPKIT_SHARED`` if set, else ``../shared`` beside the repo."""
-    env = os.environ.get("MOCAPKIT_SHARED")
-    return Path(env).expanduser() if env else REPO_ROOT.parent / "shared"
+from testsupport import shared_dir, shared_subpath
 
 
 def require_shared(subpath: str = "") -> Path:
@@ -35,14 +28,12 @@ def require_shared(subpath: str = "") -> Path:
     ``subpath`` is looked up in the shared ``data/`` folder first (``"bandai1/data"``,
     ``"bvh-corpus"``), then in the shared folder itself (``"data/bandai1/data"`` works too).
     """
-    root = shared_dir()
-    candidates = [root / "data" / subpath, root / subpath]
-    for path in candidates:
-        if path.exists():
-            return path
+    path = shared_subpath(subpath)
+    if path.exists():
+        return path
     msg = (
-        f"shared data not found at {candidates[0]}: set MOCAPKIT_SHARED or place ../shared "
-        "beside the repo"
+        f"shared data not found at {shared_dir() / 'data' / subpath}: "
+        "set MOCAPKIT_SHARED or place ../shared beside the repo"
     )
     if os.environ.get("MOCAPKIT_REQUIRE_SHARED") == "1":
         pytest.fail(msg + " (MOCAPKIT_REQUIRE_SHARED=1 makes this a failure)", pytrace=False)

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from testsupport import load_sibling
 
 from mocapkit import datasets
 from mocapkit.graph.distance import (
@@ -20,16 +18,7 @@ from mocapkit.graph.distance import (
     window_weights,
 )
 
-
-def _load_naive():
-    path = Path(__file__).with_name("naive.py")
-    spec = importlib.util.spec_from_file_location("graph_naive", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-naive = _load_naive()
+naive = load_sibling(__file__, "naive")
 
 
 @pytest.fixture(scope="module")

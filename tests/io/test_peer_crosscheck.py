@@ -24,7 +24,6 @@ which inflates the rest-pose extent; taking the smaller one keeps the tolerance 
 
 from __future__ import annotations
 
-import os
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -32,6 +31,7 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from testsupport import shared_subpath
 
 from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.core.motion import Motion
@@ -111,15 +111,9 @@ PARSER_FILES = [
 
 
 def _collection_dir(subpath: str) -> Path:
-    """Where the data set is expected, for listing files at collection time only.
-
-    This mirrors ``conftest.shared_dir`` / ``require_shared`` (fixtures are not available when
-    parametrizing); every test then asks the ``shared_path`` fixture for the real location, which
-    skips, or fails under MOCAPKIT_REQUIRE_SHARED=1, when the data set is absent.
-    """
-    env = os.environ.get("MOCAPKIT_SHARED")
-    root = Path(env).expanduser() if env else Path(__file__).resolve().parents[2].parent / "shared"
-    return root / "data" / subpath if (root / "data" / subpath).exists() else root / subpath
+    """Where the data set is expected, for listing files at collection time (fixtures are not
+    available when parametrizing); each test then asks the ``shared_path`` fixture."""
+    return shared_subpath(subpath)
 
 
 def _bvh_files(subpath: str) -> list[str]:
@@ -173,8 +167,15 @@ def _pymotion_fk(path: Path) -> PeerFK:
         es_par = np.asarray(es_parents, dtype=np.int64)
         off = np.broadcast_to(np.asarray(es_offsets, dtype=np.float64), (len(pos), len(es_par), 3))
         ends = pos[:, es_par] + pymotion_quat.mul_vec(grot[:, es_par], off)
-    return PeerFK("upc-pymotion", [str(n) for n in b.data["names"]], parents, pos, ends, es_par,
-                  np.arange(len(pos)))
+    return PeerFK(
+        "upc-pymotion",
+        [str(n) for n in b.data["names"]],
+        parents,
+        pos,
+        ends,
+        es_par,
+        np.arange(len(pos)),
+    )
 
 
 class RawBVH(NamedTuple):
@@ -206,8 +207,15 @@ def _bvh_python_raw(path: Path) -> RawBVH:
             es_par.append(i)
             es_off.append([float(x) for x in end["OFFSET"][:3]])
     es_offsets = np.array(es_off, dtype=np.float64).reshape(-1, 3)
-    return RawBVH([j.name for j in joints], parents, offsets, channels, values,
-                  np.array(es_par, dtype=np.int64), es_offsets)
+    return RawBVH(
+        [j.name for j in joints],
+        parents,
+        offsets,
+        channels,
+        values,
+        np.array(es_par, dtype=np.int64),
+        es_offsets,
+    )
 
 
 def _raw_local(raw: RawBVH) -> tuple[list[Rotation | None], np.ndarray]:
@@ -282,9 +290,17 @@ def _height(motion: Motion, positions: np.ndarray) -> float:
     return min(rest, posed) if posed > 0 else rest
 
 
-def _assert_positions(label: str, what: str, names: list[str], mine: np.ndarray,
-                      theirs: np.ndarray, frames: np.ndarray, height: float, rel_tol: float,
-                      allow_nan: bool) -> None:
+def _assert_positions(
+    label: str,
+    what: str,
+    names: list[str],
+    mine: np.ndarray,
+    theirs: np.ndarray,
+    frames: np.ndarray,
+    height: float,
+    rel_tol: float,
+    allow_nan: bool,
+) -> None:
     finite = np.all(np.isfinite(theirs), axis=-1)
     if not allow_nan:
         assert finite.all(), f"{label}: the peer gives non-finite {what}"
@@ -312,8 +328,17 @@ def _check_fk(label: str, motion: Motion, peer: PeerFK, rel_tol: float, allow_na
     height = _height(motion, pos)
     assert peer.frames[-1] < motion.num_frames
     tag = f"{label} vs {peer.peer}"
-    _assert_positions(tag, "joint positions", list(sk.names), pos[peer.frames], peer.positions,
-                      peer.frames, height, rel_tol, allow_nan)
+    _assert_positions(
+        tag,
+        "joint positions",
+        list(sk.names),
+        pos[peer.frames],
+        peer.positions,
+        peer.frames,
+        height,
+        rel_tol,
+        allow_nan,
+    )
     if peer.end_sites is None:
         return
     assert len(peer.end_site_parents) == len(sk.end_site_parents), f"{tag}: End Site count"
@@ -324,8 +349,17 @@ def _check_fk(label: str, motion: Motion, peer: PeerFK, rel_tol: float, allow_na
     assert np.array_equal(sk.end_site_parents[mine_order], peer.end_site_parents[peer_order])
     ends = end_site_positions(sk, pos, rot)[peer.frames][:, mine_order]
     es_names = [f"End Site of {sk.names[p]}" for p in sk.end_site_parents[mine_order]]
-    _assert_positions(tag, "End Site positions", es_names, ends, peer.end_sites[:, peer_order],
-                      peer.frames, height, rel_tol, allow_nan)
+    _assert_positions(
+        tag,
+        "End Site positions",
+        es_names,
+        ends,
+        peer.end_sites[:, peer_order],
+        peer.frames,
+        height,
+        rel_tol,
+        allow_nan,
+    )
 
 
 def _fk_case(shared_path, subpath: str, name: str) -> None:

@@ -2,27 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import pytest
+from testsupport import load_bench
 
 from mocapkit import datasets
 from mocapkit.io import write_motion
 
-BENCH = Path(__file__).resolve().parents[2] / "bench"
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCH / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
 
 def test_three_circles_table_and_figures(tmp_path) -> None:
-    exp = _load("stitch_experiments")
+    exp = load_bench("stitch_experiments")
     rows = {r["data"]: r for r in exp.three_circles_experiment(tmp_path)}
     assert rows["forward"]["lstar"] < rows["backward"]["lstar"]
     assert rows["forward"]["k_opt"] < rows["backward"]["k_opt"]
@@ -31,7 +21,7 @@ def test_three_circles_table_and_figures(tmp_path) -> None:
 
 
 def test_blank_out_runs_on_a_small_folder(tmp_path, monkeypatch) -> None:
-    exp = _load("stitch_experiments")
+    exp = load_bench("stitch_experiments")
     monkeypatch.setattr(exp, "CLIP_PATTERNS", ("walk_normal",))
     clip = datasets.procedural_motion("walk", 3.0, seed=0, units="cm").motion
     write_motion(clip, tmp_path / "dataset-1_walk_normal_001.bvh")
@@ -46,7 +36,7 @@ def test_blank_out_runs_on_a_small_folder(tmp_path, monkeypatch) -> None:
 
 
 def test_bench_stitch_small_library(tmp_path, monkeypatch, capsys) -> None:
-    bench = _load("bench_stitch")
+    bench = load_bench("bench_stitch")
     lib = tmp_path / "lib"
     lib.mkdir()
     for seed, kind in enumerate(("walk", "run", "idle")):
@@ -64,4 +54,4 @@ def test_bench_stitch_small_library(tmp_path, monkeypatch, capsys) -> None:
 
 @pytest.mark.parametrize("name", ["bench_stitch", "stitch_experiments"])
 def test_scripts_have_usage(name) -> None:
-    assert "Usage" in _load(name).__doc__
+    assert "Usage" in load_bench(name).__doc__

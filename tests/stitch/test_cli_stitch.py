@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from testsupport import load_sibling
 
 from mocapkit import datasets
 from mocapkit.cli import main
@@ -15,18 +16,7 @@ from mocapkit.cli.stitch_commands import stitch_demo_step
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.io import read_motion, write_motion
 
-
-def _load(name: str):
-    import importlib.util
-
-    path = Path(__file__).with_name(f"{name}.py")
-    spec = importlib.util.spec_from_file_location(f"stitch_tests_{name}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-with_ground_root = _load("motions").with_ground_root
+with_ground_root = load_sibling(__file__, "motions").with_ground_root
 
 
 def run(*args: str) -> tuple[int, str, str]:

@@ -3,14 +3,12 @@ information-form solve (tests/stitch/naive.py), and the fast linear-map smoother
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pykalman import KalmanFilter
+from testsupport import load_sibling
 
 from mocapkit.stitch.kalman import (
     DEFAULT_MODEL,
@@ -20,16 +18,7 @@ from mocapkit.stitch.kalman import (
     smoother_matrix,
 )
 
-
-def _load_naive():
-    path = Path(__file__).with_name("naive.py")
-    spec = importlib.util.spec_from_file_location("stitch_naive_kalman", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-naive = _load_naive()
+naive = load_sibling(__file__, "naive")
 
 MODELS = [
     DEFAULT_MODEL,

@@ -4,13 +4,11 @@ with g frames removed, and the landing search."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testsupport import load_sibling
 
 from mocapkit.stitch import (
     DEFAULT_MODEL,
@@ -29,16 +27,7 @@ from mocapkit.stitch import (
     windowed_euclidean,
 )
 
-
-def _load_naive():
-    path = Path(__file__).with_name("naive.py")
-    spec = importlib.util.spec_from_file_location("stitch_naive_lscore", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-naive = _load_naive()
+naive = load_sibling(__file__, "naive")
 
 SETTINGS = settings(max_examples=15, deadline=None, derandomize=True)
 OTHER_MODEL = ConstantAccelerationModel(dt=0.5, gammas=(1e-2, 3e-3, 1e-4), sigma=0.05)

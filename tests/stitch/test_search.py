@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testsupport import load_sibling
 
 from mocapkit import datasets
 from mocapkit.core.motion import Motion
@@ -27,18 +28,7 @@ from mocapkit.stitch import (
 SETTINGS = settings(max_examples=15, deadline=None, derandomize=True)
 
 
-def _load(name: str):
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).with_name(f"{name}.py")
-    spec = importlib.util.spec_from_file_location(f"stitch_tests_{name}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-with_ground_root = _load("motions").with_ground_root
+with_ground_root = load_sibling(__file__, "motions").with_ground_root
 
 
 def walks(seed: int, lengths, m: int) -> list[np.ndarray]:

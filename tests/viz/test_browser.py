@@ -236,12 +236,9 @@ def test_stitch_and_graph_overlays(browser, tmp_path):
 
 def test_bench_script_runs_small(browser, capsys):
     """bench/bench_viewer.py on a small motion (the real run: 10,000 frames x 60 joints)."""
-    import importlib.util
+    from testsupport import load_bench
 
-    path = Path(__file__).resolve().parents[2] / "bench" / "bench_viewer.py"
-    spec = importlib.util.spec_from_file_location("bench_viewer", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_bench("bench_viewer")
     assert mod.main(["--frames", "300", "--joints", "20", "--seconds", "0.5"]) == 0
     out = capsys.readouterr().out
     assert "playback:" in out and "fps" in out
