@@ -155,3 +155,18 @@ def knn_search(
         mins.sort(key=lambda c: (dist[c], c))
         out.append([tstarts[c] for c in mins[:k]])
     return out
+
+
+def step_size(q: np.ndarray) -> np.ndarray:
+    """Loop version of mdm.step_size: per frame and joint, the step into the frame against the
+    mean of the steps around it (rotation vectors of q[i]^-1 q[i+1], scipy's Rotation)."""
+    from scipy.spatial.transform import Rotation
+
+    F, J = q.shape[:2]
+    out = np.zeros((F, J))
+    for j in range(J):
+        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
+        w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
+        for f in range(2, F - 1):
+            out[f, j] = np.linalg.norm(w[f - 1] - 0.5 * (w[f - 2] + w[f]))
+    return out

@@ -84,3 +84,73 @@ def test_frozen_joint_is_flagged_and_paper_mode_is_a_plain_threshold(frozen_take
     assert np.array_equal(plain.mask(0.7), plain.scores() > 0.7)
     with pytest.raises(ValueError):
         SelfSimilarityCleaner(detect="nope")
+
+
+def _turning(F: int, J: int = 2, seed: int = 0) -> np.ndarray:
+    """(F, J, 4) smooth, fast-turning tracks (a natural motion's steps change gradually)."""
+    t = np.linspace(0, 3 * np.pi, F)[:, None]
+    rng = np.random.default_rng(seed)
+    ph = rng.uniform(0, np.pi, size=(1, J))
+    rv = np.stack([0.9 * np.sin(t + ph), 0.5 * np.cos(0.7 * t + ph), 0.2 * t + 0 * ph], axis=-1)
+    return rot.rotvec_to_quat(rv)
+
+
+def test_step_size_matches_the_reference_and_sees_a_jump_not_a_fast_turn() -> None:
+    from clean.naive import step_size as naive_step_size
+
+    q = _turning(40)
+    s = mdm_mod.step_size(q)
+    assert np.allclose(s, naive_step_size(q), atol=1e-9)
+    assert s.max() < np.radians(2.0)  # fast but smooth: no step
+    jumped = q.copy()
+    d = rot.rotvec_to_quat(np.array([0.0, 0.0, np.radians(30.0)]))
+    jumped[20:, 0] = rot.quat_mul(q[20:, 0], d)  # a 30 deg offset from frame 20 on
+    s2 = mdm_mod.step_size(jumped)
+    assert np.allclose(s2, naive_step_size(jumped), atol=1e-9)
+    assert int(np.argmax(s2[:, 0])) == 20 and abs(np.degrees(s2[20, 0]) - 30.0) < 3.0
+    assert np.allclose(s2[:, 1], s[:, 1])
+    assert mdm_mod.step_size(q[:3]).shape == (3, 2) and not mdm_mod.step_size(q[:3]).any()
+
+
+def test_steps_pair_into_the_whole_error_on_the_digressing_side() -> None:
+    F = 400  # the peaks are judged against the joint's 99th percentile: a few seconds of data
+    q = _turning(F, J=2, seed=1)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([np.radians(40.0), 0.0, 0.0]))
+    bad[30:50, 1] = rot.quat_mul(q[30:50, 1], d)  # error on frames 30..49 of joint 1
+    steps = mdm_mod.step_size(bad)
+    peaks = mdm_mod.step_peaks(steps, 1.5, np.radians(8.0))
+    assert sorted(np.flatnonzero(peaks[:, 1])) == [30, 50] and not peaks[:, 0].any()
+    z = rot.quat_angle(bad, q) / np.radians(20.0)  # digression: high inside the error only
+    sides = mdm_mod.step_sides(peaks, z, 3)
+    assert sides[30, 1] == 1 and sides[50, 1] == -1
+    cells = mdm_mod.step_cells(peaks, sides)
+    assert sorted(np.flatnonzero(cells[:, 1])) == [30, 49]  # both on the corrupted frames
+    part = np.zeros((F, 2), dtype=bool)
+    part[36:40, 1] = True  # the MDM flagged only part of it
+    whole = mdm_mod.paired_steps(part, peaks, sides, z, max_frames=40)
+    assert np.array_equal(np.flatnonzero(whole[:, 1]), np.arange(30, 50))
+    # too far apart, or nothing flagged in between: unchanged
+    assert np.array_equal(mdm_mod.paired_steps(part, peaks, sides, z, max_frames=10), part)
+    none = np.zeros_like(part)
+    assert not mdm_mod.paired_steps(none, peaks, sides, z, max_frames=40).any()
+    # a stretch that digresses less than its flanks is not widened
+    flat = np.where(np.arange(F)[:, None] < 30, 5.0, 0.1) * np.ones((1, 2))
+    flat[50:70] = 5.0
+    assert np.array_equal(mdm_mod.paired_steps(part, peaks, sides, flat, 40), part)
+
+
+def test_partly_flagged_offset_is_flagged_whole_end_to_end() -> None:
+    walk = datasets.procedural_motion("walk", seconds=6.0, seed=5).motion
+    names = list(walk.skeleton.names)
+    j = names.index("LeftUpLeg")
+    q = walk.rotations.copy()
+    d = rot.rotvec_to_quat(np.array([0.0, np.radians(35.0), 0.0]))
+    q[70:100, j] = rot.quat_mul(q[70:100, j], d)
+    bad = type(walk)(walk.skeleton, q, walk.root_positions, walk.frame_time)
+    cl = SelfSimilarityCleaner().fit(bad)
+    m = cl.mask()
+    assert m[70:100, j].all()
+    assert not m[:66, j].any() and not m[104:, j].any()
+    off = SelfSimilarityCleaner(pair_seconds=0.0).fit(bad)
+    assert off.mask()[70:100, j].sum() <= m[70:100, j].sum()

@@ -8,6 +8,7 @@ row is divided by a scale (the paper: the row's mean), and ``MDM = 1 - exp(-M²)
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -323,4 +324,90 @@ def dominated_runs(
             win = np.delete(z[max(a - pad, 0) : b + 1 + pad], j, axis=1)
             if z[a : b + 1, j].max() < ratio * win.max():
                 out[a : b + 1, j] = True
+    return out
+
+
+# A capture error starts and ends with a *step*: one frame-to-frame rotation far from the steps
+# around it (a velocity outlier), while fast natural motion changes its velocity smoothly. The
+# error lies between an entry step and an exit step on the same joint, on the side of each step
+# where the joint digresses from its KNN words.
+
+
+def step_size(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: ``s[f] = |w[f-1] - (w[f-2] + w[f]) / 2|`` with ``w[i] = log(q[i]^-1 q[i+1])``
+    the rotation vector of the step from frame ``i`` to ``i + 1``: how far the step into frame
+    ``f`` lies from the mean of its neighbouring steps (0 where undefined, ``f < 2`` or
+    ``f > F - 2``). A jump of angle ``a`` into frame ``f`` gives ``a`` at ``f`` and ``a / 2`` at
+    ``f ± 1``."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
+    if q.shape[0] < 4:
+        return out
+    w = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
+    out[2:-1] = np.linalg.norm(w[1:-1] - 0.5 * (w[:-2] + w[2:]), axis=-1)
+    return out
+
+
+def step_peaks(
+    steps: np.ndarray, ratio: float, min_step: float, quantile: float = 99.0
+) -> np.ndarray:
+    """(F, J) bool: local maxima (along time) of :func:`step_size` above ``ratio`` times the
+    joint's ``quantile`` of steps in the take and above ``min_step`` radians (feet hit the
+    ground with natural steps, so each joint is judged against its own). In a take of a few
+    seconds, an error's own steps make up the top percent: then nothing passes, and detection
+    rests on the other seeds."""
+    s = np.asarray(steps, dtype=np.float64)
+    if s.shape[0] == 0:
+        return np.zeros(s.shape, dtype=bool)
+    scale = np.percentile(s, quantile, axis=0)
+    pad = np.full((1, s.shape[1]), -1.0)
+    left = np.vstack([pad, s[:-1]])
+    right = np.vstack([s[1:], pad])
+    return (s > ratio * scale[None, :]) & (s > min_step) & (s >= left) & (s > right)
+
+
+def step_sides(peaks: np.ndarray, z: np.ndarray, width: int) -> np.ndarray:
+    """(F, J) int8 at the ``peaks``: +1 when the error lies after the step (the normalised
+    digression ``z`` is higher over the ``width`` frames from the peak on than over the
+    ``width`` frames before it: an entry), -1 when before (an exit), 0 elsewhere."""
+    out = np.zeros(peaks.shape, dtype=np.int8)
+    for f, j in zip(*np.nonzero(peaks), strict=True):
+        after = z[f : f + width, j].mean()
+        before = z[max(0, f - width) : f, j].mean() if f > 0 else -np.inf
+        out[f, j] = 1 if after >= before else -1
+    return out
+
+
+def step_cells(peaks: np.ndarray, sides: np.ndarray) -> np.ndarray:
+    """(F, J) bool: for each step peak the cell on its erroneous side (the peak's own frame for
+    an entry, the frame before it for an exit)."""
+    out = np.zeros(peaks.shape, dtype=bool)
+    f, j = np.nonzero(peaks & (sides > 0))
+    out[f, j] = True
+    f, j = np.nonzero(peaks & (sides < 0))
+    keep = f > 0
+    out[f[keep] - 1, j[keep]] = True
+    return out
+
+
+def paired_steps(
+    mask: np.ndarray, peaks: np.ndarray, sides: np.ndarray, z: np.ndarray, max_frames: int
+) -> np.ndarray:
+    """(F, J) bool: ``mask`` plus the frames between an entry step and the next step on the same
+    joint when that one is an exit, at most ``max_frames`` apart, some cell in between is
+    already in ``mask``, and the mean ``z`` in between is at least that of the flanks (as many
+    frames on each side): an error flagged on part of its extent is flagged whole."""
+    out = np.array(mask, dtype=bool, copy=True)
+    for j in np.flatnonzero(out.any(axis=0)):
+        ps = np.flatnonzero(peaks[:, j])
+        for a, e in itertools.pairwise(ps):
+            n = e - a
+            if n > max_frames or sides[a, j] != 1 or sides[e, j] != -1:
+                continue
+            if not mask[a:e, j].any():
+                continue
+            flanks = np.concatenate([z[max(0, a - n) : a, j], z[e : e + n, j]])
+            if len(flanks) and z[a:e, j].mean() < flanks.mean():
+                continue
+            out[a:e, j] = True
     return out
