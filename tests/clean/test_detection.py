@@ -48,6 +48,14 @@ def test_frozen_cells_need_a_moving_context_and_a_value_that_does_not_recur() ->
     limit = np.clip(np.sin(t), -0.3, None)
     ql = rot.rotvec_to_quat(np.stack([limit, 0 * t, 0 * t], axis=1))[:, None]
     assert not mdm_mod.frozen_cells(ql, np.full((F, 1), 1.0), min_frames=5).any()
+    # a value the joint only passes through (every 10 frames, exactly) is no limit
+    tp = np.arange(F)
+    qp = rot.rotvec_to_quat(np.stack([0.6 * np.sin(2 * np.pi * tp / 10), 0 * tp, 0 * tp], 1))
+    fp = qp[:, None].copy()
+    fp[20:35, 0] = qp[20]
+    assert (rot.quat_angle(qp, qp[20][None]) < 1e-9).sum() >= 5
+    dp = rot.quat_angle(fp, qp[:, None])
+    assert mdm_mod.frozen_cells(fp, dp, min_frames=10)[21:35, 0].all()
 
 
 def test_dominated_runs() -> None:

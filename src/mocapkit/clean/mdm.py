@@ -271,10 +271,11 @@ def frozen_cells(
 ) -> np.ndarray:
     """(F, J) bool: runs of at least ``min_frames`` frames where a joint holds its rotation
     (frame-to-frame angle below ``speed``) while the KNN words move away from it (digression
-    above ``min_digression`` somewhere in the run), and the held value does not recur elsewhere
-    in the take (fewer than ``max_recur`` frames within ``tol`` outside the run: a joint parked
-    at its limit, e.g. a straight elbow or flat toes, returns to the same value again and
-    again; a frozen marker holds an arbitrary one)."""
+    above ``min_digression`` somewhere in the run), and the held value is not held elsewhere in
+    the take (fewer than ``max_recur`` frames within ``tol`` outside the run where the joint is
+    still too: a joint parked at its limit, e.g. a straight elbow or flat toes, comes back to
+    rest at the same value again and again; a frozen marker holds an arbitrary one, which the
+    joint may pass through but does not rest at)."""
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
     out = np.zeros((F, J), dtype=bool)
@@ -289,6 +290,8 @@ def frozen_cells(
             if digression[fr, j].max() <= min_digression:
                 continue
             near = rot.quat_angle(q[:, j], q[a, j][None]) < tol
+            near[:-1] &= still[:, j]  # at rest there, not passing through
+            near[-1] &= still[-1, j]
             near[max(a - 3, 0) : b + 5] = False
             if near.sum() < max_recur:
                 out[fr, j] = True
