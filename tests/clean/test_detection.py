@@ -162,3 +162,12 @@ def test_partly_flagged_offset_is_flagged_whole_end_to_end() -> None:
     assert not m[:66, j].any() and not m[104:, j].any()
     off = SelfSimilarityCleaner(pair_seconds=0.0).fit(bad)
     assert off.mask()[70:100, j].sum() <= m[70:100, j].sum()
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"step_ratio": 0.0}, {"step_min_deg": -1.0}, {"step_min_mdm": 1.5}, {"pair_seconds": -0.1}],
+)
+def test_step_parameters_are_checked(kwargs) -> None:
+    with pytest.raises(ValueError, match=r"step_|pair_seconds"):
+        SelfSimilarityCleaner(**kwargs)

@@ -196,6 +196,12 @@ class SelfSimilarityCleaner:
             raise ValueError("threshold must lie in [0, 1]")
         if fps <= 0:
             raise ValueError("fps must be positive")
+        if step_ratio <= 0 or step_min_deg < 0:
+            raise ValueError("step_ratio must be positive and step_min_deg non-negative")
+        if not 0.0 <= step_min_mdm <= 1.0:
+            raise ValueError("step_min_mdm must lie in [0, 1]")
+        if pair_seconds < 0:
+            raise ValueError("pair_seconds must be >= 0 (0 turns the widening off)")
         self.groups = None if groups is None else list(groups)
         self.k = int(k)
         self.fps = float(fps)
