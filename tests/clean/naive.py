@@ -170,3 +170,24 @@ def step_size(q: np.ndarray) -> np.ndarray:
         for f in range(2, F - 1):
             out[f, j] = np.linalg.norm(w[f - 1] - 0.5 * (w[f - 2] + w[f]))
     return out
+
+
+def window_match(track: np.ndarray, start: int, stop: int, others=()) -> float:
+    """Loop version of mdm.window_match: every other window, frame by frame, with scipy's
+    Rotation for the angles."""
+    from scipy.spatial.transform import Rotation
+
+    def rots(t):
+        return Rotation.from_quat(np.asarray(t)[:, [1, 2, 3, 0]])
+
+    w = rots(track[start:stop])
+    n = stop - start
+    best = float("inf")
+    for k, src in enumerate([track, *others]):
+        r = rots(src)
+        for s in range(len(src) - n + 1):
+            if k == 0 and s < stop and s + n > start:
+                continue  # overlaps the window itself
+            worst = max((w[i].inv() * r[s + i]).magnitude() for i in range(n))
+            best = min(best, float(worst))
+    return best

@@ -171,3 +171,62 @@ def test_partly_flagged_offset_is_flagged_whole_end_to_end() -> None:
 def test_step_parameters_are_checked(kwargs) -> None:
     with pytest.raises(ValueError, match=r"step_|pair_seconds"):
         SelfSimilarityCleaner(**kwargs)
+
+
+def test_smooth_runs_drop_a_digression_without_a_step() -> None:
+    q = _turning(60, J=2, seed=2)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([0.0, np.radians(30.0), 0.0]))
+    bad[20:30, 1] = rot.quat_mul(q[20:30, 1], d)  # abrupt: steps at 20 and 30
+    steps = mdm_mod.step_size(bad)
+    mask = np.zeros((60, 2), dtype=bool)
+    mask[23:27] = True  # the same stretch flagged on the smooth joint 0 and the stepped joint 1
+    keep = np.zeros_like(mask)
+    smooth = mdm_mod.smooth_runs(mask, steps, keep, np.radians(10.0), pad=6)
+    assert smooth[23:27, 0].all() and not smooth[:, 1].any()
+    # a narrow pad does not reach the steps; a keep cell (a frozen joint) protects the run
+    assert mdm_mod.smooth_runs(mask, steps, keep, np.radians(10.0), pad=1)[23:27, 1].all()
+    keep[25, 0] = True
+    assert not mdm_mod.smooth_runs(mask, steps, keep, np.radians(10.0), pad=6)[:, 0].any()
+
+
+def test_window_match_matches_the_reference() -> None:
+    from clean.naive import window_match as naive_window_match
+
+    q = _turning(50, J=1, seed=3)[:, 0]
+    other = _turning(30, J=1, seed=4)[:, 0]
+    for start, stop in ((0, 5), (10, 17), (44, 50)):
+        fast = mdm_mod.window_match(q, start, stop, [other])
+        assert abs(fast - naive_window_match(q, start, stop, [other])) < 1e-6
+    assert mdm_mod.window_match(q[:6], 0, 6) == np.inf  # no other window fits
+
+
+def test_recurring_runs_spare_a_random_error_and_drop_a_repeated_motif() -> None:
+    F = 200
+    q = np.tile(rot.quat_identity((1, 2)), (F, 1, 1))  # a joint at rest, like flat toes
+    for f, deg in ((40, 23.0), (90, 25.0), (150, 27.0)):  # a two-frame toe pop, three times
+        q[f : f + 2, 0] = rot.rotvec_to_quat(np.array([np.radians(deg), 0.0, 0.0]))
+    err = rot.rotvec_to_quat(np.array([0.0, np.radians(20.0), np.radians(15.0)]))
+    q[120:122, 1] = err  # one random spike
+    dig = np.full((F, 2), np.radians(25.0))
+    mask = np.zeros((F, 2), dtype=bool)
+    mask[90:92, 0] = True
+    mask[120:122, 1] = True
+    args = (6, 2, np.radians(12.0), 0.5)
+    drop = mdm_mod.recurring_runs(mask, q, dig, *args)
+    assert drop[90:92, 0].all() and not drop[:, 1].any()
+    # once alone in the take, the pop stays flagged unless a context take repeats it
+    alone = q.copy()
+    alone[40:42, 0] = alone[150:152, 0] = rot.quat_identity()
+    assert not mdm_mod.recurring_runs(mask, alone, dig, *args).any()
+    assert mdm_mod.recurring_runs(mask, alone, dig, *args, others=[q])[90:92, 0].all()
+    # a match (2 deg off) that explains less than half of the digression does not veto
+    assert not mdm_mod.recurring_runs(mask, q, dig * 0.1, *args).any()
+    # long runs are never vetoed
+    assert not mdm_mod.recurring_runs(mask, q, dig, 1, 2, np.radians(12.0), 0.5).any()
+
+
+@pytest.mark.parametrize("kwargs", [{"abrupt_deg": -1.0}, {"recur_deg": -0.5}])
+def test_veto_parameters_are_checked(kwargs) -> None:
+    with pytest.raises(ValueError, match="abrupt_deg and recur_deg"):
+        SelfSimilarityCleaner(**kwargs)

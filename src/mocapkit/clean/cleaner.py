@@ -66,6 +66,12 @@ STEP_RATIO = 1.5
 STEP_MIN_DEG = 8.0
 STEP_MIN_MDM = 0.5
 PAIR_SECONDS = 1.5
+ABRUPT_DEG = 10.0
+ABRUPT_SECONDS = 0.2
+RECUR_DEG = 12.0
+RECUR_RATIO = 0.5
+RECUR_SECONDS = 0.2
+RECUR_PAD_SECONDS = 1.0 / 15.0
 """Detection defaults. ``detect="threshold"`` flags every cell with MDM above the threshold (the
 paper). ``detect="hysteresis"`` flags the runs (per joint, along time) of cells above the
 threshold that hold a *seed*: a cell with MDM above ``SEED_THRESHOLD``, or an abrupt cell (angular
@@ -84,7 +90,16 @@ percentile of steps in the take and above ``STEP_MIN_DEG`` seeds the cell on its
 when that cell's MDM exceeds ``STEP_MIN_MDM``; and a flagged run that lies between an entry step
 and an exit step (at most ``PAIR_SECONDS`` apart) is widened to the whole stretch between them
 (:func:`~mocapkit.clean.mdm.paired_steps`), since an error flagged on part of its extent is
-wrong all the way. On injected Bandai errors (bench/eval_clean.py) this removes most isolated
+wrong all the way.
+
+Vetoes: a run (frozen joints aside) with no step above ``ABRUPT_DEG`` within ``ABRUPT_SECONDS``
+of it is dropped (:func:`~mocapkit.clean.mdm.smooth_runs`): errors enter and leave with a step,
+while a smooth digression is natural motion the context lacks. A run of at most
+``RECUR_SECONDS`` whose joint trajectory (with ``RECUR_PAD_SECONDS`` either side) the joint
+repeats elsewhere in the take or in a context take of the same frame rate, within ``RECUR_DEG``
+at every frame and within ``RECUR_RATIO`` times the run's digression, is dropped too
+(:func:`~mocapkit.clean.mdm.recurring_runs`): the performer's own motif (toe pops at every
+push-off), not a random error. On injected Bandai errors (bench/eval_clean.py) this removes most isolated
 false alarms of the plain threshold (weakly matched clean cells just above 0.5) and catches
 frozen and jittery joints whose MDM stays low. The step rules were chosen on one seed of the
 evaluation and checked on another."""
@@ -157,6 +172,9 @@ class SelfSimilarityCleaner:
         step_ratio, step_min_deg, step_min_mdm, pair_seconds: the step seeds and the widening
             of flagged runs to the steps around them (see :data:`DETECT`; ``pair_seconds=0``
             turns the widening off).
+        abrupt_deg: drop runs with no step this large around them (0: keep; see
+            :data:`DETECT`).
+        recur_deg: drop short runs the joint repeats elsewhere this closely (0: keep).
     """
 
     def __init__(
@@ -187,6 +205,8 @@ class SelfSimilarityCleaner:
         step_min_deg: float = STEP_MIN_DEG,
         step_min_mdm: float = STEP_MIN_MDM,
         pair_seconds: float = PAIR_SECONDS,
+        abrupt_deg: float = ABRUPT_DEG,
+        recur_deg: float = RECUR_DEG,
     ) -> None:
         if detect not in ("hysteresis", "threshold"):
             raise ValueError(f"detect must be 'hysteresis' or 'threshold', got {detect!r}")
@@ -202,6 +222,8 @@ class SelfSimilarityCleaner:
             raise ValueError("step_min_mdm must lie in [0, 1]")
         if pair_seconds < 0:
             raise ValueError("pair_seconds must be >= 0 (0 turns the widening off)")
+        if abrupt_deg < 0 or recur_deg < 0:
+            raise ValueError("abrupt_deg and recur_deg must be >= 0 (0 turns the veto off)")
         self.groups = None if groups is None else list(groups)
         self.k = int(k)
         self.fps = float(fps)
@@ -228,6 +250,8 @@ class SelfSimilarityCleaner:
         self.step_min_deg = float(step_min_deg)
         self.step_min_mdm = float(step_min_mdm)
         self.pair_seconds = float(pair_seconds)
+        self.abrupt_deg = float(abrupt_deg)
+        self.recur_deg = float(recur_deg)
 
     # ---------------------------------------------------------------------------- fitting
     def fit(
@@ -243,6 +267,10 @@ class SelfSimilarityCleaner:
                 label = names[i] if names is not None else f"context take {i}"
                 raise ValueError(f"{label}: its skeleton differs from the input's")
         self.motion_ = motion
+        # same-rate context rotations, for the recurrence veto (compared frame by frame)
+        self.context_rotations_ = [
+            c.rotations for c in context if np.isclose(c.frame_time, motion.frame_time, rtol=1e-6)
+        ]
         tex = make_texture(motion, self.fps, "input")
         ctx_tex = [make_texture(c, self.fps, f"ctx{i}").rotations for i, c in enumerate(context)]
         self.texture_ = tex
@@ -456,8 +484,8 @@ class SelfSimilarityCleaner:
             steps = mdm_mod.step_size(self.motion_.rotations)
             peaks = mdm_mod.step_peaks(steps, self.step_ratio, np.radians(self.step_min_deg))
             sides = mdm_mod.step_sides(peaks, z, max(1, round(fps / 10.0)))
-            self._steps = (peaks, sides, mdm_mod.step_cells(peaks, sides))
-        peaks, sides, step_cells = self._steps
+            self._steps = (peaks, sides, mdm_mod.step_cells(peaks, sides), steps)
+        peaks, sides, step_cells, _ = self._steps
         seeds = jumps | (step_cells & (self.mdm_ > self.step_min_mdm))
         strong = (self.mdm_ > max(self.seed_threshold, thr)) | seeds
         out = mdm_mod.hysteresis(weak, strong)
@@ -466,11 +494,28 @@ class SelfSimilarityCleaner:
             out &= ~mdm_mod.dominated_runs(out, z, seeds, self.dominance, pad)
         if self.pair_seconds > 0:
             out = mdm_mod.paired_steps(out, peaks, sides, z, round(self.pair_seconds * fps))
+        frozen = np.zeros_like(out)
         if self.frozen:
             if self._frozen is None:
                 n = max(2, round(FROZEN_SECONDS * fps))
                 self._frozen = mdm_mod.frozen_cells(self.motion_.rotations, self.digression_, n)
-            out |= self._frozen
+            frozen = self._frozen
+            out |= frozen
+        if self.abrupt_deg > 0:
+            pad = max(1, round(ABRUPT_SECONDS * fps))
+            min_step = np.radians(self.abrupt_deg)
+            out &= ~mdm_mod.smooth_runs(out, self._steps[3], frozen, min_step, pad)
+        if self.recur_deg > 0:
+            out &= ~mdm_mod.recurring_runs(
+                out,
+                self.motion_.rotations,
+                self.digression_,
+                max(1, round(RECUR_SECONDS * fps)),
+                max(1, round(RECUR_PAD_SECONDS * fps)),
+                np.radians(self.recur_deg),
+                RECUR_RATIO,
+                getattr(self, "context_rotations_", []),
+            )
         out[:, ~self.analysed_] = False
         return out
 

@@ -414,3 +414,79 @@ def paired_steps(
                 continue
             out[a:e, j] = True
     return out
+
+
+# Two vetoes on flagged runs, for what a capture error is not:
+# - smooth: every error injected or met here (spike, offset, noise, bend, flip) enters or leaves
+#   with a step; a run on a joint whose steps stay small around it is natural motion that the
+#   context lacks (a dancer's head whip), frozen joints aside;
+# - recurring: a short run whose own trajectory (the joint alone, with its flanks) the joint
+#   repeats elsewhere, closer than the KNN words came, is a motif of this performer (toe pops
+#   on every push-off), not a random error.
+
+
+def smooth_runs(
+    mask: np.ndarray, steps: np.ndarray, keep: np.ndarray, min_step: float, pad: int
+) -> np.ndarray:
+    """(F, J) bool: the runs of ``mask`` (per joint) holding no ``keep`` cell whose largest
+    :func:`step_size` within ``pad`` frames of the run stays below ``min_step`` radians."""
+    out = np.zeros_like(mask, dtype=bool)
+    for j in np.flatnonzero(np.asarray(mask).any(axis=0)):
+        for a, b in _runs_1d(mask[:, j]):
+            if keep[a : b + 1, j].any():
+                continue
+            if steps[max(a - pad, 0) : b + 1 + pad, j].max() < min_step:
+                out[a : b + 1, j] = True
+    return out
+
+
+def window_match(
+    track: np.ndarray, start: int, stop: int, others: Sequence[np.ndarray] = ()
+) -> float:
+    """Radians: the least, over every other window of ``stop - start`` frames of ``track`` (F, 4)
+    (not overlapping this one) and of each track in ``others``, of the largest angle between
+    the window's rotations and ``track[start:stop]``, frame by frame (inf when none fits)."""
+    w = np.asarray(track[start:stop], dtype=np.float64)
+    n = len(w)
+    best = np.inf
+    for k, src in enumerate((track, *others)):
+        src = np.asarray(src, dtype=np.float64)
+        if len(src) < n or n == 0:
+            continue
+        win = np.lib.stride_tricks.sliding_window_view(src, n, axis=0)  # (F-n+1, 4, n)
+        dots = np.abs(np.einsum("wkn,nk->wn", win, w))
+        worst = 2.0 * np.arccos(np.clip(dots.min(axis=1), 0.0, 1.0))
+        if k == 0:
+            worst[max(0, start - n + 1) : stop] = np.inf  # itself and overlapping windows
+        if len(worst):
+            best = min(best, float(worst.min()))
+    return best
+
+
+def recurring_runs(
+    mask: np.ndarray,
+    rotations: np.ndarray,
+    digression: np.ndarray,
+    max_frames: int,
+    pad: int,
+    max_angle: float,
+    ratio: float,
+    others: Sequence[np.ndarray] = (),
+) -> np.ndarray:
+    """(F, J) bool: the runs of ``mask`` of at most ``max_frames`` frames whose joint trajectory
+    from ``pad`` frames before to ``pad`` after (``rotations`` (F, J, 4)) the joint repeats
+    elsewhere in the take or in ``others`` (each (F_i, J, 4)) within ``max_angle`` radians at
+    every frame (:func:`window_match`), and within ``ratio`` times the run's peak
+    ``digression``."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros_like(mask, dtype=bool)
+    F = q.shape[0]
+    for j in np.flatnonzero(np.asarray(mask).any(axis=0)):
+        for a, b in _runs_1d(mask[:, j]):
+            if b - a + 1 > max_frames:
+                continue
+            s0, s1 = max(0, a - pad), min(F, b + 1 + pad)
+            match = window_match(q[:, j], s0, s1, [o[:, j] for o in others])
+            if match < max_angle and match < ratio * digression[a : b + 1, j].max():
+                out[a : b + 1, j] = True
+    return out
