@@ -99,10 +99,12 @@ while a smooth digression is natural motion the context lacks. A run of at most
 repeats elsewhere in the take or in a context take of the same frame rate, within ``RECUR_DEG``
 at every frame and within ``RECUR_RATIO`` times the run's digression, is dropped too
 (:func:`~mocapkit.clean.mdm.recurring_runs`): the performer's own motif (toe pops at every
-push-off), not a random error. On injected Bandai errors (bench/eval_clean.py) this removes most isolated
-false alarms of the plain threshold (weakly matched clean cells just above 0.5) and catches
-frozen and jittery joints whose MDM stays low. The step rules were chosen on one seed of the
-evaluation and checked on another."""
+push-off), not a random error.
+
+On injected Bandai errors (bench/eval_clean.py) these rules remove most isolated false alarms of
+the plain threshold (weakly matched clean cells just above 0.5) and catch frozen and jittery
+joints whose MDM stays low. They were chosen on one seed of the evaluation and checked on
+another."""
 
 
 @dataclass
