@@ -172,22 +172,28 @@ def step_size(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def window_match(track: np.ndarray, start: int, stop: int, others=()) -> float:
-    """Loop version of mdm.window_match: every other window, frame by frame, with scipy's
-    Rotation for the angles."""
+def excursion_match(track: np.ndarray, start: int, stop: int, others=(), flex: int = 1) -> float:
+    """Loop version of mdm.excursion_match: every place and lag, scipy's Rotation for angles."""
     from scipy.spatial.transform import Rotation
 
     def rots(t):
         return Rotation.from_quat(np.asarray(t)[:, [1, 2, 3, 0]])
 
-    w = rots(track[start:stop])
-    n = stop - start
+    q = rots(track)
+    e, x = start - 1, stop
+    if e < 0 or x >= len(track):
+        return float("inf")
+    p = max(range(start, stop), key=lambda f: (q[e].inv() * q[f]).magnitude())
+    k, m = p - e, x - e
     best = float("inf")
-    for k, src in enumerate([track, *others]):
-        r = rots(src)
-        for s in range(len(src) - n + 1):
-            if k == 0 and s < stop and s + n > start:
-                continue  # overlaps the window itself
-            worst = max((w[i].inv() * r[s + i]).magnitude() for i in range(n))
-            best = min(best, float(worst))
+    for idx, src in enumerate([track, *others]):
+        t = rots(src)
+        for g in range(len(src)):
+            for kk in range(max(1, k - flex), k + flex + 1):
+                for mm in range(max(kk + 1, m - flex), m + flex + 1):
+                    if g + mm >= len(src) or (idx == 0 and g <= x and g + mm >= e):
+                        continue
+                    pairs = ((q[e], t[g]), (q[p], t[g + kk]), (q[x], t[g + mm]))
+                    cost = max((a.inv() * b).magnitude() for a, b in pairs)
+                    best = min(best, float(cost))
     return best

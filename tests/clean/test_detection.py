@@ -190,40 +190,44 @@ def test_smooth_runs_drop_a_digression_without_a_step() -> None:
     assert not mdm_mod.smooth_runs(mask, steps, keep, np.radians(10.0), pad=6)[:, 0].any()
 
 
-def test_window_match_matches_the_reference() -> None:
-    from clean.naive import window_match as naive_window_match
+def test_excursion_match_matches_the_reference() -> None:
+    from clean.naive import excursion_match as naive_excursion_match
 
     q = _turning(50, J=1, seed=3)[:, 0]
     other = _turning(30, J=1, seed=4)[:, 0]
-    for start, stop in ((0, 5), (10, 17), (44, 50)):
-        fast = mdm_mod.window_match(q, start, stop, [other])
-        assert abs(fast - naive_window_match(q, start, stop, [other])) < 1e-6
-    assert mdm_mod.window_match(q[:6], 0, 6) == np.inf  # no other window fits
+    for start, stop, flex in ((1, 5, 1), (10, 17, 2), (44, 49, 1), (20, 21, 0)):
+        fast = mdm_mod.excursion_match(q, start, stop, [other], flex)
+        assert abs(fast - naive_excursion_match(q, start, stop, [other], flex)) < 1e-6
+    assert mdm_mod.excursion_match(q, 0, 5) == np.inf  # no entry pose before the run
 
 
 def test_recurring_runs_spare_a_random_error_and_drop_a_repeated_motif() -> None:
     F = 200
     q = np.tile(rot.quat_identity((1, 2)), (F, 1, 1))  # a joint at rest, like flat toes
-    for f, deg in ((40, 23.0), (90, 25.0), (150, 27.0)):  # a two-frame toe pop, three times
-        q[f : f + 2, 0] = rot.rotvec_to_quat(np.array([np.radians(deg), 0.0, 0.0]))
+    pops = {40: (8.0, 12.0, 26.0), 90: (25.0, 18.0), 150: (10.0, 27.0)}  # toe pops, varied
+    for f, degs in pops.items():
+        for i, deg in enumerate(degs):
+            q[f + i, 0] = rot.rotvec_to_quat(np.array([np.radians(deg), 0.0, 0.0]))
     err = rot.rotvec_to_quat(np.array([0.0, np.radians(20.0), np.radians(15.0)]))
     q[120:122, 1] = err  # one random spike
     dig = np.full((F, 2), np.radians(25.0))
     mask = np.zeros((F, 2), dtype=bool)
     mask[90:92, 0] = True
     mask[120:122, 1] = True
-    args = (6, 2, np.radians(12.0), 0.5)
+    args = (6, np.radians(8.0), 0.5)
     drop = mdm_mod.recurring_runs(mask, q, dig, *args)
     assert drop[90:92, 0].all() and not drop[:, 1].any()
     # once alone in the take, the pop stays flagged unless a context take repeats it
     alone = q.copy()
-    alone[40:42, 0] = alone[150:152, 0] = rot.quat_identity()
+    alone[40:43, 0] = alone[150:152, 0] = rot.quat_identity()
     assert not mdm_mod.recurring_runs(mask, alone, dig, *args).any()
     assert mdm_mod.recurring_runs(mask, alone, dig, *args, others=[q])[90:92, 0].all()
+    # without lag flexibility the pop at 150, a frame slower to peak, does not match
+    assert not mdm_mod.recurring_runs(mask, q, dig, *args, flex=0)[:, 0].any()
     # a match (2 deg off) that explains less than half of the digression does not veto
     assert not mdm_mod.recurring_runs(mask, q, dig * 0.1, *args).any()
     # long runs are never vetoed
-    assert not mdm_mod.recurring_runs(mask, q, dig, 1, 2, np.radians(12.0), 0.5).any()
+    assert not mdm_mod.recurring_runs(mask, q, dig, 1, np.radians(8.0), 0.5).any()
 
 
 @pytest.mark.parametrize("kwargs", [{"abrupt_deg": -1.0}, {"recur_deg": -0.5}])

@@ -68,10 +68,9 @@ STEP_MIN_MDM = 0.5
 PAIR_SECONDS = 1.5
 ABRUPT_DEG = 10.0
 ABRUPT_SECONDS = 0.2
-RECUR_DEG = 12.0
+RECUR_DEG = 8.0
 RECUR_RATIO = 0.5
 RECUR_SECONDS = 0.2
-RECUR_PAD_SECONDS = 1.0 / 15.0
 """Detection defaults. ``detect="threshold"`` flags every cell with MDM above the threshold (the
 paper). ``detect="hysteresis"`` flags the runs (per joint, along time) of cells above the
 threshold that hold a *seed*: a cell with MDM above ``SEED_THRESHOLD``, or an abrupt cell (angular
@@ -95,9 +94,9 @@ wrong all the way.
 Vetoes: a run (frozen joints aside) with no step above ``ABRUPT_DEG`` within ``ABRUPT_SECONDS``
 of it is dropped (:func:`~mocapkit.clean.mdm.smooth_runs`): errors enter and leave with a step,
 while a smooth digression is natural motion the context lacks. A run of at most
-``RECUR_SECONDS`` whose joint trajectory (with ``RECUR_PAD_SECONDS`` either side) the joint
+``RECUR_SECONDS`` whose excursion (the poses before, at the peak of and after the run) the joint
 repeats elsewhere in the take or in a context take of the same frame rate, within ``RECUR_DEG``
-at every frame and within ``RECUR_RATIO`` times the run's digression, is dropped too
+and within ``RECUR_RATIO`` times the run's digression, is dropped too
 (:func:`~mocapkit.clean.mdm.recurring_runs`): the performer's own motif (toe pops at every
 push-off), not a random error.
 
@@ -513,10 +512,10 @@ class SelfSimilarityCleaner:
                 self.motion_.rotations,
                 self.digression_,
                 max(1, round(RECUR_SECONDS * fps)),
-                max(1, round(RECUR_PAD_SECONDS * fps)),
                 np.radians(self.recur_deg),
                 RECUR_RATIO,
                 getattr(self, "context_rotations_", []),
+                flex=max(1, round(fps / 30.0)),
             )
         out[:, ~self.analysed_] = False
         return out

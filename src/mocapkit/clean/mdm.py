@@ -420,9 +420,9 @@ def paired_steps(
 # - smooth: every error injected or met here (spike, offset, noise, bend, flip) enters or leaves
 #   with a step; a run on a joint whose steps stay small around it is natural motion that the
 #   context lacks (a dancer's head whip), frozen joints aside;
-# - recurring: a short run whose own trajectory (the joint alone, with its flanks) the joint
-#   repeats elsewhere, closer than the KNN words came, is a motif of this performer (toe pops
-#   on every push-off), not a random error.
+# - recurring: a short run whose excursion (the joint alone: the poses before, at the peak of
+#   and after the run) the joint repeats elsewhere, closer than the KNN words came, is a motif
+#   of this performer (toe pops on every push-off), not a random error.
 
 
 def smooth_runs(
@@ -440,26 +440,39 @@ def smooth_runs(
     return out
 
 
-def window_match(
-    track: np.ndarray, start: int, stop: int, others: Sequence[np.ndarray] = ()
+def excursion_match(
+    track: np.ndarray, start: int, stop: int, others: Sequence[np.ndarray] = (), flex: int = 1
 ) -> float:
-    """Radians: the least, over every other window of ``stop - start`` frames of ``track`` (F, 4)
-    (not overlapping this one) and of each track in ``others``, of the largest angle between
-    the window's rotations and ``track[start:stop]``, frame by frame (inf when none fits)."""
-    w = np.asarray(track[start:stop], dtype=np.float64)
-    n = len(w)
+    """Radians: how closely the joint repeats, elsewhere in ``track`` (F, 4) or in a track of
+    ``others``, the excursion it makes over frames ``start .. stop - 1``: its three key poses,
+    the frame before (entry), the frame of the run farthest from the entry (peak) and the frame
+    after (exit), are sought at the same lags give or take ``flex`` frames (a pop may rise in
+    one frame or in two); the match is the largest of the three angles, least over all places
+    (inf when the run touches the take's ends or nothing fits)."""
+    q = np.asarray(track, dtype=np.float64)
+    e, x = start - 1, stop
+    if e < 0 or x >= len(q):
+        return np.inf
+    run = q[start:stop]
+    p = start + int(np.argmax(rot.quat_angle(run, q[e][None])))
+    k, m = p - e, x - e
     best = np.inf
-    for k, src in enumerate((track, *others)):
-        src = np.asarray(src, dtype=np.float64)
-        if len(src) < n or n == 0:
-            continue
-        win = np.lib.stride_tricks.sliding_window_view(src, n, axis=0)  # (F-n+1, 4, n)
-        dots = np.abs(np.einsum("wkn,nk->wn", win, w))
-        worst = 2.0 * np.arccos(np.clip(dots.min(axis=1), 0.0, 1.0))
-        if k == 0:
-            worst[max(0, start - n + 1) : stop] = np.inf  # itself and overlapping windows
-        if len(worst):
-            best = min(best, float(worst.min()))
+    for idx, t in enumerate((q, *others)):
+        t = np.asarray(t, dtype=np.float64)
+        n = len(t)
+        d_e = rot.quat_angle(t, q[e][None])
+        d_p = rot.quat_angle(t, q[p][None])
+        d_x = rot.quat_angle(t, q[x][None])
+        for kk in range(max(1, k - flex), k + flex + 1):
+            for mm in range(max(kk + 1, m - flex), m + flex + 1):
+                if mm >= n:
+                    continue
+                g = np.arange(n - mm)
+                cost = np.maximum(d_e[g], np.maximum(d_p[g + kk], d_x[g + mm]))
+                if idx == 0:
+                    cost[(g <= x) & (g + mm >= e)] = np.inf  # itself, or overlapping it
+                if len(cost):
+                    best = min(best, float(cost.min()))
     return best
 
 
@@ -468,25 +481,22 @@ def recurring_runs(
     rotations: np.ndarray,
     digression: np.ndarray,
     max_frames: int,
-    pad: int,
     max_angle: float,
     ratio: float,
     others: Sequence[np.ndarray] = (),
+    flex: int = 1,
 ) -> np.ndarray:
-    """(F, J) bool: the runs of ``mask`` of at most ``max_frames`` frames whose joint trajectory
-    from ``pad`` frames before to ``pad`` after (``rotations`` (F, J, 4)) the joint repeats
-    elsewhere in the take or in ``others`` (each (F_i, J, 4)) within ``max_angle`` radians at
-    every frame (:func:`window_match`), and within ``ratio`` times the run's peak
-    ``digression``."""
+    """(F, J) bool: the runs of ``mask`` of at most ``max_frames`` frames whose excursion
+    (:func:`excursion_match` on ``rotations`` (F, J, 4)) the joint repeats elsewhere in the take
+    or in ``others`` (each (F_i, J, 4)) within ``max_angle`` radians, and within ``ratio``
+    times the run's peak ``digression``."""
     q = np.asarray(rotations, dtype=np.float64)
     out = np.zeros_like(mask, dtype=bool)
-    F = q.shape[0]
     for j in np.flatnonzero(np.asarray(mask).any(axis=0)):
         for a, b in _runs_1d(mask[:, j]):
             if b - a + 1 > max_frames:
                 continue
-            s0, s1 = max(0, a - pad), min(F, b + 1 + pad)
-            match = window_match(q[:, j], s0, s1, [o[:, j] for o in others])
+            match = excursion_match(q[:, j], a, b + 1, [o[:, j] for o in others], flex)
             if match < max_angle and match < ratio * digression[a : b + 1, j].max():
                 out[a : b + 1, j] = True
     return out
