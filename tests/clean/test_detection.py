@@ -134,18 +134,54 @@ def test_steps_pair_into_the_whole_error_on_the_digressing_side() -> None:
     assert sides[30, 1] == 1 and sides[50, 1] == -1
     cells = mdm_mod.step_cells(peaks, sides)
     assert sorted(np.flatnonzero(cells[:, 1])) == [30, 49]  # both on the corrupted frames
+
+
+def test_cancelling_steps_flag_a_constant_turn_and_not_a_turn_that_stays() -> None:
+    F = 400
+    q = _turning(F, J=3, seed=1)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([np.radians(40.0), np.radians(10.0), 0.0]))
+    bad[30:50, 1] = rot.quat_mul(q[30:50, 1], d)  # body side: q d on frames 30..49
+    bad[100:104, 1] = rot.quat_mul(d, q[100:104, 1])  # parent side: d q, a 4-frame spike
+    e = rot.rotvec_to_quat(np.array([0.0, np.radians(35.0), 0.0]))
+    bad[60:, 2] = rot.quat_mul(q[60:, 2], e)  # joint 2 jumps at 60 and stays there
+    bad[90:, 2] = rot.quat_mul(bad[90:, 2], e)  # ... and jumps on by the same turn at 90
+    steps = mdm_mod.step_size(bad)
+    peaks = mdm_mod.step_peaks(steps, 1.5, np.radians(8.0))
+    devs = [mdm_mod.step_deviations(bad, f) for f in ("body", "parent")]
+    assert np.allclose(np.linalg.norm(devs[0], axis=-1), steps)
+    flagged = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35)
+    assert np.array_equal(np.flatnonzero(flagged[:, 1]), np.r_[30:50, 100:104])
+    assert not flagged[:, 0].any() and not flagged[:, 2].any()
+    assert not mdm_mod.cancelling_steps(peaks, devs, 3, 0.35)[30:50, 1].any()  # too far apart
+    # a joint spinning 6 deg per frame about z, turned 40 deg about x on the parent side for 30
+    # frames: seen from the joint, the axis of the entry step has turned by 180 deg at the exit
+    spin = rot.rotvec_to_quat(np.radians(6.0) * np.arange(F)[:, None] * np.array([[0, 0, 1.0]]))
+    spun = spin.copy()
+    spun[200:230] = rot.quat_mul(d, spin[200:230])
+    spun = spun[:, None]
+    pk = mdm_mod.step_peaks(mdm_mod.step_size(spun), 1.5, np.radians(8.0))
+    both = [mdm_mod.step_deviations(spun, f) for f in ("body", "parent")]
+    assert mdm_mod.cancelling_steps(pk, both, 45, 0.35)[200:230, 0].all()
+    assert not mdm_mod.cancelling_steps(pk, both[:1], 45, 0.35).any()
+    with pytest.raises(ValueError, match="frame"):
+        mdm_mod.step_deviations(bad, "world")
+
+
+def test_extend_to_steps_reaches_the_error_edges() -> None:
+    F = 120
+    q = _turning(F, J=2, seed=6)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([0.0, 0.0, np.radians(30.0)]))
+    bad[40:60, 0] = rot.quat_mul(q[40:60, 0], d)
+    steps = mdm_mod.step_size(bad)
     part = np.zeros((F, 2), dtype=bool)
-    part[36:40, 1] = True  # the MDM flagged only part of it
-    whole = mdm_mod.paired_steps(part, peaks, sides, z, max_frames=40)
-    assert np.array_equal(np.flatnonzero(whole[:, 1]), np.arange(30, 50))
-    # too far apart, or nothing flagged in between: unchanged
-    assert np.array_equal(mdm_mod.paired_steps(part, peaks, sides, z, max_frames=10), part)
-    none = np.zeros_like(part)
-    assert not mdm_mod.paired_steps(none, peaks, sides, z, max_frames=40).any()
-    # a stretch that digresses less than its flanks is not widened
-    flat = np.where(np.arange(F)[:, None] < 30, 5.0, 0.1) * np.ones((1, 2))
-    flat[50:70] = 5.0
-    assert np.array_equal(mdm_mod.paired_steps(part, peaks, sides, flat, 40), part)
+    part[43:57, 0] = True  # the edges digress too little
+    out = mdm_mod.extend_to_steps(part, steps, np.radians(8.0), 4)
+    assert np.array_equal(np.flatnonzero(out[:, 0]), np.arange(40, 60))
+    # steps farther than the width are not reached
+    assert np.array_equal(mdm_mod.extend_to_steps(part, steps, np.radians(8.0), 2), part)
+    assert not mdm_mod.extend_to_steps(part, steps, np.radians(8.0), 4)[:, 1].any()
 
 
 def test_partly_flagged_offset_is_flagged_whole_end_to_end() -> None:

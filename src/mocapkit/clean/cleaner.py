@@ -66,6 +66,8 @@ STEP_RATIO = 1.5
 STEP_MIN_DEG = 8.0
 STEP_MIN_MDM = 0.5
 PAIR_SECONDS = 1.5
+PAIR_TOL = 0.35
+EXTEND_SECONDS = 2.0 / 15.0
 ABRUPT_DEG = 10.0
 ABRUPT_SECONDS = 0.2
 RECUR_DEG = 8.0
@@ -86,10 +88,12 @@ words move, :func:`~mocapkit.clean.mdm.frozen_cells`) are flagged too.
 Steps: a capture error starts and ends with a frame-to-frame step far from the steps around it
 (:func:`~mocapkit.clean.mdm.step_size`). A step above ``STEP_RATIO`` times the joint's 99th
 percentile of steps in the take and above ``STEP_MIN_DEG`` seeds the cell on its digressing side
-when that cell's MDM exceeds ``STEP_MIN_MDM``; and a flagged run that lies between an entry step
-and an exit step (at most ``PAIR_SECONDS`` apart) is widened to the whole stretch between them
-(:func:`~mocapkit.clean.mdm.paired_steps`), since an error flagged on part of its extent is
-wrong all the way.
+when that cell's MDM exceeds ``STEP_MIN_MDM``. Two such steps at most ``PAIR_SECONDS`` apart
+whose deviations cancel (within ``PAIR_TOL``, :func:`~mocapkit.clean.mdm.cancelling_steps`)
+flag the whole stretch between them, whatever its MDM: a joint turned by one constant rotation
+(spike, offset, flip). Every flagged run is stretched to the steps (above ``STEP_MIN_DEG``)
+within ``EXTEND_SECONDS`` of its ends (:func:`~mocapkit.clean.mdm.extend_to_steps`): an
+error's first and last frames often digress too little.
 
 Vetoes: a run (frozen joints aside) with no step above ``ABRUPT_DEG`` within ``ABRUPT_SECONDS``
 of it is dropped (:func:`~mocapkit.clean.mdm.smooth_runs`): errors enter and leave with a step,
@@ -170,9 +174,9 @@ class SelfSimilarityCleaner:
             the hysteresis seeds (see :data:`DETECT`).
         frozen: also flag frozen joints (hysteresis mode).
         dominance: drop MDM-only runs dominated by another joint (0: keep; hysteresis mode).
-        step_ratio, step_min_deg, step_min_mdm, pair_seconds: the step seeds and the widening
-            of flagged runs to the steps around them (see :data:`DETECT`; ``pair_seconds=0``
-            turns the widening off).
+        step_ratio, step_min_deg, step_min_mdm, pair_seconds: the step seeds, and the longest
+            stretch between cancelling steps (see :data:`DETECT`; ``pair_seconds=0`` turns the
+            pairing off).
         abrupt_deg: drop runs with no step this large around them (0: keep; see
             :data:`DETECT`).
         recur_deg: drop short runs the joint repeats elsewhere this closely (0: keep).
@@ -222,7 +226,7 @@ class SelfSimilarityCleaner:
         if not 0.0 <= step_min_mdm <= 1.0:
             raise ValueError("step_min_mdm must lie in [0, 1]")
         if pair_seconds < 0:
-            raise ValueError("pair_seconds must be >= 0 (0 turns the widening off)")
+            raise ValueError("pair_seconds must be >= 0 (0 turns the pairing off)")
         if abrupt_deg < 0 or recur_deg < 0:
             raise ValueError("abrupt_deg and recur_deg must be >= 0 (0 turns the veto off)")
         self.groups = None if groups is None else list(groups)
@@ -447,6 +451,7 @@ class SelfSimilarityCleaner:
         self._jump = None
         self._frozen = None
         self._steps = None
+        self._pairs = None
 
     # ---------------------------------------------------------------------------- results
     def _check(self) -> None:
@@ -494,7 +499,12 @@ class SelfSimilarityCleaner:
             pad = max(1, round(fps / 6.0))
             out &= ~mdm_mod.dominated_runs(out, z, seeds, self.dominance, pad)
         if self.pair_seconds > 0:
-            out = mdm_mod.paired_steps(out, peaks, sides, z, round(self.pair_seconds * fps))
+            if self._pairs is None:
+                rq = self.motion_.rotations
+                devs = [mdm_mod.step_deviations(rq, f) for f in ("body", "parent")]
+                span = round(self.pair_seconds * fps)
+                self._pairs = mdm_mod.cancelling_steps(peaks, devs, span, PAIR_TOL)
+            out |= self._pairs
         frozen = np.zeros_like(out)
         if self.frozen:
             if self._frozen is None:
@@ -517,6 +527,8 @@ class SelfSimilarityCleaner:
                 getattr(self, "context_rotations_", []),
                 flex=max(1, round(fps / 30.0)),
             )
+        ext = max(1, round(EXTEND_SECONDS * fps))
+        out = mdm_mod.extend_to_steps(out, self._steps[3], np.radians(self.step_min_deg), ext)
         out[:, ~self.analysed_] = False
         return out
 

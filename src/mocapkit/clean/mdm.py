@@ -8,7 +8,6 @@ row is divided by a scale (the paper: the row's mean), and ``MDM = 1 - exp(-M²)
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -336,19 +335,34 @@ def dominated_runs(
 # where the joint digresses from its KNN words.
 
 
-def step_size(rotations: np.ndarray) -> np.ndarray:
-    """(F, J) radians: ``s[f] = |w[f-1] - (w[f-2] + w[f]) / 2|`` with ``w[i] = log(q[i]^-1 q[i+1])``
-    the rotation vector of the step from frame ``i`` to ``i + 1``: how far the step into frame
-    ``f`` lies from the mean of its neighbouring steps (0 where undefined, ``f < 2`` or
-    ``f > F - 2``). A jump of angle ``a`` into frame ``f`` gives ``a`` at ``f`` and ``a / 2`` at
-    ``f ± 1``."""
+def step_deviations(rotations: np.ndarray, frame: str = "body") -> np.ndarray:
+    """(F, J, 3) radians: ``v[f] = w[f-1] - (w[f-2] + w[f]) / 2`` with ``w[i]`` the rotation
+    vector of the step from frame ``i`` to ``i + 1``, ``log(q[i]^-1 q[i+1])`` in the joint's own
+    (``"body"``) frame or ``log(q[i+1] q[i]^-1)`` in its parent's (``"parent"``): how far the
+    step into frame ``f`` lies from the mean of its neighbouring steps (0 where undefined,
+    ``f < 2`` or ``f > F - 2``). A rotation ``d`` applied to frames ``a .. b - 1`` on the body
+    side (``q d``) gives ``v[a] ~ log d`` and ``v[b] ~ -log d``; on the parent side (``d q``), the
+    same in the parent frame."""
     q = np.asarray(rotations, dtype=np.float64)
-    out = np.zeros(q.shape[:2])
+    out = np.zeros((*q.shape[:2], 3))
     if q.shape[0] < 4:
         return out
-    w = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
-    out[2:-1] = np.linalg.norm(w[1:-1] - 0.5 * (w[:-2] + w[2:]), axis=-1)
+    if frame == "body":
+        step = rot.quat_mul(rot.quat_inv(q[:-1]), q[1:])
+    elif frame == "parent":
+        step = rot.quat_mul(q[1:], rot.quat_inv(q[:-1]))
+    else:
+        raise ValueError(f"frame must be 'body' or 'parent', got {frame!r}")
+    w = rot.quat_to_rotvec(step)
+    out[2:-1] = w[1:-1] - 0.5 * (w[:-2] + w[2:])
     return out
+
+
+def step_size(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: the length of :func:`step_deviations` (body frame), how far the step into
+    frame ``f`` lies from the mean of its neighbouring steps. A jump of angle ``a`` into frame
+    ``f`` gives ``a`` at ``f`` and ``a / 2`` at ``f ± 1``."""
+    return np.linalg.norm(step_deviations(rotations), axis=-1)
 
 
 def step_peaks(
@@ -393,26 +407,53 @@ def step_cells(peaks: np.ndarray, sides: np.ndarray) -> np.ndarray:
     return out
 
 
-def paired_steps(
-    mask: np.ndarray, peaks: np.ndarray, sides: np.ndarray, z: np.ndarray, max_frames: int
+def cancelling_steps(
+    peaks: np.ndarray,
+    deviations: Sequence[np.ndarray],
+    max_frames: int,
+    tol: float,
 ) -> np.ndarray:
-    """(F, J) bool: ``mask`` plus the frames between an entry step and the next step on the same
-    joint when that one is an exit, at most ``max_frames`` apart, some cell in between is
-    already in ``mask``, and the mean ``z`` in between is at least that of the flanks (as many
-    frames on each side): an error flagged on part of its extent is flagged whole."""
-    out = np.array(mask, dtype=bool, copy=True)
-    for j in np.flatnonzero(out.any(axis=0)):
+    """(F, J) bool: the frames ``a .. e - 1`` between two step ``peaks`` of a joint (``e - a``
+    at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
+    |v[e]|)`` in one of the frames of ``deviations`` (each (F, J, 3), :func:`step_deviations`):
+    a stretch turned by one constant rotation, entered and left with opposite steps (a spike,
+    an offset, a flip). Natural motion that jumps seldom jumps back by the same rotation."""
+    out = np.zeros(peaks.shape, dtype=bool)
+    for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j])
-        for a, e in itertools.pairwise(ps):
-            n = e - a
-            if n > max_frames or sides[a, j] != 1 or sides[e, j] != -1:
-                continue
-            if not mask[a:e, j].any():
-                continue
-            flanks = np.concatenate([z[max(0, a - n) : a, j], z[e : e + n, j]])
-            if len(flanks) and z[a:e, j].mean() < flanks.mean():
-                continue
-            out[a:e, j] = True
+        for i, a in enumerate(ps):
+            for e in ps[i + 1 :]:
+                if e - a > max_frames:
+                    break
+                for v in deviations:
+                    va, ve = v[a, j], v[e, j]
+                    small = min(np.linalg.norm(va), np.linalg.norm(ve))
+                    if np.linalg.norm(va + ve) < tol * small:
+                        out[a:e, j] = True
+                        break
+    return out
+
+
+def extend_to_steps(mask: np.ndarray, steps: np.ndarray, min_step: float, width: int) -> np.ndarray:
+    """(F, J) bool: ``mask`` with each run (per joint) stretched back to the latest step (a local
+    maximum of ``steps`` above ``min_step`` radians) at most ``width`` frames before it, and on
+    to the frame before the earliest step at most ``width + 1`` frames after it: an error's
+    first and last frames often digress too little to pass the threshold, its steps bound it."""
+    s = np.asarray(steps, dtype=np.float64)
+    F = s.shape[0]
+    out = np.array(mask, dtype=bool, copy=True)
+    if F == 0:
+        return out
+    pad = np.full((1, s.shape[1]), -1.0)
+    peak = (s > min_step) & (s >= np.vstack([pad, s[:-1]])) & (s > np.vstack([s[1:], pad]))
+    for j in np.flatnonzero(out.any(axis=0)):
+        for a, b in _runs_1d(mask[:, j]):
+            before = np.flatnonzero(peak[max(0, a - width) : a + 1, j])
+            if len(before):
+                out[max(0, a - width) + before[-1] : a, j] = True
+            after = np.flatnonzero(peak[b + 1 : b + 2 + width, j])
+            if len(after):
+                out[b + 1 : b + 1 + after[0], j] = True
     return out
 
 
