@@ -270,3 +270,17 @@ def test_recurring_runs_spare_a_random_error_and_drop_a_repeated_motif() -> None
 def test_veto_parameters_are_checked(kwargs) -> None:
     with pytest.raises(ValueError, match="abrupt_deg and recur_deg"):
         SelfSimilarityCleaner(**kwargs)
+
+
+def test_jump_size_sees_a_displaced_pose_not_a_limb_starting_at_once() -> None:
+    F = 60
+    t = np.arange(F)
+    angle = np.zeros((F, 2))
+    angle[30:, 0] = np.radians(20.0)  # joint 0: the pose jumps by 20 deg at frame 30
+    angle[:, 1] = np.radians(6.0) * np.clip(t - 30, 0, None)  # joint 1: starts turning at 30
+    q = rot.rotvec_to_quat(angle[..., None] * np.array([1.0, 0.0, 0.0]))
+    jumps = mdm_mod.jump_size(q)
+    assert int(np.argmax(jumps[:, 0])) == 30 and abs(np.degrees(jumps[30, 0]) - 20.0) < 1e-6
+    assert np.degrees(jumps[:, 1]).max() < 1e-6  # a kink: the step changes on one side only
+    assert np.degrees(mdm_mod.step_size(q)[:, 1]).max() > 2.9  # which step_size does see
+    assert not mdm_mod.jump_size(q[:3]).any()

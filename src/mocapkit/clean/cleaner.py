@@ -67,6 +67,7 @@ STEP_MIN_DEG = 8.0
 STEP_MIN_MDM = 0.5
 PAIR_SECONDS = 1.5
 PAIR_TOL = 0.35
+PAIR_RATIO = 1.2
 EXTEND_SECONDS = 2.0 / 15.0
 ABRUPT_DEG = 10.0
 ABRUPT_SECONDS = 0.2
@@ -88,12 +89,14 @@ words move, :func:`~mocapkit.clean.mdm.frozen_cells`) are flagged too.
 Steps: a capture error starts and ends with a frame-to-frame step far from the steps around it
 (:func:`~mocapkit.clean.mdm.step_size`). A step above ``STEP_RATIO`` times the joint's 99th
 percentile of steps in the take and above ``STEP_MIN_DEG`` seeds the cell on its digressing side
-when that cell's MDM exceeds ``STEP_MIN_MDM``. Two such steps at most ``PAIR_SECONDS`` apart
-whose deviations cancel (within ``PAIR_TOL``, :func:`~mocapkit.clean.mdm.cancelling_steps`)
-flag the whole stretch between them, whatever its MDM: a joint turned by one constant rotation
-(spike, offset, flip). Every flagged run is stretched to the steps (above ``STEP_MIN_DEG``)
-within ``EXTEND_SECONDS`` of its ends (:func:`~mocapkit.clean.mdm.extend_to_steps`): an
-error's first and last frames often digress too little.
+when that cell's MDM exceeds ``STEP_MIN_MDM``. Two jumps (:func:`~mocapkit.clean.mdm.jump_size`
+above ``PAIR_RATIO`` times the joint's 99th percentile and ``STEP_MIN_DEG``) at most
+``PAIR_SECONDS`` apart whose step deviations cancel (within ``PAIR_TOL``,
+:func:`~mocapkit.clean.mdm.cancelling_steps`) flag the whole stretch between them, whatever its
+MDM: a joint turned by one constant rotation (spike, offset, flip). After the vetoes below,
+every flagged run is stretched to the steps (above ``STEP_MIN_DEG``) within ``EXTEND_SECONDS``
+of its ends (:func:`~mocapkit.clean.mdm.extend_to_steps`): an error's first and last frames
+often digress too little.
 
 Vetoes: a run (frozen joints aside) with no step above ``ABRUPT_DEG`` within ``ABRUPT_SECONDS``
 of it is dropped (:func:`~mocapkit.clean.mdm.smooth_runs`): errors enter and leave with a step,
@@ -503,7 +506,9 @@ class SelfSimilarityCleaner:
                 rq = self.motion_.rotations
                 devs = [mdm_mod.step_deviations(rq, f) for f in ("body", "parent")]
                 span = round(self.pair_seconds * fps)
-                self._pairs = mdm_mod.cancelling_steps(peaks, devs, span, PAIR_TOL)
+                jumps = mdm_mod.jump_size(rq)
+                pk = mdm_mod.step_peaks(jumps, PAIR_RATIO, np.radians(self.step_min_deg))
+                self._pairs = mdm_mod.cancelling_steps(pk, devs, span, PAIR_TOL)
             out |= self._pairs
         frozen = np.zeros_like(out)
         if self.frozen:

@@ -365,6 +365,23 @@ def step_size(rotations: np.ndarray) -> np.ndarray:
     return np.linalg.norm(step_deviations(rotations), axis=-1)
 
 
+def jump_size(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: ``min(|w[f-1] - w[f-2]|, |w[f-1] - w[f]|)`` with ``w[i]`` the rotation
+    vector of the body-frame step from frame ``i`` to ``i + 1``: how much the step into frame
+    ``f`` differs from *both* its neighbours. A jump in position (a pose displaced from frame
+    ``f`` on) gives its angle; a kink in velocity (a limb starting or stopping at once) changes
+    the step on one side only and gives ~0 (0 where undefined, ``f < 2`` or ``f > F - 2``)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
+    if q.shape[0] < 4:
+        return out
+    w = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
+    before = np.linalg.norm(w[1:-1] - w[:-2], axis=-1)
+    after = np.linalg.norm(w[1:-1] - w[2:], axis=-1)
+    out[2:-1] = np.minimum(before, after)
+    return out
+
+
 def step_peaks(
     steps: np.ndarray, ratio: float, min_step: float, quantile: float = 99.0
 ) -> np.ndarray:
@@ -413,11 +430,13 @@ def cancelling_steps(
     max_frames: int,
     tol: float,
 ) -> np.ndarray:
-    """(F, J) bool: the frames ``a .. e - 1`` between two step ``peaks`` of a joint (``e - a``
+    """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
     |v[e]|)`` in one of the frames of ``deviations`` (each (F, J, 3), :func:`step_deviations`):
     a stretch turned by one constant rotation, entered and left with opposite steps (a spike,
-    an offset, a flip). Natural motion that jumps seldom jumps back by the same rotation."""
+    an offset, a flip). Natural motion that jumps seldom jumps back by the same rotation; take
+    the peaks of :func:`jump_size`, as a limb that starts and stops at once (a kick from rest
+    back to rest) kinks its velocity with opposite deviations too."""
     out = np.zeros(peaks.shape, dtype=bool)
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j])
