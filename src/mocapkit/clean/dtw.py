@@ -554,314 +554,34 @@ def _better(c, n, bc, bn):  # pragma: no cover - compiled
 
 @nb.njit(parallel=True, cache=True, fastmath=False)
 def _scan_kernel_s2(D, starts, N, tstarts, M, out):  # pragma: no cover - compiled
-    """Specialised :func:`_scan_kernel` for ``max_run == 2`` (states unrolled, row buffers).
-
-    Same semantics and tie-breaks as :func:`_dtw_block`."""
+    """Specialised :func:`_scan_kernel` for ``max_run == 2``: :func:`_dtw_s2_one` on every
+    (source word, target word) block, with row buffers per thread. Same semantics and
+    tie-breaks as :func:`_dtw_block`."""
     W = starts.shape[0]
     C = tstarts.shape[0]
-    inf = np.inf
     for w in nb.prange(W):
-        # previous row: best over all states (cost, len) and best over d/h states; v1 state
-        pa_c = np.empty(M)
-        pa_n = np.empty(M, dtype=np.int64)
-        pdh_c = np.empty(M)
-        pdh_n = np.empty(M, dtype=np.int64)
-        pv1_c = np.empty(M)
-        pv1_n = np.empty(M, dtype=np.int64)
-        ca_c = np.empty(M)
-        ca_n = np.empty(M, dtype=np.int64)
-        cdh_c = np.empty(M)
-        cdh_n = np.empty(M, dtype=np.int64)
-        cv1_c = np.empty(M)
-        cv1_n = np.empty(M, dtype=np.int64)
-        r0 = starts[w]
-        for cidx in range(C):
-            c0 = tstarts[cidx]
-            best = inf
-            best_n = 0
-            if N == 1 or M == 1:
-                out[w, cidx] = D[r0, c0]
-                continue
-            # row 0: (0,0) diag state, (0,1) h1, (0,2) h2
-            for j in range(M):
-                pa_c[j] = inf
-                pa_n[j] = 0
-                pdh_c[j] = inf
-                pdh_n[j] = 0
-                pv1_c[j] = inf
-                pv1_n[j] = 0
-            acc = np.float64(D[r0, c0])
-            pa_c[0] = acc
-            pa_n[0] = 1
-            pdh_c[0] = acc
-            pdh_n[0] = 1
-            for j in range(1, min(3, M)):
-                acc += D[r0, c0 + j]
-                pa_c[j] = acc
-                pa_n[j] = j + 1
-                pdh_c[j] = acc
-                pdh_n[j] = j + 1
-                if j == M - 1:
-                    mean = acc / (j + 1)
-                    if mean < best or (mean == best and j + 1 < best_n):
-                        best = mean
-                        best_n = j + 1
-            for i in range(1, N):
-                last_row = i == N - 1
-                # h-states of the current row at j-1: h1 and h2 (cost, len); best of d/v at j-1
-                h1_c = inf
-                h1_n = 0
-                dv_c = inf  # best over d, v1, v2 of current row at j-1
-                dv_n = 0
-                for j in range(M):
-                    v = np.float64(D[r0 + i, c0 + j])
-                    # diagonal
-                    d_c = inf
-                    d_n = 0
-                    if j >= 1 and pa_c[j - 1] < inf:
-                        d_c = pa_c[j - 1] + v
-                        d_n = pa_n[j - 1] + 1
-                    # vertical
-                    v1_c = inf
-                    v1_n = 0
-                    v2_c = inf
-                    v2_n = 0
-                    if j < M - 1:
-                        if pdh_c[j] < inf:
-                            v1_c = pdh_c[j] + v
-                            v1_n = pdh_n[j] + 1
-                        if pv1_c[j] < inf:
-                            v2_c = pv1_c[j] + v
-                            v2_n = pv1_n[j] + 1
-                    # horizontal
-                    nh1_c = inf
-                    nh1_n = 0
-                    nh2_c = inf
-                    nh2_n = 0
-                    if j >= 1 and not last_row:
-                        if dv_c < inf:
-                            nh1_c = dv_c + v
-                            nh1_n = dv_n + 1
-                        if h1_c < inf:
-                            nh2_c = h1_c + v
-                            nh2_n = h1_n + 1
-                    # bests at (i, j)
-                    dvb_c = d_c
-                    dvb_n = d_n
-                    if _better(v1_c, v1_n, dvb_c, dvb_n):
-                        dvb_c = v1_c
-                        dvb_n = v1_n
-                    if _better(v2_c, v2_n, dvb_c, dvb_n):
-                        dvb_c = v2_c
-                        dvb_n = v2_n
-                    dh_c = d_c
-                    dh_n = d_n
-                    if _better(nh1_c, nh1_n, dh_c, dh_n):
-                        dh_c = nh1_c
-                        dh_n = nh1_n
-                    if _better(nh2_c, nh2_n, dh_c, dh_n):
-                        dh_c = nh2_c
-                        dh_n = nh2_n
-                    a_c = dvb_c
-                    a_n = dvb_n
-                    if _better(nh1_c, nh1_n, a_c, a_n):
-                        a_c = nh1_c
-                        a_n = nh1_n
-                    if _better(nh2_c, nh2_n, a_c, a_n):
-                        a_c = nh2_c
-                        a_n = nh2_n
-                    ca_c[j] = a_c
-                    ca_n[j] = a_n
-                    cdh_c[j] = dh_c
-                    cdh_n[j] = dh_n
-                    cv1_c[j] = v1_c
-                    cv1_n[j] = v1_n
-                    if (last_row or j == M - 1) and a_c < inf:
-                        mean = a_c / a_n
-                        if mean < best or (mean == best and a_n < best_n):
-                            best = mean
-                            best_n = a_n
-                    h1_c = nh1_c
-                    h1_n = nh1_n
-                    dv_c = dvb_c
-                    dv_n = dvb_n
-                # swap rows
-                for j in range(M):
-                    pa_c[j] = ca_c[j]
-                    pa_n[j] = ca_n[j]
-                    pdh_c[j] = cdh_c[j]
-                    pdh_n[j] = cdh_n[j]
-                    pv1_c[j] = cv1_c[j]
-                    pv1_n[j] = cv1_n[j]
-            out[w, cidx] = best
+        bufs_f = np.empty((6, M))
+        bufs_i = np.empty((6, M), dtype=np.int64)
+        for c in range(C):
+            out[w, c] = _dtw_s2_one(
+                D, starts[w], tstarts[c], N, M,
+                bufs_f[0], bufs_i[0], bufs_f[1], bufs_i[1], bufs_f[2], bufs_i[2],
+                bufs_f[3], bufs_i[3], bufs_f[4], bufs_i[4], bufs_f[5], bufs_i[5],
+            )  # fmt: skip
 
 
-_LANES = 16
-
-
-@nb.njit(parallel=True, cache=True, fastmath=False, boundscheck=False)
-def _scan_kernel_s2_lanes(D, starts, N, tstarts, M, out):  # pragma: no cover - compiled
-    """:func:`_scan_kernel_s2` run on ``_LANES`` target words at once (SIMD over lanes).
-
-    Lane ``l`` of a task handles target word ``tstarts[c0 + l]``; every cell update is written
-    as selects so that the compiler vectorises the lane loops. Same arithmetic, same ties."""
-    W = starts.shape[0]
-    C = tstarts.shape[0]
-    L = _LANES
-    nblk = (C + L - 1) // L
-    inf = np.inf
-    for task in nb.prange(W * nblk):
-        w = task // nblk
-        b0 = (task % nblk) * L
-        nl = min(L, C - b0)
-        r0 = starts[w]
-        if N == 1 or M == 1:
-            for l in range(nl):
-                out[w, b0 + l] = D[r0, tstarts[b0 + l]]
-            continue
-        pa_c = np.full((M, L), inf)
-        pa_n = np.zeros((M, L))
-        pdh_c = np.full((M, L), inf)
-        pdh_n = np.zeros((M, L))
-        pv1_c = np.full((M, L), inf)
-        pv1_n = np.zeros((M, L))
-        ca_c = np.empty((M, L))
-        ca_n = np.empty((M, L))
-        cdh_c = np.empty((M, L))
-        cdh_n = np.empty((M, L))
-        cv1_c = np.empty((M, L))
-        cv1_n = np.empty((M, L))
-        v = np.zeros(L)
-        h1_c = np.empty(L)
-        h1_n = np.empty(L)
-        dv_c = np.empty(L)
-        dv_n = np.empty(L)
-        best = np.full(L, inf)
-        best_n = np.zeros(L)
-        ts = np.zeros(L, dtype=np.int64)
-        for l in range(nl):
-            ts[l] = tstarts[b0 + l]
-        for l in range(nl, L):
-            ts[l] = ts[0]
-        # row 0
-        for l in range(L):
-            acc = np.float64(D[r0, ts[l]])
-            pa_c[0, l] = acc
-            pa_n[0, l] = 1.0
-            pdh_c[0, l] = acc
-            pdh_n[0, l] = 1.0
-            for j in range(1, min(3, M)):
-                acc += D[r0, ts[l] + j]
-                pa_c[j, l] = acc
-                pa_n[j, l] = j + 1.0
-                pdh_c[j, l] = acc
-                pdh_n[j, l] = j + 1.0
-                if j == M - 1:
-                    mean = acc / (j + 1.0)
-                    if mean < best[l] or (mean == best[l] and j + 1.0 < best_n[l]):
-                        best[l] = mean
-                        best_n[l] = j + 1.0
-        for i in range(1, N):
-            last_row = i == N - 1
-            row = r0 + i
-            for l in range(L):
-                h1_c[l] = inf
-                h1_n[l] = 0.0
-                dv_c[l] = inf
-                dv_n[l] = 0.0
-            for j in range(M):
-                for l in range(L):
-                    v[l] = D[row, ts[l] + j]
-                not_last_col = j < M - 1
-                has_left = j >= 1
-                for l in range(L):
-                    vl = v[l]
-                    # diagonal
-                    if has_left:
-                        d_c = pa_c[j - 1, l] + vl
-                        d_n = pa_n[j - 1, l] + 1.0
-                    else:
-                        d_c = inf
-                        d_n = 0.0
-                    # vertical
-                    if not_last_col:
-                        v1_c = pdh_c[j, l] + vl
-                        v1_n = pdh_n[j, l] + 1.0
-                        v2_c = pv1_c[j, l] + vl
-                        v2_n = pv1_n[j, l] + 1.0
-                    else:
-                        v1_c = inf
-                        v1_n = 0.0
-                        v2_c = inf
-                        v2_n = 0.0
-                    # horizontal
-                    if has_left and not last_row:
-                        nh1_c = dv_c[l] + vl
-                        nh1_n = dv_n[l] + 1.0
-                        nh2_c = h1_c[l] + vl
-                        nh2_n = h1_n[l] + 1.0
-                    else:
-                        nh1_c = inf
-                        nh1_n = 0.0
-                        nh2_c = inf
-                        nh2_n = 0.0
-                    # best over d, v1, v2
-                    t = (v1_c < d_c) | ((v1_c == d_c) & (v1_n < d_n))
-                    dvb_c = v1_c if t else d_c
-                    dvb_n = v1_n if t else d_n
-                    t = (v2_c < dvb_c) | ((v2_c == dvb_c) & (v2_n < dvb_n))
-                    dvb_c = v2_c if t else dvb_c
-                    dvb_n = v2_n if t else dvb_n
-                    # best over d, h1, h2
-                    t = (nh1_c < d_c) | ((nh1_c == d_c) & (nh1_n < d_n))
-                    dh_c = nh1_c if t else d_c
-                    dh_n = nh1_n if t else d_n
-                    t = (nh2_c < dh_c) | ((nh2_c == dh_c) & (nh2_n < dh_n))
-                    dh_c = nh2_c if t else dh_c
-                    dh_n = nh2_n if t else dh_n
-                    # best over all
-                    t = (nh1_c < dvb_c) | ((nh1_c == dvb_c) & (nh1_n < dvb_n))
-                    a_c = nh1_c if t else dvb_c
-                    a_n = nh1_n if t else dvb_n
-                    t = (nh2_c < a_c) | ((nh2_c == a_c) & (nh2_n < a_n))
-                    a_c = nh2_c if t else a_c
-                    a_n = nh2_n if t else a_n
-                    ca_c[j, l] = a_c
-                    ca_n[j, l] = a_n
-                    cdh_c[j, l] = dh_c
-                    cdh_n[j, l] = dh_n
-                    cv1_c[j, l] = v1_c
-                    cv1_n[j, l] = v1_n
-                    h1_c[l] = nh1_c
-                    h1_n[l] = nh1_n
-                    dv_c[l] = dvb_c
-                    dv_n[l] = dvb_n
-                if last_row or j == M - 1:
-                    for l in range(L):
-                        a_c = ca_c[j, l]
-                        a_n = ca_n[j, l]
-                        mean = a_c / a_n if a_c < inf else inf
-                        t = (mean < best[l]) | ((mean == best[l]) & (a_n < best_n[l]))
-                        best[l] = mean if t else best[l]
-                        best_n[l] = a_n if t else best_n[l]
-            pa_c, ca_c = ca_c, pa_c
-            pa_n, ca_n = ca_n, pa_n
-            pdh_c, cdh_c = cdh_c, pdh_c
-            pdh_n, cdh_n = cdh_n, pdh_n
-            pv1_c, cv1_c = cv1_c, pv1_c
-            pv1_n, cv1_n = cv1_n, pv1_n
-        for l in range(nl):
-            out[w, b0 + l] = best[l]
-
-
-# ------------------------------------------------------------------------ pruned KNN scan
+# ------------------------------------------------- one max_run == 2 block, and the KNN scans
 
 
 @nb.njit(cache=True)
 def _dtw_s2_one(
     D, r0, c0, N, M, pa_c, pa_n, pdh_c, pdh_n, pv1_c, pv1_n, ca_c, ca_n, cdh_c, cdh_n, cv1_c, cv1_n
 ):  # pragma: no cover - compiled
-    """One block of :func:`_scan_kernel_s2` (same arithmetic and ties), with caller buffers."""
+    """Constrained DTW mean cost of the block ``D[r0 : r0 + N, c0 : c0 + M]`` for
+    ``max_run == 2``, with the states unrolled (the last step diagonal, one or two vertical,
+    one or two horizontal) and caller row buffers (previous / current row: best over all
+    states, best over diagonal and horizontal, vertical-1). Same semantics and tie-breaks as
+    :func:`_dtw_block`."""
     inf = np.inf
     best = inf
     best_n = 0
