@@ -494,7 +494,7 @@ class SelfSimilarityCleaner:
             peaks = mdm_mod.step_peaks(steps, self.step_ratio, np.radians(self.step_min_deg))
             sides = mdm_mod.step_sides(peaks, z, max(1, round(fps / 10.0)))
             self._steps = (peaks, sides, mdm_mod.step_cells(peaks, sides), steps)
-        peaks, sides, step_cells, _ = self._steps
+        peaks, sides, step_cells, steps = self._steps
         seeds = jumps | (step_cells & (self.mdm_ > self.step_min_mdm))
         strong = (self.mdm_ > max(self.seed_threshold, thr)) | seeds
         out = mdm_mod.hysteresis(weak, strong)
@@ -506,8 +506,8 @@ class SelfSimilarityCleaner:
                 rq = self.motion_.rotations
                 devs = [mdm_mod.step_deviations(rq, f) for f in ("body", "parent")]
                 span = round(self.pair_seconds * fps)
-                jumps = mdm_mod.jump_size(rq)
-                pk = mdm_mod.step_peaks(jumps, PAIR_RATIO, np.radians(self.step_min_deg))
+                sizes = mdm_mod.jump_size(rq)
+                pk = mdm_mod.step_peaks(sizes, PAIR_RATIO, np.radians(self.step_min_deg))
                 self._pairs = mdm_mod.cancelling_steps(pk, devs, span, PAIR_TOL)
             out |= self._pairs
         frozen = np.zeros_like(out)
@@ -520,7 +520,7 @@ class SelfSimilarityCleaner:
         if self.abrupt_deg > 0:
             pad = max(1, round(ABRUPT_SECONDS * fps))
             min_step = np.radians(self.abrupt_deg)
-            out &= ~mdm_mod.smooth_runs(out, self._steps[3], frozen, min_step, pad)
+            out &= ~mdm_mod.smooth_runs(out, steps, frozen, min_step, pad)
         if self.recur_deg > 0:
             out &= ~mdm_mod.recurring_runs(
                 out,
@@ -529,11 +529,11 @@ class SelfSimilarityCleaner:
                 max(1, round(RECUR_SECONDS * fps)),
                 np.radians(self.recur_deg),
                 RECUR_RATIO,
-                getattr(self, "context_rotations_", []),
+                self.context_rotations_,
                 flex=max(1, round(fps / 30.0)),
             )
         ext = max(1, round(EXTEND_SECONDS * fps))
-        out = mdm_mod.extend_to_steps(out, self._steps[3], np.radians(self.step_min_deg), ext)
+        out = mdm_mod.extend_to_steps(out, steps, np.radians(self.step_min_deg), ext)
         out[:, ~self.analysed_] = False
         return out
 
