@@ -197,3 +197,30 @@ def excursion_match(track: np.ndarray, start: int, stop: int, others=(), flex: i
                     cost = max((a.inv() * b).magnitude() for a, b in pairs)
                     best = min(best, float(cost))
     return best
+
+
+def spike_size(q: np.ndarray, max_frames: int) -> np.ndarray:
+    """Loop version of mdm.spike_size: per joint and gap, numpy's polyfit through the rotation
+    vectors (scipy's Rotation) of the two frames either side, relative to the frame before."""
+    from scipy.spatial.transform import Rotation
+
+    F, J = q.shape[:2]
+    out = np.zeros((F, J))
+    for j in range(J):
+        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
+        for n in range(1, max_frames + 1):
+            for a in range(2, F - n - 1):
+                ref = r[a - 1]
+                knots = [-2, -1, n, n + 1]
+                x = np.array([(ref.inv() * r[a + t]).as_rotvec() for t in knots])
+                coef = [np.polyfit(knots, x[:, k], 3) for k in range(3)]
+                score = min(
+                    (
+                        (ref * Rotation.from_rotvec([np.polyval(c, g) for c in coef])).inv()
+                        * r[a + g]
+                    ).magnitude()
+                    for g in range(n)
+                )
+                for g in range(n):
+                    out[a + g, j] = max(out[a + g, j], score)
+    return out

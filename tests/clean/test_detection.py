@@ -284,3 +284,33 @@ def test_jump_size_sees_a_displaced_pose_not_a_limb_starting_at_once() -> None:
     assert np.degrees(jumps[:, 1]).max() < 1e-6  # a kink: the step changes on one side only
     assert np.degrees(mdm_mod.step_size(q)[:, 1]).max() > 2.9  # which step_size does see
     assert not mdm_mod.jump_size(q[:3]).any()
+
+
+def test_spike_size_matches_the_reference_and_sees_a_spike_not_fast_motion() -> None:
+    from clean.naive import spike_size as naive_spike_size
+
+    q = _turning(40, J=2, seed=7)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([0.0, np.radians(30.0), np.radians(10.0)]))
+    bad[20:23, 1] = rot.quat_mul(q[20:23, 1], d)  # a three-frame spike of ~32 deg
+    fast = mdm_mod.spike_size(bad, 4)
+    assert np.allclose(fast, naive_spike_size(bad, 4), atol=1e-9)
+    assert np.degrees(fast[20:23, 1]).min() > 25.0
+    assert np.degrees(fast[:, 0]).max() < 3.0  # a fast smooth turn stays on its cubic
+    assert np.degrees(mdm_mod.spike_size(bad, 2)[20:23, 1]).max() < 25.0  # gap too short
+    assert not mdm_mod.spike_size(bad[:4], 3).any()  # no gap with two frames either side
+
+
+def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:
+    walk = datasets.procedural_motion("walk", seconds=6.0, seed=5).motion
+    j = list(walk.skeleton.names).index("LeftArm")
+    q = walk.rotations.copy()
+    d = rot.rotvec_to_quat(np.array([np.radians(40.0), 0.0, 0.0]))
+    q[80:82, j] = rot.quat_mul(q[80:82, j], d)
+    bad = type(walk)(walk.skeleton, q, walk.root_positions, walk.frame_time)
+    for pair_seconds in (1.5, 0.0):  # by the cancelling steps, and by its spike size alone
+        cl = SelfSimilarityCleaner(pair_seconds=pair_seconds).fit(bad)
+        cl.mdm_[:, j] = 0.0  # as if the KNN words had followed the spike
+        cl._jump = cl._steps = cl._pairs = cl._spikes = cl._frozen = None
+        m = cl.mask()
+        assert m[80:82, j].all() and not m[:76, j].any() and not m[86:, j].any()

@@ -6,6 +6,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.dtw import MAX_RUN, pose_distance_matrices
@@ -57,7 +58,7 @@ DETECT = "hysteresis"
 SEED_THRESHOLD = 0.999
 JUMP_RATIO = 6.0
 JUMP_FLOOR_DEG = 4.0
-JUMP_MIN_MDM = 0.22
+JUMP_MIN_MDM = 0.27
 JUMP_RATIO_2 = 3.0
 JUMP_MIN_MDM_2 = 0.8
 FROZEN_SECONDS = 1.0 / 3.0
@@ -69,6 +70,9 @@ PAIR_SECONDS = 1.5
 PAIR_TOL = 0.35
 PAIR_RATIO = 1.2
 EXTEND_SECONDS = 2.0 / 15.0
+SPIKE_DEG = 25.0
+SPIKE_SECONDS = 1.0 / 6.0
+SPIKE_PAD_SECONDS = 0.2
 ABRUPT_DEG = 12.0
 ABRUPT_SECONDS = 0.2
 RECUR_DEG = 8.0
@@ -93,7 +97,11 @@ when that cell's MDM exceeds ``STEP_MIN_MDM``. Two jumps (:func:`~mocapkit.clean
 above ``PAIR_RATIO`` times the joint's 99th percentile and ``STEP_MIN_DEG``) at most
 ``PAIR_SECONDS`` apart whose step deviations cancel (within ``PAIR_TOL``,
 :func:`~mocapkit.clean.mdm.cancelling_steps`) flag the whole stretch between them, whatever its
-MDM: a joint turned by one constant rotation (spike, offset, flip). After the vetoes below,
+MDM: a joint turned by one constant rotation (spike, offset, flip). A stretch of at most
+``SPIKE_SECONDS`` that leaves the joint's smooth path (the cubic through the frames around it)
+by more than ``SPIKE_DEG`` at every frame is flagged too (:func:`~mocapkit.clean.mdm.spike_size`),
+unless it lies within ``SPIKE_PAD_SECONDS`` of a run already flagged, whose wrong frames spoil
+the cubic. After the vetoes below,
 every flagged run is stretched to the steps (above ``STEP_MIN_DEG``) within ``EXTEND_SECONDS``
 of its ends (:func:`~mocapkit.clean.mdm.extend_to_steps`): an error's first and last frames
 often digress too little.
@@ -455,6 +463,7 @@ class SelfSimilarityCleaner:
         self._frozen = None
         self._steps = None
         self._pairs = None
+        self._spikes = None
 
     # ---------------------------------------------------------------------------- results
     def _check(self) -> None:
@@ -510,6 +519,12 @@ class SelfSimilarityCleaner:
                 pk = mdm_mod.step_peaks(sizes, PAIR_RATIO, np.radians(self.step_min_deg))
                 self._pairs = mdm_mod.cancelling_steps(pk, devs, span, PAIR_TOL)
             out |= self._pairs
+        if self._spikes is None:
+            n = max(1, round(SPIKE_SECONDS * fps))
+            self._spikes = mdm_mod.spike_size(self.motion_.rotations, n) > np.radians(SPIKE_DEG)
+        pad = max(1, round(SPIKE_PAD_SECONDS * fps))
+        near = ndimage.binary_dilation(out, structure=np.ones((2 * pad + 1, 1), dtype=bool))
+        out |= self._spikes & ~near
         frozen = np.zeros_like(out)
         if self.frozen:
             if self._frozen is None:

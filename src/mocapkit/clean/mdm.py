@@ -453,6 +453,35 @@ def cancelling_steps(
     return out
 
 
+def spike_size(rotations: np.ndarray, max_frames: int) -> np.ndarray:
+    """(F, J) radians: how far a short stretch holding the frame leaves the joint's own smooth
+    path. For every gap of ``1 .. max_frames`` frames, the cubic through the two frames before
+    and the two after it (in the tangent space at the frame before) predicts the gap; the gap's
+    score is its *smallest* angle from the prediction (the whole gap is off, not one frame of
+    natural motion), and a frame takes the largest score of the gaps holding it (0 where no gap
+    with two frames either side fits)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    F = q.shape[0]
+    out = np.zeros(q.shape[:2])
+    for n in range(1, max_frames + 1):
+        a = np.arange(2, F - n - 1)  # gap a .. a + n - 1; frames a-2, a-1, a+n, a+n+1 known
+        if len(a) == 0:
+            continue
+        ref = q[a - 1]
+        inv = rot.quat_inv(ref)
+        knots = np.array([-2.0, -1.0, n, n + 1.0])
+        x = np.stack([rot.quat_to_rotvec(rot.quat_mul(inv, q[a + int(t)])) for t in knots])
+        coef = np.einsum("ck,k...->c...", np.linalg.inv(np.vander(knots, 4)), x)
+        score = np.full(ref.shape[:2], np.inf)
+        for g in range(n):
+            tangent = np.einsum("c,c...->...", np.vander([float(g)], 4)[0], coef)
+            pred = rot.quat_mul(ref, rot.rotvec_to_quat(tangent))
+            score = np.minimum(score, rot.quat_angle(q[a + g], pred))
+        for g in range(n):
+            out[a + g] = np.maximum(out[a + g], score)
+    return out
+
+
 def extend_to_steps(mask: np.ndarray, steps: np.ndarray, min_step: float, width: int) -> np.ndarray:
     """(F, J) bool: ``mask`` with each run (per joint) stretched back to the latest step (a local
     maximum of ``steps`` above ``min_step`` radians) at most ``width`` frames before it, and on
