@@ -264,7 +264,7 @@ def frozen_cells(
     digression: np.ndarray,
     min_frames: int,
     speed: float = np.radians(0.01),
-    min_digression: float = np.radians(5.0),
+    min_digression: float = np.radians(3.0),
     tol: float = np.radians(0.5),
     max_recur: int = 3,
 ) -> np.ndarray:
