@@ -101,10 +101,10 @@ MDM: a joint turned by one constant rotation (spike, offset, flip). A stretch of
 ``SPIKE_SECONDS`` that leaves the joint's smooth path (the cubic through the frames around it)
 by more than ``SPIKE_DEG`` at every frame is flagged too (:func:`~mocapkit.clean.mdm.spike_size`),
 unless it lies within ``SPIKE_PAD_SECONDS`` of a run already flagged, whose wrong frames spoil
-the cubic. After the vetoes below,
-every flagged run is stretched to the steps (above ``STEP_MIN_DEG``) within ``EXTEND_SECONDS``
-of its ends (:func:`~mocapkit.clean.mdm.extend_to_steps`): an error's first and last frames
-often digress too little.
+the cubic. After the vetoes below, every flagged run is stretched to the steps (above
+``STEP_MIN_DEG``) within ``EXTEND_SECONDS`` of its ends
+(:func:`~mocapkit.clean.mdm.extend_to_steps`): an error's first and last frames often digress
+too little.
 
 Vetoes: a run (frozen joints aside) with no step above ``ABRUPT_DEG`` within ``ABRUPT_SECONDS``
 of it is dropped (:func:`~mocapkit.clean.mdm.smooth_runs`): errors enter and leave with a step,
@@ -117,8 +117,8 @@ push-off), not a random error.
 
 On injected Bandai errors (bench/eval_clean.py) these rules remove most isolated false alarms of
 the plain threshold (weakly matched clean cells just above 0.5) and catch frozen and jittery
-joints whose MDM stays low. They were chosen on one seed of the evaluation and checked on
-another."""
+joints whose MDM stays low. They were chosen on seed 0 of the evaluation and checked on seeds
+1 to 3 (other error frames, joints and magnitudes)."""
 
 
 @dataclass
