@@ -314,3 +314,12 @@ def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:
         cl._jump = cl._steps = cl._pairs = cl._spikes = cl._frozen = None
         m = cl.mask()
         assert m[80:82, j].all() and not m[:76, j].any() and not m[86:, j].any()
+
+
+def test_hinge_joints_are_knees_and_elbows_not_hips() -> None:
+    from mocapkit.clean.inject import _HINGE_RE
+
+    hinges = ["LowerLeg_L", "LowerArm_R", "LeftLeg", "RightForeArm", "ltibia", "rradius", "Leg_L"]
+    others = ["UpperLeg_R", "UpperArm_L", "LeftUpLeg", "LeftArm", "lfemur", "lhumerus", "Hips"]
+    assert all(_HINGE_RE.search(n.lower()) for n in hinges)
+    assert not any(_HINGE_RE.search(n.lower()) for n in others)

@@ -17,8 +17,10 @@ from mocapkit.core.motion import Motion
 
 ERROR_KINDS = ("spike", "offset", "noise", "bend", "flip", "frozen")
 MIN_CHANGE_DEG = 1.0
+# knees and elbows under the common naming schemes (Bandai LowerLeg_L, Mixamo LeftLeg /
+# LeftForeArm, CMU ltibia / lradius); not UpperLeg_L, the hip
 _HINGE_RE = re.compile(
-    r"lowerleg|lowerarm|forearm|knee|elbow|shin|calf|^(left|right)leg$|leg_[lr]$"
+    r"lowerleg|lowerarm|forearm|knee|elbow|shin|calf|tibia|radius|^(left|right)leg$|^leg_[lr]$"
 )
 
 
