@@ -157,6 +157,38 @@ def knn_search(
     return out
 
 
+def step_deviations(q: np.ndarray, frame: str) -> np.ndarray:
+    """Loop version of mdm.step_deviations: the step rotation vectors with scipy's Rotation,
+    q[i]^-1 q[i+1] ("body") or q[i+1] q[i]^-1 ("parent")."""
+    from scipy.spatial.transform import Rotation
+
+    F, J = q.shape[:2]
+    out = np.zeros((F, J, 3))
+    for j in range(J):
+        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
+        if frame == "body":
+            w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
+        else:
+            w = [(r[i + 1] * r[i].inv()).as_rotvec() for i in range(F - 1)]
+        for f in range(2, F - 1):
+            out[f, j] = w[f - 1] - 0.5 * (w[f - 2] + w[f])
+    return out
+
+
+def jump_size(q: np.ndarray) -> np.ndarray:
+    """Loop version of mdm.jump_size: how much each step differs from both neighbours."""
+    from scipy.spatial.transform import Rotation
+
+    F, J = q.shape[:2]
+    out = np.zeros((F, J))
+    for j in range(J):
+        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
+        w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
+        for f in range(2, F - 1):
+            out[f, j] = min(np.linalg.norm(w[f - 1] - w[f - 2]), np.linalg.norm(w[f - 1] - w[f]))
+    return out
+
+
 def step_size(q: np.ndarray) -> np.ndarray:
     """Loop version of mdm.step_size: per frame and joint, the step into the frame against the
     mean of the steps around it (rotation vectors of q[i]^-1 q[i+1], scipy's Rotation)."""

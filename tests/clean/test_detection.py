@@ -286,6 +286,18 @@ def test_jump_size_sees_a_displaced_pose_not_a_limb_starting_at_once() -> None:
     assert not mdm_mod.jump_size(q[:3]).any()
 
 
+def test_step_deviations_and_jump_size_match_the_references() -> None:
+    from clean.naive import jump_size as naive_jump_size
+    from clean.naive import step_deviations as naive_step_deviations
+
+    q = _turning(30, J=3, seed=8)
+    q[12:15, 1] = rot.quat_mul(q[12:15, 1], rot.rotvec_to_quat(np.array([0.5, -0.2, 0.1])))
+    for frame in ("body", "parent"):
+        fast = mdm_mod.step_deviations(q, frame)
+        assert np.allclose(fast, naive_step_deviations(q, frame), atol=1e-9)
+    assert np.allclose(mdm_mod.jump_size(q), naive_jump_size(q), atol=1e-9)
+
+
 def test_spike_size_matches_the_reference_and_sees_a_spike_not_fast_motion() -> None:
     from clean.naive import spike_size as naive_spike_size
 

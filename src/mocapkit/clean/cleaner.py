@@ -499,11 +499,12 @@ class SelfSimilarityCleaner:
         )
         z = self.normalised_digression_
         if self._steps is None:
-            steps = mdm_mod.step_size(self.motion_.rotations)
+            body = mdm_mod.step_deviations(self.motion_.rotations, "body")
+            steps = np.linalg.norm(body, axis=-1)  # step_size, kept for the pairing below
             peaks = mdm_mod.step_peaks(steps, self.step_ratio, np.radians(self.step_min_deg))
             sides = mdm_mod.step_sides(peaks, z, max(1, round(fps / 10.0)))
-            self._steps = (peaks, sides, mdm_mod.step_cells(peaks, sides), steps)
-        peaks, sides, step_cells, steps = self._steps
+            self._steps = (peaks, sides, mdm_mod.step_cells(peaks, sides), steps, body)
+        peaks, sides, step_cells, steps, body = self._steps
         seeds = jumps | (step_cells & (self.mdm_ > self.step_min_mdm))
         strong = (self.mdm_ > max(self.seed_threshold, thr)) | seeds
         out = mdm_mod.hysteresis(weak, strong)
@@ -513,7 +514,7 @@ class SelfSimilarityCleaner:
         if self.pair_seconds > 0:
             if self._pairs is None:
                 rq = self.motion_.rotations
-                devs = [mdm_mod.step_deviations(rq, f) for f in ("body", "parent")]
+                devs = [body, mdm_mod.step_deviations(rq, "parent")]
                 span = round(self.pair_seconds * fps)
                 sizes = mdm_mod.jump_size(rq)
                 pk = mdm_mod.step_peaks(sizes, PAIR_RATIO, np.radians(self.step_min_deg))

@@ -175,7 +175,9 @@ def clean_take(
     default=THRESHOLD,
     show_default=True,
     help="MDM level a flagged stretch of a joint extends down to; a stretch is flagged only "
-    "if it holds a near-certain cell, an abrupt jump or a frozen run.",
+    "if it holds a near-certain cell or an abrupt jump, lies between two jumps that cancel, "
+    "leaves the joint's smooth path, or is a frozen run; smooth stretches and motifs the "
+    "joint repeats elsewhere are not flagged.",
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
