@@ -666,3 +666,43 @@ def test_root_trajectory_is_pelvis_ground_path(up):
     pos, _ = forward_kinematics(m)
     np.testing.assert_allclose(tr, fe.ground_coordinates(pos[:, 0], up))
     assert tr.shape == (20, 2)
+
+
+# ---------------------------------------------------------------------------------------------
+# limb hinges (knees and elbows)
+
+
+def _renamed(sk: Skeleton, names: dict[str, str]) -> Skeleton:
+    import dataclasses
+
+    return dataclasses.replace(sk, names=tuple(names.get(n, n) for n in sk.names))
+
+
+def test_limb_hinges_by_name_under_common_schemes() -> None:
+    from mocapkit.datasets import humanoid_skeleton
+
+    sk = humanoid_skeleton()  # Mixamo-like: LeftLeg is the knee, LeftArm the upper arm
+    want = sorted(sk.names.index(n) for n in ("LeftForeArm", "RightForeArm", "LeftLeg", "RightLeg"))
+    assert fe.limb_hinges(sk) == want
+    schemes = [
+        {"LeftForeArm": "LowerArm_L", "RightForeArm": "LowerArm_R", "LeftLeg": "LowerLeg_L",
+         "RightLeg": "LowerLeg_R", "LeftUpLeg": "UpperLeg_L", "RightUpLeg": "UpperLeg_R"},
+        {"LeftForeArm": "lradius", "RightForeArm": "rradius", "LeftLeg": "ltibia",
+         "RightLeg": "rtibia", "LeftUpLeg": "lfemur", "RightUpLeg": "rfemur"},
+        {"LeftForeArm": "mixamorig:LeftForeArm", "RightForeArm": "mixamorig:RightForeArm",
+         "LeftLeg": "mixamorig:LeftLeg", "RightLeg": "mixamorig:RightLeg"},
+    ]  # fmt: skip
+    for scheme in schemes:
+        assert fe.limb_hinges(_renamed(sk, scheme)) == want, scheme
+    # a twist bone named like a forearm is not the elbow
+    twist = _renamed(sk, {"LeftForeArm": "LeftForeArmTwist", "LeftHand": "LeftForeArm"})
+    assert sk.names.index("LeftForeArm") not in fe.limb_hinges(twist)
+
+
+def test_limb_hinges_by_structure_when_names_say_nothing() -> None:
+    from mocapkit.datasets import humanoid_skeleton
+
+    sk = humanoid_skeleton()
+    anonymous = _renamed(sk, {n: f"j{i}" for i, n in enumerate(sk.names)})
+    want = sorted(sk.names.index(n) for n in ("LeftForeArm", "RightForeArm", "LeftLeg", "RightLeg"))
+    assert fe.limb_hinges(anonymous) == want  # not the spine, neck or hips

@@ -64,6 +64,7 @@ __all__ = [
     "ground_frame",
     "ground_plane_axes",
     "heading_angles",
+    "limb_hinges",
     "local_positions",
     "pelvis_index",
     "resample",
@@ -195,6 +196,8 @@ _SHOULDER_PATTERNS = (
 _ANKLE_PATTERNS = (r"ankle", r"foot", r"tarsus")
 _TOE_PATTERNS = (r"toe", r"ball", r"foot")
 _HEAD_PATTERNS = (r"head", r"skull", r"neck")
+_KNEE_PATTERNS = (r"low(er)?leg", r"^leg$", r"shin", r"calf", r"tibia", r"knee")
+_ELBOW_PATTERNS = (r"fore ?arm", r"low(er)?arm", r"radius", r"elbow")
 _PELVIS_PATTERNS = (r"^(hips?|pelvis)$", r"hips|pelvis", r"^hip")
 
 
@@ -519,6 +522,75 @@ def character_height(obj: Motion | Skeleton, up: str | None = None) -> float:
         if h > 0:
             return h
     return sk.height()
+
+
+#: A limb's two long bones (thigh + shin, upper arm + forearm) span at least this fraction of
+#: :func:`character_height`; a neck and head, or a finger, span less.
+LIMB_MIN_FRACTION = 0.25
+
+
+def limb_hinges(skeleton: Skeleton) -> list[int]:
+    """Knees and elbows: joint indices, in joint order.
+
+    By name first (one knee and one elbow per side: ``LowerLeg``/``Leg``/``shin``/``calf``/
+    ``tibia``/``knee``, ``ForeArm``/``LowerArm``/``radius``/``elbow``; twist and helper bones
+    skipped). When no name matches, by structure: a joint with one bone out (one child joint or
+    one End Site) that joins the two longest consecutive bones of its chain. Its bone in (its
+    offset) and its bone out sum to at least :data:`LIMB_MIN_FRACTION` of the character's
+    height, the shorter is at least 0.3x the longer, the sum beats the parent's pair and is not
+    beaten by the child's pair, and everything below it stays within its bone out plus half the
+    pair (a foot and toes, a hand and fingers, not a chest carrying arms and a head).
+    """
+    named = sorted({*_find_sided(skeleton, _KNEE_PATTERNS).values(),
+                    *_find_sided(skeleton, _ELBOW_PATTERNS).values()})  # fmt: skip
+    if named:
+        return named
+    sk = skeleton
+    J = sk.num_joints
+    size = character_height(sk)
+    rest = rest_positions(sk)
+    kids = [sk.children(j) for j in range(J)]
+    ends = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
+
+    def bone_out(j: int) -> float | None:
+        if len(kids[j]) + len(ends[j]) != 1:
+            return None
+        off = sk.offsets[kids[j][0]] if kids[j] else sk.end_site_offsets[ends[j][0]]
+        return float(np.linalg.norm(off))
+
+    def pair(j: int) -> float | None:
+        out = bone_out(j)
+        if out is None or sk.parents[j] < 0:
+            return None
+        return float(np.linalg.norm(sk.offsets[j])) + out
+
+    def descendants(j: int) -> list[int]:
+        stack, out = list(kids[j]), []
+        while stack:
+            c = stack.pop()
+            out.append(c)
+            stack.extend(kids[c])
+        return out
+
+    hinges = []
+    for j in range(1, J):
+        here = pair(j)
+        if here is None or here < LIMB_MIN_FRACTION * size:
+            continue
+        upper = float(np.linalg.norm(sk.offsets[j]))
+        lower = here - upper
+        if min(upper, lower) < 0.3 * max(upper, lower):
+            continue
+        before = pair(int(sk.parents[j]))
+        if before is not None and before >= here:
+            continue
+        if kids[j] and (after := pair(kids[j][0])) is not None and after > here:
+            continue
+        below = descendants(j)
+        reach = np.linalg.norm(rest[below] - rest[j], axis=1).max() if below else lower
+        if reach <= lower + 0.5 * here + 1e-9:
+            hinges.append(j)
+    return hinges
 
 
 def detect_units(

@@ -256,3 +256,18 @@ def spike_size(q: np.ndarray, max_frames: int) -> np.ndarray:
                 for g in range(n):
                     out[a + g, j] = max(out[a + g, j], score)
     return out
+
+
+def burst_roughness(q: np.ndarray) -> np.ndarray:
+    """Loop version of mdm.burst_roughness: |w[f-1] - 2 w[f] + w[f+1]| with w the body-frame
+    steps (scipy's Rotation)."""
+    from scipy.spatial.transform import Rotation
+
+    F, J = q.shape[:2]
+    out = np.zeros((F, J))
+    for j in range(J):
+        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
+        w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
+        for f in range(1, F - 2):
+            out[f, j] = np.linalg.norm(w[f - 1] - 2.0 * w[f] + w[f + 1])
+    return out

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from mocapkit import datasets
 from mocapkit.clean import SelfSimilarityCleaner, inject
 from mocapkit.clean import mdm as mdm_mod
+from mocapkit.clean.inject import hinge_joints
 from mocapkit.core import rotations as rot
 
 
@@ -328,10 +331,57 @@ def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:
         assert m[80:82, j].all() and not m[:76, j].any() and not m[86:, j].any()
 
 
-def test_hinge_joints_are_knees_and_elbows_not_hips() -> None:
-    from mocapkit.clean.inject import _HINGE_RE
+def test_burst_roughness_matches_the_reference_and_finds_a_burst_not_its_edges() -> None:
+    from clean.naive import burst_roughness as naive_burst_roughness
 
-    hinges = ["LowerLeg_L", "LowerArm_R", "LeftLeg", "RightForeArm", "ltibia", "rradius", "Leg_L"]
-    others = ["UpperLeg_R", "UpperArm_L", "LeftUpLeg", "LeftArm", "lfemur", "lhumerus", "Hips"]
-    assert all(_HINGE_RE.search(n.lower()) for n in hinges)
-    assert not any(_HINGE_RE.search(n.lower()) for n in others)
+    q = _turning(60, J=2, seed=4)
+    bad = q.copy()
+    rng = np.random.default_rng(2)
+    noise = rot.rotvec_to_quat(rng.normal(scale=np.radians(10.0), size=(12, 3)))
+    bad[20:32, 1] = rot.quat_mul(q[20:32, 1], noise)  # a 12-frame burst, sigma 10 deg
+    bad[45:48, 0] = rot.quat_mul(q[45:48, 0], rot.rotvec_to_quat(np.array([0.6, 0.0, 0.0])))
+    r = mdm_mod.burst_roughness(bad)
+    assert np.allclose(r, naive_burst_roughness(bad), atol=1e-9)
+    m = mdm_mod.noise_bursts(r, np.radians(20.0), 6)
+    assert not m[:, 0].any()  # a 34 deg spike raises the roughness on a few frames only
+    assert not m[:18, 1].any() and not m[34:, 1].any()
+    # the burst; its edge frames weigh little in the third difference and may fall short
+    assert m[20:32, 1].sum() >= 8
+    assert not mdm_mod.noise_bursts(mdm_mod.burst_roughness(q), np.radians(20.0), 6).any()
+
+
+def test_wrong_way_bends_flag_a_knee_bent_backwards_only() -> None:
+    walk = datasets.procedural_motion("walk", seconds=6.0, seed=5).motion
+    ctx = datasets.procedural_motion("walk", seconds=6.0, seed=6).motion
+    knees = hinge_joints(walk)
+    names = walk.skeleton.names
+    assert sorted(names[j] for j in knees) == sorted(
+        ["LeftForeArm", "RightForeArm", "LeftLeg", "RightLeg"]
+    )
+    clean = mdm_mod.wrong_way_bends(walk.rotations, knees, np.radians(15.0), [ctx.rotations])
+    assert not clean.any()
+    j = names.index("LeftLeg")
+    inj = inject(walk, "bend", j, np.random.default_rng(1), start=70)
+    m = mdm_mod.wrong_way_bends(inj.motion.rotations, knees, np.radians(15.0))
+    assert np.array_equal(m[:, j], inj.frames) and not np.delete(m, j, axis=1).any()
+    # the cleaner flags it even where the KNN words follow it (several bends match each other)
+    cl = SelfSimilarityCleaner().fit(inj.motion, [ctx])
+    cl.mdm_[:, j] = 0.0
+    cl._jump = cl._steps = cl._pairs = cl._spikes = cl._frozen = cl._signal = None
+    assert cl.mask()[inj.frames, j].all()
+
+
+def test_limb_hinges_need_a_straight_rest_pose_for_the_bend_rule() -> None:
+    from mocapkit.clean.cleaner import straight_hinges
+
+    sk = datasets.humanoid_skeleton()
+    assert straight_hinges(sk, np.radians(20.0)) == hinge_joints(
+        datasets.procedural_motion("walk", seconds=1.0, seed=1).motion
+    )
+    j = sk.names.index("LeftLeg")
+    offsets = sk.offsets.copy()
+    child = sk.children(j)[0]
+    # bend the rest shin 45 deg forward: the zero rotation is no longer a straight knee
+    offsets[child] = rot.quat_apply(rot.rotvec_to_quat(np.array([0.8, 0.0, 0.0])), offsets[child])
+    bent = dataclasses.replace(sk, offsets=offsets)
+    assert j not in straight_hinges(bent, np.radians(20.0))

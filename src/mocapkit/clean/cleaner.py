@@ -33,6 +33,8 @@ from mocapkit.clean.texture import (
 )
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
+from mocapkit.core.skeleton import Skeleton
+from mocapkit.features import limb_hinges
 
 Progress = Callable[[str, int, int], None]
 """progress(stage, done, total): called as the search advances (the CLI draws a bar)."""
@@ -78,6 +80,10 @@ ABRUPT_SECONDS = 0.2
 RECUR_DEG = 8.0
 RECUR_RATIO = 0.5
 RECUR_SECONDS = 0.2
+NOISE_DEG = 20.0
+NOISE_SECONDS = 0.2
+HINGE_DEG = 15.0
+HINGE_STRAIGHT_DEG = 20.0
 """Detection defaults. ``detect="threshold"`` flags every cell with MDM above the threshold (the
 paper). ``detect="hysteresis"`` flags the runs (per joint, along time) of cells above the
 threshold that hold a *seed*: a cell with MDM above ``SEED_THRESHOLD``, or an abrupt cell (angular
@@ -115,6 +121,14 @@ and within ``RECUR_RATIO`` times the run's digression, is dropped too
 (:func:`~mocapkit.clean.mdm.recurring_runs`): the performer's own motif (toe pops at every
 push-off), not a random error.
 
+Two rules read the rotations alone, whatever the MDM (the KNN words of a weakly jittered fast
+joint may follow the jitter; several wrong-way bends on one joint match each other): a run of at
+least ``NOISE_SECONDS`` whose angular velocity changes by more than ``NOISE_DEG`` per frame at
+(nearly) every frame is a noise burst (:func:`~mocapkit.clean.mdm.noise_bursts`), and a knee or
+elbow (:func:`~mocapkit.features.limb_hinges`, straight at rest within ``HINGE_STRAIGHT_DEG``)
+bent more than ``HINGE_DEG`` past straight the wrong way is flagged
+(:func:`~mocapkit.clean.mdm.wrong_way_bends`).
+
 On injected Bandai errors (bench/eval_clean.py) these rules remove most isolated false alarms of
 the plain threshold (weakly matched clean cells just above 0.5) and catch frozen and jittery
 joints whose MDM stays low. They were chosen on seed 0 of the evaluation and checked on seeds
@@ -139,6 +153,24 @@ class Segment:
             "end": self.end,
             "peak": round(float(self.peak), 6),
         }
+
+
+def straight_hinges(skeleton: Skeleton, max_angle: float) -> list[int]:
+    """The knees and elbows (:func:`~mocapkit.features.limb_hinges`) whose bone in (their offset)
+    and longest bone out lie within ``max_angle`` radians of one straight line at rest: those
+    whose zero rotation is the straight limb, so that a flexion below zero is a wrong-way bend."""
+    out = []
+    for j in limb_hinges(skeleton):
+        outs = [skeleton.offsets[c] for c in skeleton.children(j)]
+        outs += list(skeleton.end_site_offsets[skeleton.end_site_parents == j])
+        if not outs:
+            continue
+        below = max(outs, key=lambda v: float(np.linalg.norm(v)))
+        above = skeleton.offsets[j]
+        n = float(np.linalg.norm(below) * np.linalg.norm(above))
+        if n > 0 and np.arccos(np.clip(below @ above / n, -1.0, 1.0)) <= max_angle:
+            out.append(j)
+    return out
 
 
 def _same_skeleton(a: Motion, b: Motion) -> bool:
@@ -464,6 +496,7 @@ class SelfSimilarityCleaner:
         self._steps = None
         self._pairs = None
         self._spikes = None
+        self._signal = None
 
     # ---------------------------------------------------------------------------- results
     def _check(self) -> None:
@@ -550,8 +583,23 @@ class SelfSimilarityCleaner:
             )
         ext = max(1, round(EXTEND_SECONDS * fps))
         out = mdm_mod.extend_to_steps(out, steps, np.radians(self.step_min_deg), ext)
+        out |= self._signal_errors()
         out[:, ~self.analysed_] = False
         return out
+
+    def _signal_errors(self) -> np.ndarray:
+        """(F, J) bool: noise bursts and wrong-way hinge bends, read off the rotations alone."""
+        if self._signal is None:
+            m = self.motion_
+            n = max(2, round(NOISE_SECONDS * m.fps))
+            rough = mdm_mod.burst_roughness(m.rotations)
+            bursts = mdm_mod.noise_bursts(rough, np.radians(NOISE_DEG), n)
+            hinges = straight_hinges(m.skeleton, np.radians(HINGE_STRAIGHT_DEG))
+            bends = mdm_mod.wrong_way_bends(
+                m.rotations, hinges, np.radians(HINGE_DEG), self.context_rotations_
+            )
+            self._signal = bursts | bends
+        return self._signal
 
     def segments(self, threshold: float | None = None) -> list[Segment]:
         """Flagged runs per joint, in joint order then time (inclusive file frames)."""

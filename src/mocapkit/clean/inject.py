@@ -7,21 +7,16 @@ Angles in degrees, durations in frames at 30 fps (scaled with the take's rate).
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
+from mocapkit.features import limb_hinges
 
 ERROR_KINDS = ("spike", "offset", "noise", "bend", "flip", "frozen")
 MIN_CHANGE_DEG = 1.0
-# knees and elbows under the common naming schemes (Bandai LowerLeg_L, Mixamo LeftLeg /
-# LeftForeArm, CMU ltibia / lradius); not UpperLeg_L, the hip
-_HINGE_RE = re.compile(
-    r"lowerleg|lowerarm|forearm|knee|elbow|shin|calf|tibia|radius|^(left|right)leg$|^leg_[lr]$"
-)
 
 
 @dataclass
@@ -35,8 +30,8 @@ class Injected:
 
 
 def hinge_joints(motion: Motion) -> list[int]:
-    """Knee/elbow joints by name (for the "bend" error)."""
-    return [j for j, n in enumerate(motion.skeleton.names) if _HINGE_RE.search(n.lower())]
+    """Knee/elbow joints (for the "bend" error): :func:`mocapkit.features.limb_hinges`."""
+    return limb_hinges(motion.skeleton)
 
 
 def _random_axis(rng: np.random.Generator) -> np.ndarray:

@@ -482,6 +482,72 @@ def spike_size(rotations: np.ndarray, max_frames: int) -> np.ndarray:
     return out
 
 
+# Two signal-level seeds that need no KNN word: a noise burst shakes the joint frame to frame
+# (the KNN words of a weakly jittered fast joint may agree with it), and a knee or elbow bent
+# the wrong way is impossible whatever the context holds (and a take with several such bends
+# on one joint matches them with each other).
+
+
+def burst_roughness(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: ``|w[f-1] - 2 w[f] + w[f+1]|`` with ``w[i]`` the rotation vector of the
+    body-frame step from frame ``i`` to ``i + 1``: the second difference of the angular
+    velocity, which spans frames ``f - 1 .. f + 2`` (0 where undefined, ``f < 1`` or
+    ``f > F - 3``). Smooth motion keeps it small (it grows with the cube of the frequency);
+    white noise of ``s`` radians per axis gives about ``4.5 s`` per axis."""
+    q = np.asarray(rotations, dtype=np.float64)
+    F = q.shape[0]
+    out = np.zeros(q.shape[:2])
+    if F < 4:
+        return out
+    w = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
+    out[1 : F - 2] = np.linalg.norm(w[:-2] - 2.0 * w[1:-1] + w[2:], axis=-1)
+    return out
+
+
+def noise_bursts(roughness: np.ndarray, min_step: float, min_frames: int) -> np.ndarray:
+    """(F, J) bool: runs of at least ``min_frames`` frames of :func:`burst_roughness` above
+    ``min_step`` radians (one-frame gaps filled), less their first two and last frame: a
+    burst on frames ``a .. b`` raises the roughness on ``a - 2 .. b + 1``. An error's edge or a
+    limb stopping at once raises it for a few frames only."""
+    r = np.asarray(roughness, dtype=np.float64)
+    hi = r > min_step
+    filled = hi.copy()
+    filled[1:-1] |= hi[:-2] & hi[2:]
+    out = np.zeros(hi.shape, dtype=bool)
+    for j in np.flatnonzero(filled.any(axis=0)):
+        for a, b in _runs_1d(filled[:, j]):
+            if b - a >= min_frames:
+                out[a + 2 : b - 1, j] = True
+    return out
+
+
+def wrong_way_bends(
+    rotations: np.ndarray,
+    hinges: Sequence[int],
+    min_angle: float,
+    context: Sequence[np.ndarray] = (),
+) -> np.ndarray:
+    """(F, J) bool: frames where a hinge (knee, elbow; straight at rest) is bent more than
+    ``min_angle`` radians past straight the wrong way.
+
+    The flexion axis is the main direction of the joint's rotation vectors (take and
+    ``context`` rotations, each (F_i, J, 4)), signed so that the joint spends most of its time
+    on the positive side; the flexion is the rotation vector's component on it. A joint whose
+    rotations reach 170 deg is skipped (rotation vectors wrap at 180 deg)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2], dtype=bool)
+    for j in hinges:
+        own = rot.quat_to_rotvec(q[:, j])
+        pool = np.concatenate([own, *(rot.quat_to_rotvec(np.asarray(c)[:, j]) for c in context)])
+        if len(pool) == 0 or np.linalg.norm(pool, axis=1).max() > np.radians(170.0):
+            continue
+        axis = np.linalg.svd(pool, full_matrices=False)[2][0]
+        if np.median(pool @ axis) < 0:
+            axis = -axis
+        out[:, j] = own @ axis < -min_angle
+    return out
+
+
 def extend_to_steps(mask: np.ndarray, steps: np.ndarray, min_step: float, width: int) -> np.ndarray:
     """(F, J) bool: ``mask`` with each run (per joint) stretched back to the latest step (a local
     maximum of ``steps`` above ``min_step`` radians) at most ``width`` frames before it, and on
