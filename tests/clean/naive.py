@@ -157,19 +157,23 @@ def knn_search(
     return out
 
 
-def step_deviations(q: np.ndarray, frame: str) -> np.ndarray:
-    """Loop version of mdm.step_deviations: the step rotation vectors with scipy's Rotation,
-    q[i]^-1 q[i+1] ("body") or q[i+1] q[i]^-1 ("parent")."""
+def _steps(q: np.ndarray, j: int, frame: str = "body") -> list[np.ndarray]:
+    """Rotation vectors of joint j's steps with scipy's Rotation: q[i]^-1 q[i+1] ("body") or
+    q[i+1] q[i]^-1 ("parent")."""
     from scipy.spatial.transform import Rotation
 
+    r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
+    if frame == "body":
+        return [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(len(q) - 1)]
+    return [(r[i + 1] * r[i].inv()).as_rotvec() for i in range(len(q) - 1)]
+
+
+def step_deviations(q: np.ndarray, frame: str) -> np.ndarray:
+    """Loop version of mdm.step_deviations: each step against the mean of its neighbours."""
     F, J = q.shape[:2]
     out = np.zeros((F, J, 3))
     for j in range(J):
-        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
-        if frame == "body":
-            w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
-        else:
-            w = [(r[i + 1] * r[i].inv()).as_rotvec() for i in range(F - 1)]
+        w = _steps(q, j, frame)
         for f in range(2, F - 1):
             out[f, j] = w[f - 1] - 0.5 * (w[f - 2] + w[f])
     return out
@@ -177,30 +181,29 @@ def step_deviations(q: np.ndarray, frame: str) -> np.ndarray:
 
 def jump_size(q: np.ndarray) -> np.ndarray:
     """Loop version of mdm.jump_size: how much each step differs from both neighbours."""
-    from scipy.spatial.transform import Rotation
-
     F, J = q.shape[:2]
     out = np.zeros((F, J))
     for j in range(J):
-        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
-        w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
+        w = _steps(q, j)
         for f in range(2, F - 1):
             out[f, j] = min(np.linalg.norm(w[f - 1] - w[f - 2]), np.linalg.norm(w[f - 1] - w[f]))
     return out
 
 
 def step_size(q: np.ndarray) -> np.ndarray:
-    """Loop version of mdm.step_size: per frame and joint, the step into the frame against the
-    mean of the steps around it (rotation vectors of q[i]^-1 q[i+1], scipy's Rotation)."""
-    from scipy.spatial.transform import Rotation
+    """Loop version of mdm.step_size: the length of the body-frame step deviation."""
+    return np.linalg.norm(step_deviations(q, "body"), axis=-1)
 
+
+def burst_roughness(q: np.ndarray) -> np.ndarray:
+    """Loop version of mdm.burst_roughness: |w[f-1] - 2 w[f] + w[f+1]| with w the body-frame
+    steps."""
     F, J = q.shape[:2]
     out = np.zeros((F, J))
     for j in range(J):
-        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
-        w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
-        for f in range(2, F - 1):
-            out[f, j] = np.linalg.norm(w[f - 1] - 0.5 * (w[f - 2] + w[f]))
+        w = _steps(q, j)
+        for f in range(1, F - 2):
+            out[f, j] = np.linalg.norm(w[f - 1] - 2.0 * w[f] + w[f + 1])
     return out
 
 
@@ -255,19 +258,4 @@ def spike_size(q: np.ndarray, max_frames: int) -> np.ndarray:
                 )
                 for g in range(n):
                     out[a + g, j] = max(out[a + g, j], score)
-    return out
-
-
-def burst_roughness(q: np.ndarray) -> np.ndarray:
-    """Loop version of mdm.burst_roughness: |w[f-1] - 2 w[f] + w[f+1]| with w the body-frame
-    steps (scipy's Rotation)."""
-    from scipy.spatial.transform import Rotation
-
-    F, J = q.shape[:2]
-    out = np.zeros((F, J))
-    for j in range(J):
-        r = Rotation.from_quat(q[:, j][:, [1, 2, 3, 0]])
-        w = [(r[i].inv() * r[i + 1]).as_rotvec() for i in range(F - 1)]
-        for f in range(1, F - 2):
-            out[f, j] = np.linalg.norm(w[f - 1] - 2.0 * w[f] + w[f + 1])
     return out
