@@ -171,6 +171,21 @@ def test_cancelling_steps_flag_a_constant_turn_and_not_a_turn_that_stays() -> No
         mdm_mod.step_deviations(bad, "world")
 
 
+def test_cancelling_steps_pair_two_close_errors_without_bridging_the_gap() -> None:
+    q = _turning(80, J=1, seed=3)
+    bad = q.copy()
+    # error A grows from 0.5 to 0.8 rad (its entry and exit do not cancel); error B holds
+    # 0.7 rad, so A's exit (-0.8) and B's entry (+0.7) cancel too, across the clean gap
+    grow = np.linspace(0.5, 0.8, 10)[:, None] * np.array([[1.0, 0.0, 0.0]])
+    bad[10:20, 0] = rot.quat_mul(q[10:20, 0], rot.rotvec_to_quat(grow))
+    bad[30:40, 0] = rot.quat_mul(q[30:40, 0], rot.rotvec_to_quat(np.array([0.7, 0.0, 0.0])))
+    peaks = np.zeros((80, 1), dtype=bool)
+    peaks[[10, 20, 30, 40], 0] = True
+    devs = [mdm_mod.step_deviations(bad, "body")]
+    flagged = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35)
+    assert np.array_equal(np.flatnonzero(flagged[:, 0]), np.r_[30:40])
+
+
 def test_extend_to_steps_reaches_the_error_edges() -> None:
     F = 120
     q = _turning(F, J=2, seed=6)

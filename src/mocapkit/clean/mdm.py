@@ -436,20 +436,32 @@ def cancelling_steps(
     a stretch turned by one constant rotation, entered and left with opposite steps (a spike,
     an offset, a flip). Natural motion that jumps seldom jumps back by the same rotation; take
     the peaks of :func:`jump_size`, as a limb that starts and stops at once (a kick from rest
-    back to rest) kinks its velocity with opposite deviations too."""
+    back to rest) kinks its velocity with opposite deviations too.
+
+    Each peak pairs at most once, the best-cancelling pairs first: two errors close together
+    on one joint (the entry of the first, its exit, the entry of the second, ...) pair as two
+    stretches, not through the exit of the first and the entry of the second across the clean
+    frames between them."""
     out = np.zeros(peaks.shape, dtype=bool)
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j])
+        pairs = []
         for i, a in enumerate(ps):
             for e in ps[i + 1 :]:
                 if e - a > max_frames:
                     break
-                for v in deviations:
-                    va, ve = v[a, j], v[e, j]
-                    small = min(np.linalg.norm(va), np.linalg.norm(ve))
-                    if np.linalg.norm(va + ve) < tol * small:
-                        out[a:e, j] = True
-                        break
+                ratio = min(
+                    np.linalg.norm(v[a, j] + v[e, j])
+                    / max(min(np.linalg.norm(v[a, j]), np.linalg.norm(v[e, j])), 1e-12)
+                    for v in deviations
+                )
+                if ratio < tol:
+                    pairs.append((ratio, a, e))
+        used: set[int] = set()
+        for _, a, e in sorted(pairs):
+            if a not in used and e not in used:
+                used.update((a, e))
+                out[a:e, j] = True
     return out
 
 
