@@ -199,9 +199,9 @@ def test_robust_second_pass_and_paper_normalisation(takes, corrupted) -> None:
     _, ctx = takes
     cur, truth = corrupted
     rb = SelfSimilarityCleaner(robust=True).fit(cur, [ctx])
-    paper = SelfSimilarityCleaner(
-        scale="mean", gain=1.0, floor_deg=0.0, detect="threshold"
-    ).fit(cur, [ctx])
+    paper = SelfSimilarityCleaner(scale="mean", gain=1.0, floor_deg=0.0, detect="threshold").fit(
+        cur, [ctx]
+    )
     for cl in (rb, paper):
         for j in np.flatnonzero(truth.any(axis=0)):
             assert cl.scores()[truth[:, j], j].max() > 0.9

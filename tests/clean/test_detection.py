@@ -400,3 +400,31 @@ def test_limb_hinges_need_a_straight_rest_pose_for_the_bend_rule() -> None:
     offsets[child] = rot.quat_apply(rot.rotvec_to_quat(np.array([0.8, 0.0, 0.0])), offsets[child])
     bent = dataclasses.replace(sk, offsets=offsets)
     assert j not in straight_hinges(bent, np.radians(20.0))
+
+
+def test_neighbours_on_a_known_bad_cell_do_not_speak_for_its_joint() -> None:
+    walk = datasets.procedural_motion("walk", seconds=6.0, seed=5).motion
+    j = list(walk.skeleton.names).index("LeftLeg")
+    inj = inject(walk, "bend", j, np.random.default_rng(1), start=70)
+    cl = SelfSimilarityCleaner().fit(inj.motion)
+    tex = cl.texture_
+    bad_a = np.interp(tex.analysis_times(), tex.file_times(), inj.frames.astype(float)) > 0
+    M = cl.word_lengths_[2]
+    barred_somewhere = False
+    for gn in cl.neighbours_:
+        use = gn.usable_mask()
+        found = np.broadcast_to((gn.index >= 0)[:, :, None, None], use.shape)
+        if j not in gn.group.joints:
+            assert np.array_equal(use, found)  # no bad cell on its joints
+            continue
+        jj = gn.group.joints.index(j)
+        N = use.shape[2]
+        pos = gn.index[:, :, None] + np.round(np.arange(N) * (M - 1) / (N - 1)).astype(int)
+        on_bend = (gn.index >= 0)[:, :, None] & bad_a[np.clip(pos, 0, len(bad_a) - 1)]
+        barred = found[..., jj] & ~use[..., jj]
+        assert not (barred & ~on_bend).any()  # only frames lying on the bend are barred
+        # ... all of them, unless every neighbour of that word frame lies on it
+        some_clean = (found[..., jj] & ~on_bend).any(axis=1, keepdims=True)
+        assert np.array_equal(barred & some_clean, found[..., jj] & on_bend & some_clean)
+        barred_somewhere |= bool(barred.any())
+    assert barred_somewhere

@@ -136,3 +136,37 @@ def test_search_group_matches_the_naive_reference() -> None:
         ref = naive.knn_search(src, src, list(group.joints), 1, [0, 20], 15, 20, 3, 7, 2)
         for w in range(2):
             assert [int(t) for t in gn.index[w] if t >= 0] == ref[w]
+
+
+def test_untainted_bars_neighbour_frames_on_bad_cells_per_joint() -> None:
+    from mocapkit.clean import mdm
+
+    rng = np.random.default_rng(0)
+    g = JointGroup("pair", (1, 3))
+    W, K, N = 2, 3, 4
+    words = rot.quat_normalize(rng.normal(size=(W, K, N, 2, 4)))
+    index = np.array([[2, 40, 100], [7, 60, -1]])  # 100, 60: context frames after the take
+    gn = knn.GroupNeighbours(g, np.array([0, 5]), index, np.ones((W, K)), words)
+    tainted = np.zeros((50, 4), dtype=bool)
+    tainted[42, 1] = True  # word frame n of the target at 40 reads frame 40 + 2n (M=7, N=4)
+    out = knn.untainted(gn, tainted, target_len=7)
+    use = out.usable_mask()
+    barred = np.argwhere(~use & gn.usable_mask())
+    assert barred.tolist() == [[0, 1, 1, 0]]  # word 0, neighbour 1, frame 1, joint 1
+    # the mean word of joint 1 at that frame no longer holds neighbour 1; elsewhere it does
+    mw, full = mdm.mean_word(out), mdm.mean_word(gn)
+    expect = words[0, [0, 2], 1, 0].sum(axis=0)
+    assert np.allclose(mw[0, 1, 0], expect / np.linalg.norm(expect))
+    assert np.allclose(mw[0, [0, 2, 3]], full[0, [0, 2, 3]]) and np.allclose(mw[1], full[1])
+    # the median word of joint 1 is a neighbour clean on all its frames
+    med = mdm.median_word(out)
+    assert any(np.allclose(med[0, :, 0], words[0, k, :, 0]) for k in (0, 2))
+    # with the whole take tainted only the context's neighbours speak, and a word frame whose
+    # neighbours all lie in the take keeps them all
+    everything = np.ones((50, 4), dtype=bool)
+    use = knn.untainted(gn, everything, 7).usable_mask()
+    assert use[:, :, 0, 0].tolist() == [[False, False, True], [False, True, False]]
+    inside = knn.GroupNeighbours(
+        g, gn.starts, np.array([[2, 30, 9], [7, 20, -1]]), gn.distance, words
+    )
+    assert np.array_equal(knn.untainted(inside, everything, 7).usable_mask(), inside.usable_mask())

@@ -10,7 +10,7 @@ from scipy import ndimage
 
 from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.dtw import MAX_RUN, pose_distance_matrices
-from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group
+from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group, untainted
 from mocapkit.clean.repair import (
     ContactConstraint,
     RepairResult,
@@ -69,7 +69,7 @@ STEP_RATIO = 1.5
 STEP_MIN_DEG = 8.0
 STEP_MIN_MDM = 0.5
 PAIR_SECONDS = 1.5
-PAIR_TOL = 0.35
+PAIR_TOL = 0.45
 PAIR_RATIO = 1.2
 EXTEND_SECONDS = 2.0 / 15.0
 SPIKE_DEG = 25.0
@@ -480,6 +480,19 @@ class SelfSimilarityCleaner:
         )
 
     def _finish_maps(self) -> None:
+        self._signal = None
+        bad = self._signal_errors()
+        if bad.any():
+            # a neighbour word lying on a noise burst or a wrong-way bend of the take may not
+            # speak for that joint: several errors on one joint would vouch for each other
+            tex = self.texture_
+            t_a, t_f = tex.analysis_times(), tex.file_times()
+            bad_a = np.stack(
+                [np.interp(t_a, t_f, bad[:, j].astype(float)) > 0 for j in range(bad.shape[1])],
+                axis=1,
+            )
+            M = self.word_lengths_[2]
+            self.neighbours_ = [untainted(gn, bad_a, M) for gn in self.neighbours_]
         self.mdm_analysis_ = self._mdm_from(self.neighbours_, analysis=True)
         outliers = None
         if self.robust:
@@ -496,7 +509,6 @@ class SelfSimilarityCleaner:
         self._steps = None
         self._pairs = None
         self._spikes = None
-        self._signal = None
 
     # ---------------------------------------------------------------------------- results
     def _check(self) -> None:

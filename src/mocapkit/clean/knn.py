@@ -133,6 +133,8 @@ class GroupNeighbours:
         distance: (W, K) word distances (inf where none).
         words: (W, K, N, m, 4) neighbour words warped and resampled to the source length
             (hemisphere-aligned to the source word), for the group's joints ``group.joints``.
+        usable: (W, K, N, m) bool or None: whether neighbour ``k`` may speak for frame ``n``
+            of the group's joint ``jj`` (see :func:`untainted`); None: every neighbour found.
     """
 
     group: JointGroup
@@ -140,6 +142,40 @@ class GroupNeighbours:
     index: np.ndarray
     distance: np.ndarray
     words: np.ndarray
+    usable: np.ndarray | None = None
+
+    def usable_mask(self) -> np.ndarray:
+        """(W, K, N, m) bool: the neighbours found (``index >= 0``) that may speak per frame and
+        joint."""
+        W, K = self.index.shape
+        shape = (W, K, self.words.shape[2] if self.words.ndim == 5 else 0, len(self.group.joints))
+        found = np.broadcast_to((self.index >= 0)[:, :, None, None], shape)
+        return found & self.usable if self.usable is not None else found.copy()
+
+
+def untainted(gn: GroupNeighbours, tainted: np.ndarray, target_len: int) -> GroupNeighbours:
+    """``gn`` with the neighbour frames that lie on known-bad cells of the take barred.
+
+    ``tainted``: (F, J) bool over the analysed take's frames, which the context holds first
+    (global frames ``0 .. F - 1``). Frame ``n`` of a neighbour word (``N`` frames, warped from
+    the target word of ``target_len`` frames starting at ``i < F``) is taken from about target
+    frame ``i + n (target_len - 1) / (N - 1)``; where that cell is tainted on joint ``j``, the
+    neighbour may not speak for ``j`` there (two errors on one joint would vouch for each
+    other). A (word, frame, joint) whose neighbours are all barred keeps them all: better a
+    doubtful vote than none."""
+    bad = np.asarray(tainted, dtype=bool)
+    F = bad.shape[0]
+    js = np.asarray(gn.group.joints)
+    found = gn.usable_mask()
+    N = found.shape[2]
+    step = (target_len - 1) / max(N - 1, 1)
+    pos = gn.index[:, :, None] + np.round(np.arange(N) * step).astype(np.int64)  # (W, K, N)
+    inside = (gn.index >= 0)[:, :, None] & (pos < F)
+    hit = bad[np.clip(pos, 0, max(F - 1, 0))][..., js] & inside[..., None]  # (W, K, N, m)
+    usable = found & ~hit
+    none = ~usable.any(axis=1, keepdims=True)  # (W, 1, N, m)
+    usable = np.where(none, found, usable)
+    return GroupNeighbours(gn.group, gn.starts, gn.index, gn.distance, gn.words, usable)
 
 
 def _warp_word(target: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:

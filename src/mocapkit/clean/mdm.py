@@ -90,19 +90,22 @@ def _finish(
 
 
 def mean_word(gn: GroupNeighbours) -> np.ndarray:
-    """(W, N, m, 4) the mean of each source word's K neighbours (NaN where it has none)."""
-    valid = gn.index >= 0  # (W, K)
-    s = np.sum(gn.words * valid[:, :, None, None, None], axis=1)
+    """(W, N, m, 4) the mean of each source word's usable neighbours, per frame and joint (NaN
+    where none)."""
+    use = gn.usable_mask()  # (W, K, N, m)
+    s = np.sum(gn.words * use[..., None], axis=1)
     n = np.linalg.norm(s, axis=-1, keepdims=True)
     out = s / np.where(n > 0, n, 1.0)
-    out[~valid.any(axis=1)] = np.nan
-    return out
+    none = ~use.any(axis=1)  # (W, N, m)
+    return np.where(none[..., None], np.nan, out)
 
 
 def median_word(gn: GroupNeighbours) -> np.ndarray:
     """(W, N, m, 4) the median neighbour of each source word: the KNN word with the least summed
-    geodesic distance to the others (an actual motion, as the paper asks; NaN where none)."""
+    geodesic distance to the others (an actual motion, as the paper asks), per joint among the
+    neighbours usable on all its frames (all found ones where none is; NaN where none found)."""
     W = gn.index.shape[0]
+    use = gn.usable_mask().all(axis=2)  # (W, K, m)
     out = np.full(gn.words.shape[:1] + gn.words.shape[2:], np.nan)
     for w in range(W):
         idx = np.flatnonzero(gn.index[w] >= 0)
@@ -110,8 +113,12 @@ def median_word(gn: GroupNeighbours) -> np.ndarray:
             continue
         ws = gn.words[w, idx]  # (k, N, m, 4)
         dots = np.abs(np.einsum("anjc,bnjc->abnj", ws, ws))
-        cost = np.arccos(np.clip(dots, 0.0, 1.0)).sum(axis=(2, 3)).sum(axis=1)
-        out[w] = ws[int(np.argmin(cost))]
+        cost = np.arccos(np.clip(dots, 0.0, 1.0)).sum(axis=(2, 3)).sum(axis=1)  # (k,)
+        ok = use[w, idx]  # (k, m)
+        ok = np.where(ok.any(axis=0), ok, True)
+        best = np.argmin(np.where(ok, cost[:, None], np.inf), axis=0)  # (m,)
+        m = np.arange(ws.shape[2])
+        out[w] = ws[best, :, m].transpose(1, 0, 2)
     return out
 
 
@@ -210,14 +217,15 @@ def neighbour_spread(reference: np.ndarray, neighbours: Sequence[GroupNeighbours
         js = np.asarray(gn.group.joints)
         mw = mean_word(gn)  # (W, N, m, 4)
         N = gn.words.shape[2] if gn.words.ndim == 5 else 0
-        valid = gn.index >= 0
+        use = gn.usable_mask()  # (W, K, N, m)
         for w, a in enumerate(gn.starts):
-            if not valid[w].any():
+            ok = use[w]  # (K, N, m)
+            if not ok.any():
                 continue
-            ws = gn.words[w, valid[w]]  # (k, N, m, 4)
-            ang = rot.quat_angle(ws, mw[w][None])  # (k, N, m)
-            acc[a : a + N, js] += ang.mean(axis=0)
-            cnt[a : a + N, js] += 1.0
+            ang = rot.quat_angle(gn.words[w], np.nan_to_num(mw[w])[None])  # (K, N, m)
+            n_ok = ok.sum(axis=0)  # (N, m)
+            acc[a : a + N, js] += np.sum(ang * ok, axis=0) / np.maximum(n_ok, 1)
+            cnt[a : a + N, js] += n_ok > 0
     return np.where(cnt > 0, acc / np.where(cnt > 0, cnt, 1.0), 0.0)
 
 

@@ -177,7 +177,8 @@ def clean_take(
     help="MDM level a flagged stretch of a joint extends down to; a stretch is flagged only "
     "if it holds a near-certain cell or an abrupt jump, lies between two jumps that cancel, "
     "leaves the joint's smooth path, or is a frozen run; smooth stretches and motifs the "
-    "joint repeats elsewhere are not flagged.",
+    "joint repeats elsewhere are not flagged. Noise bursts and wrong-way knee or elbow bends "
+    "are flagged whatever the MDM.",
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
@@ -230,8 +231,9 @@ def clean_command(
     Every short window of each joint group ("motion-word") is compared by constrained DTW with
     every window of the context; joints whose rotation digresses from their nearest neighbours'
     mean are flagged (stretches with MDM > threshold that hold a near-certain, abrupt or frozen
-    cell) and, with --out, replaced by the neighbours' median,
-    blended at the edges. Joints and frames that are not flagged stay bit-identical.
+    cell), as are noise bursts and knees or elbows bent the wrong way; with --out, they are
+    replaced by the neighbours' median, blended at the edges. Joints and frames that are not
+    flagged stay bit-identical.
 
     \b
     Examples:
