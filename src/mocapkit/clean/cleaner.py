@@ -127,12 +127,14 @@ least ``NOISE_SECONDS`` whose angular velocity changes by more than ``NOISE_DEG`
 (nearly) every frame is a noise burst (:func:`~mocapkit.clean.mdm.noise_bursts`), and a knee or
 elbow (:func:`~mocapkit.features.limb_hinges`, straight at rest within ``HINGE_STRAIGHT_DEG``)
 bent more than ``HINGE_DEG`` past straight the wrong way is flagged
-(:func:`~mocapkit.clean.mdm.wrong_way_bends`).
+(:func:`~mocapkit.clean.mdm.wrong_way_bends`). The KNN word frames that lie on such a burst or bend
+of the take do not speak for that joint, in the MDM nor in the repair
+(:func:`~mocapkit.clean.knn.untainted`).
 
 On injected Bandai errors (bench/eval_clean.py) these rules remove most isolated false alarms of
 the plain threshold (weakly matched clean cells just above 0.5) and catch frozen and jittery
-joints whose MDM stays low. They were chosen on seed 0 of the evaluation and checked on seeds
-1 to 3 (other error frames, joints and magnitudes)."""
+joints whose MDM stays low. They were chosen on seeds 0 to 3 of the evaluation and checked on
+seed 4 (other error frames, joints and magnitudes)."""
 
 
 @dataclass
