@@ -595,9 +595,9 @@ class SelfSimilarityCleaner:
                 self.context_rotations_,
                 flex=max(1, round(fps / 30.0)),
             )
+        out |= self._signal_errors()
         ext = max(1, round(EXTEND_SECONDS * fps))
         out = mdm_mod.extend_to_steps(out, steps, np.radians(self.step_min_deg), ext)
-        out |= self._signal_errors()
         out[:, ~self.analysed_] = False
         return out
 
