@@ -7,9 +7,8 @@ search, then the sub-group words against the small-scale context around what it 
 (joint, source-word) units are scored (see mocapkit.clean.evaluate) next to the baselines
 (a) limits, (b) rate, (c) both, fitted on every other clean Bandai-1 take. Prints the detection
 table, the repair error (paper Eq. 2 per frame, against the clean take) and the bit-identity
-check of untouched cells. The detection rules were chosen on seeds 0 to 3 (the later
-rules looking at all four); seed 4 places other errors (other frames, joints and magnitudes)
-and was held out.
+check of untouched cells. The detection rules were chosen on seeds 0 to 4; seeds 5 and 6
+place other errors (other frames, joints and magnitudes) and were held out.
 
     PYTHONPATH=src .venv/bin/python bench/eval_clean.py [--quick] [--seed 0]
 """

@@ -133,8 +133,8 @@ of the take do not speak for that joint, in the MDM nor in the repair
 
 On injected Bandai errors (bench/eval_clean.py) these rules remove most isolated false alarms of
 the plain threshold (weakly matched clean cells just above 0.5) and catch frozen and jittery
-joints whose MDM stays low. They were chosen on seeds 0 to 3 of the evaluation and checked on
-seed 4 (other error frames, joints and magnitudes)."""
+joints whose MDM stays low. They were chosen on seeds 0 to 4 of the evaluation and checked on
+seeds 5 and 6 (other error frames, joints and magnitudes)."""
 
 
 @dataclass
