@@ -343,6 +343,11 @@ def dominated_runs(
 # where the joint digresses from its KNN words.
 
 
+def _body_steps(q: np.ndarray) -> np.ndarray:
+    """(F - 1, J, 3) rotation vectors of the body-frame steps ``log(q[i]^-1 q[i+1])``."""
+    return rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
+
+
 def step_deviations(rotations: np.ndarray, frame: str = "body") -> np.ndarray:
     """(F, J, 3) radians: ``v[f] = w[f-1] - (w[f-2] + w[f]) / 2`` with ``w[i]`` the rotation
     vector of the step from frame ``i`` to ``i + 1``, ``log(q[i]^-1 q[i+1])`` in the joint's own
@@ -356,12 +361,11 @@ def step_deviations(rotations: np.ndarray, frame: str = "body") -> np.ndarray:
     if q.shape[0] < 4:
         return out
     if frame == "body":
-        step = rot.quat_mul(rot.quat_inv(q[:-1]), q[1:])
+        w = _body_steps(q)
     elif frame == "parent":
-        step = rot.quat_mul(q[1:], rot.quat_inv(q[:-1]))
+        w = rot.quat_to_rotvec(rot.quat_mul(q[1:], rot.quat_inv(q[:-1])))
     else:
         raise ValueError(f"frame must be 'body' or 'parent', got {frame!r}")
-    w = rot.quat_to_rotvec(step)
     out[2:-1] = w[1:-1] - 0.5 * (w[:-2] + w[2:])
     return out
 
@@ -383,7 +387,7 @@ def jump_size(rotations: np.ndarray) -> np.ndarray:
     out = np.zeros(q.shape[:2])
     if q.shape[0] < 4:
         return out
-    w = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
+    w = _body_steps(q)
     before = np.linalg.norm(w[1:-1] - w[:-2], axis=-1)
     after = np.linalg.norm(w[1:-1] - w[2:], axis=-1)
     out[2:-1] = np.minimum(before, after)
@@ -519,7 +523,7 @@ def burst_roughness(rotations: np.ndarray) -> np.ndarray:
     out = np.zeros(q.shape[:2])
     if F < 4:
         return out
-    w = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
+    w = _body_steps(q)
     out[1 : F - 2] = np.linalg.norm(w[:-2] - 2.0 * w[1:-1] + w[2:], axis=-1)
     return out
 
