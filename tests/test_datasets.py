@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mocapkit.core import rotations as rot
-from mocapkit.core.kinematics import end_site_positions, forward_kinematics, rest_positions
+from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.datasets import (
     BACKWARD_CENTER,
     FORWARD_CENTER,
@@ -113,7 +113,7 @@ def test_three_circles_pair_and_parameters():
 
 
 def _standing_height(sk) -> float:
-    p = rest_positions(sk)
+    p = sk.rest_positions()
     q = rot.quat_identity((1, sk.num_joints))
     e = end_site_positions(sk, p[None], q)[0]
     allp = np.concatenate([p, e])
@@ -133,7 +133,7 @@ def test_humanoid_skeleton(height, units, scale):
     assert all(sk.rotation_order(j) == "ZXY" for j in range(sk.num_joints))
     assert all(len(c) == 3 for c in sk.channels[1:])
     assert abs(_standing_height(sk) - height * scale) < 0.05 * height * scale
-    p = rest_positions(sk)
+    p = sk.rest_positions()
     # Y up, left side at +X, feet on the ground, toes forward (+Z)
     assert p[sk.index("Head"), 1] > p[sk.index("Hips"), 1] > p[sk.index("LeftFoot"), 1]
     assert p[sk.index("LeftHand"), 0] > 0 > p[sk.index("RightHand"), 0]

@@ -14,6 +14,7 @@ from mocapkit import features as fe
 from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.core.motion import Motion
+from mocapkit.core.runs import true_runs
 from mocapkit.core.skeleton import Skeleton
 from mocapkit.io.bvh import read_bvh
 
@@ -577,8 +578,8 @@ def _alternates(fc: fe.FootContacts) -> bool:
     bs = fc.by_side()
     onsets = []
     for k in range(2):
-        for a, _, v in fe._runs(bs[:, k]):
-            if v and a > 0:
+        for a, _ in true_runs(bs[:, k]):
+            if a > 0:
                 onsets.append((a, k))
     sides = [k for _, k in sorted(onsets)]
     return len(sides) >= 3 and all(s != t for s, t in itertools.pairwise(sides))

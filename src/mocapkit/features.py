@@ -43,8 +43,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mocapkit.core import rotations as rot
-from mocapkit.core.kinematics import forward_kinematics, rest_positions
+from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.core.motion import Motion
+from mocapkit.core.runs import true_runs
 from mocapkit.core.skeleton import Skeleton
 
 __all__ = [
@@ -469,7 +470,7 @@ def detect_up_axis(obj: Motion | Skeleton, max_frames: int = 200) -> str:
         pos, _ = _fk(obj, max_frames)
         return _up_from_positions(obj.skeleton, pos)
     sk = _skeleton_of(obj)
-    return _up_from_positions(sk, rest_positions(sk)[None])
+    return _up_from_positions(sk, sk.rest_positions()[None])
 
 
 def _bone_lengths(obj: Motion | Skeleton) -> np.ndarray:
@@ -548,7 +549,7 @@ def limb_hinges(skeleton: Skeleton) -> list[int]:
     sk = skeleton
     J = sk.num_joints
     size = character_height(sk)
-    rest = rest_positions(sk)
+    rest = sk.rest_positions()
     kids = [sk.children(j) for j in range(J)]
     ends = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
 
@@ -657,7 +658,7 @@ def _rest_forward(sk: Skeleton, up: str) -> np.ndarray:
     """Forward direction of the rest pose (3,): mean ground-projected ankle->toe direction, or
     the ground frame's forward axis."""
     feet = _named_feet(sk)
-    rest = rest_positions(sk)
+    rest = sk.rest_positions()
     vecs = []
     for side in ("left", "right"):
         js = [j for s, j in feet if s == side]
@@ -977,27 +978,17 @@ class FootContacts:
         return bs.mean(axis=0) if len(bs) else np.zeros(2)
 
 
-def _runs(x: np.ndarray) -> list[tuple[int, int, bool]]:
-    """(start, stop, value) runs of a 1-D bool array."""
-    if len(x) == 0:
-        return []
-    edges = np.flatnonzero(np.diff(x.astype(np.int8))) + 1
-    starts = np.concatenate([[0], edges])
-    stops = np.concatenate([edges, [len(x)]])
-    return [(int(a), int(b), bool(x[a])) for a, b in zip(starts, stops, strict=True)]
-
-
 def _clean_flags(x: np.ndarray, max_gap: int, max_spike: int) -> np.ndarray:
     """Close interior False gaps of at most ``max_gap`` frames, then drop interior True runs of
     at most ``max_spike`` frames (runs touching the clip's ends are kept)."""
     x = x.copy()
     n = len(x)
-    for a, b, v in _runs(x):
-        if not v and a > 0 and b < n and b - a <= max_gap:
-            x[a:b] = True
-    for a, b, v in _runs(x):
-        if v and b - a <= max_spike and a > 0 and b < n:
-            x[a:b] = False
+    for a, b in true_runs(~x):
+        if a > 0 and b < n - 1 and b - a + 1 <= max_gap:
+            x[a : b + 1] = True
+    for a, b in true_runs(x):
+        if b - a + 1 <= max_spike and a > 0 and b < n - 1:
+            x[a : b + 1] = False
     return x
 
 
@@ -1019,7 +1010,7 @@ def find_feet(
         pos, _ = _fk(motion, 200)
     else:
         up = _norm_up(up) if up else detect_up_axis(skeleton)
-        pos = rest_positions(skeleton)[None]
+        pos = skeleton.rest_positions()[None]
     _, u, _ = ground_frame(up)
     mean_h = (pos @ u).mean(axis=0)
     pelvis = pelvis_index(skeleton)

@@ -14,9 +14,10 @@ from mocapkit.clean import (
     repair_cells,
 )
 from mocapkit.clean.evaluate import corrupt, repair_error, unit_matrix
-from mocapkit.clean.repair import dilate, runs
+from mocapkit.clean.repair import dilate
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
+from mocapkit.core.runs import true_runs
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +94,7 @@ def test_repair_margin_semantics() -> None:
     assert changed[:, 3].any()
     assert not changed[:17, 3].any() and not changed[28:, 3].any()
     assert not changed[:, [j for j in range(J) if j != 3]].any()
-    assert runs(res.written[:, 3]) == [(17, 27)]
+    assert true_runs(res.written[:, 3]) == [(17, 27)]
     # the flagged cells moved towards the replacement, the margins only partly
     ang_mid = rot.quat_angle(res.motion.rotations[22, 3], m.rotations[22, 3])
     ang_edge = rot.quat_angle(res.motion.rotations[17, 3], m.rotations[17, 3])
@@ -176,7 +177,7 @@ def test_contact_constraint_pins_the_effector(takes) -> None:
     names = list(walk.skeleton.names)
     toe = names.index("LeftToe")
     stance = np.flatnonzero(synth.contacts[:, 0])
-    runs_ = [r for r in runs(synth.contacts[:, 0]) if r[1] - r[0] >= 12 and r[0] > 20]
+    runs_ = [r for r in true_runs(synth.contacts[:, 0]) if r[1] - r[0] >= 12 and r[0] > 20]
     a, b = runs_[0]
     inj = inject(walk, "offset", names.index("LeftLeg"), np.random.default_rng(2), start=a + 2)
     pos, _ = forward_kinematics(walk)

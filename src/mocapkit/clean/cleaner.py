@@ -19,7 +19,6 @@ from mocapkit.clean.repair import (
     effector_error,
     pin_with_ik,
     repair_cells,
-    runs,
 )
 from mocapkit.clean.texture import (
     ANALYSIS_FPS,
@@ -33,6 +32,7 @@ from mocapkit.clean.texture import (
 )
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
+from mocapkit.core.runs import true_runs
 from mocapkit.core.skeleton import Skeleton
 from mocapkit.features import limb_hinges
 
@@ -621,7 +621,7 @@ class SelfSimilarityCleaner:
         out = []
         names = self.motion_.skeleton.names
         for j in range(m.shape[1]):
-            for a, b in runs(m[:, j]):
+            for a, b in true_runs(m[:, j]):
                 out.append(Segment(names[j], j, a, b, float(self.mdm_[a : b + 1, j].max())))
         return out
 

@@ -15,6 +15,7 @@ from scipy import ndimage
 
 from mocapkit.clean.knn import GroupNeighbours
 from mocapkit.core import rotations as rot
+from mocapkit.core.runs import true_runs
 
 
 def word_weights(gn: GroupNeighbours, power: float) -> np.ndarray:
@@ -261,12 +262,6 @@ def jump_ratio(rotations: np.ndarray, floor: float, size: int = 3) -> np.ndarray
     return a / s[None, :]
 
 
-def _runs_1d(b: np.ndarray) -> list[tuple[int, int]]:
-    """Inclusive (start, end) of the True runs of a 1-D bool array."""
-    d = np.diff(np.concatenate([[0], b.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1, strict=True))
-
-
 def frozen_cells(
     rotations: np.ndarray,
     digression: np.ndarray,
@@ -290,7 +285,7 @@ def frozen_cells(
         return out
     still = rot.quat_angle(q[:-1], q[1:]) < speed  # (F-1, J): frame f -> f+1
     for j in range(J):
-        for a, b in _runs_1d(still[:, j]):
+        for a, b in true_runs(still[:, j]):
             if b - a + 1 < min_frames:
                 continue
             fr = slice(a, b + 2)  # the run's frames, f ... f+1
@@ -328,7 +323,7 @@ def dominated_runs(
     if ratio <= 0 or J < 2:
         return out
     for j in range(J):
-        for a, b in _runs_1d(mask[:, j]):
+        for a, b in true_runs(mask[:, j]):
             if keep[a : b + 1, j].any():
                 continue
             win = np.delete(z[max(a - pad, 0) : b + 1 + pad], j, axis=1)
@@ -539,7 +534,7 @@ def noise_bursts(roughness: np.ndarray, min_step: float, min_frames: int) -> np.
     filled[1:-1] |= hi[:-2] & hi[2:]
     out = np.zeros(hi.shape, dtype=bool)
     for j in np.flatnonzero(filled.any(axis=0)):
-        for a, b in _runs_1d(filled[:, j]):
+        for a, b in true_runs(filled[:, j]):
             if b - a >= min_frames:
                 out[a + 2 : b - 1, j] = True
     return out
@@ -585,7 +580,7 @@ def extend_to_steps(mask: np.ndarray, steps: np.ndarray, min_step: float, width:
     pad = np.full((1, s.shape[1]), -1.0)
     peak = (s > min_step) & (s >= np.vstack([pad, s[:-1]])) & (s > np.vstack([s[1:], pad]))
     for j in np.flatnonzero(out.any(axis=0)):
-        for a, b in _runs_1d(mask[:, j]):
+        for a, b in true_runs(mask[:, j]):
             before = np.flatnonzero(peak[max(0, a - width) : a + 1, j])
             if len(before):
                 out[max(0, a - width) + before[-1] : a, j] = True
@@ -611,7 +606,7 @@ def smooth_runs(
     :func:`step_size` within ``pad`` frames of the run stays below ``min_step`` radians."""
     out = np.zeros_like(mask, dtype=bool)
     for j in np.flatnonzero(np.asarray(mask).any(axis=0)):
-        for a, b in _runs_1d(mask[:, j]):
+        for a, b in true_runs(mask[:, j]):
             if keep[a : b + 1, j].any():
                 continue
             if steps[max(a - pad, 0) : b + 1 + pad, j].max() < min_step:
@@ -672,7 +667,7 @@ def recurring_runs(
     q = np.asarray(rotations, dtype=np.float64)
     out = np.zeros_like(mask, dtype=bool)
     for j in np.flatnonzero(np.asarray(mask).any(axis=0)):
-        for a, b in _runs_1d(mask[:, j]):
+        for a, b in true_runs(mask[:, j]):
             if b - a + 1 > max_frames:
                 continue
             match = excursion_match(q[:, j], a, b + 1, [o[:, j] for o in others], flex)

@@ -27,17 +27,6 @@ def default_margin(fps: float) -> int:
     return max(2, round(0.1 * fps))
 
 
-def runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """(start, end) inclusive runs of True in a 1-D bool array."""
-    m = np.asarray(mask, dtype=bool)
-    if not m.any():
-        return []
-    d = np.diff(np.concatenate([[0], m.astype(np.int8), [0]]))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
-    return list(zip(starts.tolist(), ends.tolist(), strict=True))
-
-
 def dilate(mask: np.ndarray, margin: int) -> np.ndarray:
     """Dilate a (F, J) bool mask by ``margin`` frames along axis 0."""
     m = np.asarray(mask, dtype=bool)

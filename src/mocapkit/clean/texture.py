@@ -132,9 +132,7 @@ def default_groups(skeleton: Skeleton, include: Sequence[int] | None = None) -> 
     up = features.detect_up_axis(skeleton)
     up_axis = "XYZ".index(up.lstrip("+-")[-1])
     up_sign = -1.0 if up.startswith("-") else 1.0
-    from mocapkit.core.kinematics import rest_positions
-
-    rest = rest_positions(skeleton)
+    rest = skeleton.rest_positions()
     lower: set[int] = {pelvis}
     for c in skeleton.children(pelvis):
         sub = _subtree(skeleton, c)

@@ -128,7 +128,7 @@ def clean_take(
 ) -> tuple[Any, np.ndarray, np.ndarray, list[dict[str, Any]], Any]:
     """Run the analysis: (cleaner, mdm (F, J) float32, mask, segments, repair result)."""
     from mocapkit.clean import RotationBaseline, SelfSimilarityCleaner
-    from mocapkit.clean.repair import runs
+    from mocapkit.core.runs import true_runs
 
     cleaner = SelfSimilarityCleaner(threshold=threshold, two_stage=two_stage)
     bar_total = len(cleaner.groups or []) or 5
@@ -147,7 +147,7 @@ def clean_take(
         segments = [
             {"joint": names[j], "joint_index": j, "start": a, "end": b, "peak": 1.0}
             for j in range(mask.shape[1])
-            for a, b in runs(mask[:, j])
+            for a, b in true_runs(mask[:, j])
         ]
     result = cleaner.repair(mask=mask, contacts=contacts)
     return cleaner, mdm, mask, segments, result

@@ -102,11 +102,3 @@ def end_site_positions(
     q = global_rotations[:, ep].reshape(-1, 4)
     off = np.broadcast_to(skeleton.end_site_offsets, (F, len(ep), 3)).reshape(-1, 3)
     return global_positions[:, ep] + _qrot(q, off).reshape(F, len(ep), 3)
-
-
-def rest_positions(skeleton: Skeleton) -> np.ndarray:
-    """(J, 3) joint positions in the rest pose (all rotations identity, root at its offset)."""
-    pos = np.zeros((skeleton.num_joints, 3))
-    for j, p in enumerate(skeleton.parents):
-        pos[j] = skeleton.offsets[j] + (pos[p] if p >= 0 else 0.0)
-    return pos

@@ -140,7 +140,45 @@ class Skeleton:
         return np.array([any(c in POSITION_CHANNELS for c in ch) for ch in self.channels])
 
     def children(self, j: int) -> list[int]:
+        """Direct children of joint ``j``, in joint order."""
         return [int(c) for c in np.flatnonzero(self.parents == j)]
+
+    def ancestors(self, j: int) -> list[int]:
+        """The joints above ``j``: its parent first, the root last (empty for the root)."""
+        out: list[int] = []
+        p = int(self.parents[j])
+        while p >= 0:
+            out.append(p)
+            p = int(self.parents[p])
+        return out
+
+    def subtree_mask(self, j: int) -> np.ndarray:
+        """(J,) bool: ``j`` and every joint below it. One pass, since parents come first."""
+        inside = np.zeros(self.num_joints, dtype=bool)
+        inside[j] = True
+        parents = self.parents
+        for k in range(j + 1, self.num_joints):
+            inside[k] = inside[parents[k]]
+        return inside
+
+    def subtree(self, j: int) -> list[int]:
+        """``j`` and every joint below it, in joint order."""
+        return [int(k) for k in np.flatnonzero(self.subtree_mask(j))]
+
+    def descendants(self, j: int) -> list[int]:
+        """Every joint below ``j`` (not ``j`` itself), in joint order."""
+        return self.subtree(j)[1:]
+
+    def common_ancestor(self, a: int, b: int) -> int:
+        """The lowest joint that is ``a`` or above it and ``b`` or above it."""
+        above_a = {a, *self.ancestors(a)}
+        return next(j for j in (b, *self.ancestors(b)) if j in above_a)
+
+    def leaves(self) -> list[int]:
+        """Joints without child joints (End Sites do not count), in joint order."""
+        has_child = np.zeros(self.num_joints, dtype=bool)
+        has_child[self.parents[1:]] = True
+        return [int(j) for j in np.flatnonzero(~has_child)]
 
     def depth(self) -> np.ndarray:
         """(J,) number of ancestors of each joint."""
@@ -148,6 +186,13 @@ class Skeleton:
         for j in range(1, self.num_joints):
             d[j] = d[self.parents[j]] + 1
         return d
+
+    def rest_positions(self) -> np.ndarray:
+        """(J, 3) joint positions in the rest pose (all rotations identity, root at its offset)."""
+        pos = np.zeros((self.num_joints, 3))
+        for j, p in enumerate(self.parents):
+            pos[j] = self.offsets[j] + (pos[p] if p >= 0 else 0.0)
+        return pos
 
     def with_channels(self, channels: Sequence[Sequence[str]]) -> Skeleton:
         """Same hierarchy with another channel layout (e.g. another rotation order)."""
@@ -202,8 +247,6 @@ class Skeleton:
 
     def height(self) -> float:
         """Rough size of the character: extent of rest-pose joint positions (file units)."""
-        from mocapkit.core.kinematics import rest_positions
-
-        p = rest_positions(self)
+        p = self.rest_positions()
         ext = p.max(axis=0) - p.min(axis=0)
         return float(ext.max()) if ext.max() > 0 else 1.0
