@@ -47,6 +47,8 @@ class Skeleton:
         end_site_parents: (E,) int array, the joint each End Site hangs from.
         end_site_offsets: (E, 3) float64 End Site offsets.
         end_site_names: E strings, the token written after ``End Site`` ("" if none).
+        metres_per_unit: the length unit in metres where the file states it (ASF ``:units``);
+            None where it does not (BVH), and the unit is then guessed (:mod:`mocapkit.body`).
     """
 
     names: tuple[str, ...]
@@ -56,6 +58,7 @@ class Skeleton:
     end_site_parents: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     end_site_offsets: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     end_site_names: tuple[str, ...] = ()
+    metres_per_unit: float | None = None
 
     def __post_init__(self) -> None:
         names = tuple(str(n) for n in self.names)
@@ -86,6 +89,12 @@ class Skeleton:
             raise ValueError(
                 "end_site_parents, end_site_offsets and end_site_names differ in length"
             )
+        mpu = self.metres_per_unit
+        if mpu is not None:
+            mpu = float(mpu)
+            if not (np.isfinite(mpu) and mpu > 0):
+                raise ValueError(f"metres_per_unit must be a positive number, got {mpu!r}")
+            object.__setattr__(self, "metres_per_unit", mpu)
         if np.any((ep < 0) | (ep >= J)):
             raise ValueError("end_site_parents must index joints")
         for name, arr in (("offsets", offsets), ("end_site_offsets", eo)):
@@ -204,6 +213,7 @@ class Skeleton:
             self.end_site_parents,
             self.end_site_offsets,
             self.end_site_names,
+            self.metres_per_unit,
         )
 
     def with_rotation_order(self, order: str) -> Skeleton:
@@ -223,7 +233,7 @@ class Skeleton:
         return self.with_channels(new)
 
     def scaled(self, factor: float) -> Skeleton:
-        """Offsets (and End Site offsets) multiplied by ``factor``."""
+        """Offsets (and End Site offsets) multiplied by ``factor``; a stated unit shrinks by it."""
         return Skeleton(
             self.names,
             self.parents,
@@ -232,6 +242,7 @@ class Skeleton:
             self.end_site_parents,
             self.end_site_offsets * factor,
             self.end_site_names,
+            None if self.metres_per_unit is None else self.metres_per_unit / factor,
         )
 
     def allclose(self, other: Skeleton, atol: float = 1e-9) -> bool:

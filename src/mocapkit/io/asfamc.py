@@ -199,7 +199,10 @@ class AsfSkeleton:
         return tuple(out)
 
     def to_skeleton(self, scale: float = 1.0) -> Skeleton:
-        """The mocapkit Skeleton (see the module docstring); lengths multiplied by ``scale``."""
+        """The mocapkit Skeleton (see the module docstring); lengths multiplied by ``scale``.
+
+        The skeleton states its unit: ``metres_per_unit / scale`` metres (the CMU convention
+        of ``:units length``, one inch where the file has none)."""
         names = self.joint_names
         index = {n: i for i, n in enumerate(names)}
         parent = self.parent_of()
@@ -220,7 +223,13 @@ class AsfSkeleton:
                 es_parents.append(index[n])
                 es_offsets.append(b.vector * scale)
         return Skeleton(
-            names, parents, offsets, channels, es_parents, np.reshape(es_offsets, (-1, 3))
+            names,
+            parents,
+            offsets,
+            channels,
+            es_parents,
+            np.reshape(es_offsets, (-1, 3)),
+            metres_per_unit=self.metres_per_unit / scale,
         )
 
 

@@ -3,7 +3,8 @@
 Stored arrays: ``names`` (J,) str, ``parents`` (J,), ``offsets`` (J, 3), ``channels`` (J,) str
 (space-joined channel names), ``end_site_parents`` (E,), ``end_site_offsets`` (E, 3),
 ``end_site_names`` (E,) str, ``rotations`` (F, J, 4) w,x,y,z, ``root_positions`` (F, 3),
-``frame_time`` () and optionally ``translations`` (F, J, 3); ``format`` names the layout version.
+``frame_time`` () and optionally ``translations`` (F, J, 3) and ``metres_per_unit`` () where
+the skeleton states its unit; ``format`` names the layout version.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ def write_npz(motion: Motion, path: str | Path) -> Path:
     }
     if motion.translations is not None:
         arrays["translations"] = motion.translations
+    if sk.metres_per_unit is not None:
+        arrays["metres_per_unit"] = np.array(sk.metres_per_unit)
     buf = io.BytesIO()
     np.savez_compressed(buf, **arrays)
     return atomic_write_bytes(path, buf.getvalue())
@@ -61,6 +64,7 @@ def read_npz(path: str | Path) -> Motion:
                 z["end_site_parents"],
                 z["end_site_offsets"].reshape(-1, 3),
                 tuple(str(n) for n in z["end_site_names"]),
+                float(z["metres_per_unit"]) if "metres_per_unit" in z else None,
             )
             motion = Motion(
                 sk,
