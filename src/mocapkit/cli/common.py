@@ -1,5 +1,5 @@
 """What every ``mocapkit`` subcommand shares: the command group, one-line errors, progress
-bars, loading files."""
+bars, finding and loading input files, strict JSON output."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ import click
 
 from mocapkit.core.motion import Motion
 from mocapkit.io import MocapFileError, RepairWarning, read_motion
+from mocapkit.io.atomic import atomic_write_text
+from mocapkit.jsonio import NonFiniteWarning, to_json_text
 
 
 class CLIError(click.ClickException):
@@ -33,10 +35,13 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", RepairWarning)
-                result = fn(*args, **kwargs)
-            for w in caught:
-                click.echo(f"mocapkit: repaired: {w.message}", err=True)
-            return result
+                warnings.simplefilter("always", NonFiniteWarning)
+                try:
+                    return fn(*args, **kwargs)
+                finally:
+                    for w in caught:
+                        kind = "repaired" if issubclass(w.category, RepairWarning) else "warning"
+                        click.echo(f"mocapkit: {kind}: {w.message}", err=True)
         except MocapFileError as e:
             raise CLIError(str(e)) from None
         except (ValueError, KeyError, FileNotFoundError, ImportError) as e:
@@ -64,6 +69,35 @@ def progress(total: int, description: str, enabled: bool = True) -> Iterator[Cal
     ) as bar:
         task = bar.add_task(description, total=total)
         yield lambda: bar.advance(task)
+
+
+@contextmanager
+def progress_callback(description: str, enabled: bool = True) -> Iterator[Callable[..., None]]:
+    """A rich progress bar on stderr for a library function's ``progress`` callback: yields
+    ``update(*labels, done, total)`` (the last two arguments are used, so it fits both
+    ``progress(done, total)`` and ``progress(stage, done, total)``)."""
+    if not enabled:
+        yield lambda *args: None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    with Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    ) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(*args: Any) -> None:
+            *labels, done, total = args
+            text = f"{description} ({labels[0]})" if labels else description
+            bar.update(task, completed=done, total=total, description=text)
+
+        yield update
 
 
 def load(path: str, lenient: bool, asf: str | None = None, fps: float | None = None) -> Motion:
@@ -96,24 +130,61 @@ def main() -> None:
     """
 
 
-MOTION_SUFFIXES = (".bvh", ".npz")  # what a folder argument contributes
+MOTION_SUFFIXES = (".bvh", ".npz", ".amc")
+"""What the subcommands that read motions accept (an .amc needs its subject's .asf beside it)."""
+
+_GLOB_CHARS = frozenset("*?[")
 
 
-def expand_inputs(items: Sequence[str], exclude: Sequence[str] = ()) -> list[Path]:
-    """Files and the motion files (``*.bvh``, ``*.npz``) of folders, sorted, without ``exclude``."""
+def _check_amc(f: Path) -> None:
+    from mocapkit.io import find_asf
+
+    try:
+        find_asf(f)
+    except MocapFileError as e:
+        raise CLIError(str(e)) from None
+
+
+def expand_inputs(
+    items: Sequence[str | Path],
+    suffixes: Sequence[str] = MOTION_SUFFIXES,
+    exclude: Sequence[str | Path] = (),
+) -> list[Path]:
+    """The motion files named by ``items``: files as given, the files of folders and the matches
+    of glob patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
+    extension is one of ``suffixes`` (folders and patterns skip the rest, e.g. Bandai's
+    ``.json`` labels), sorted; duplicates and ``exclude`` removed, order kept.
+
+    An ``.amc`` needs its subject's skeleton beside it (``NN.asf`` for ``NN_MM.amc``, or the only
+    ``.asf`` of its folder; :func:`mocapkit.io.find_asf`). A missing path, an empty folder or a
+    pattern that matches nothing is a one-line :class:`CLIError`.
+    """
+    import glob
+
+    want = tuple(s.lower() for s in suffixes)
+    kinds = "/".join(want)
     skip = {Path(e).resolve() for e in exclude}
     out: list[Path] = []
     for item in items:
         p = Path(item)
         if p.is_dir():
-            found = sorted(f for f in p.iterdir() if f.suffix.lower() in MOTION_SUFFIXES)
+            found = sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in want)
             if not found:
-                raise CLIError(f"{p}: no .bvh or .npz files in this folder")
+                raise CLIError(f"{p}: no {kinds} files in this folder")
             out += found
         elif p.exists():
             out.append(p)
+        elif _GLOB_CHARS & set(str(item)):
+            found = sorted(
+                Path(f)
+                for f in glob.glob(str(item), recursive=True)
+                if Path(f).is_file() and Path(f).suffix.lower() in want
+            )
+            if not found:
+                raise CLIError(f"{item}: no {kinds} files match this pattern")
+            out += found
         else:
-            raise CLIError(f"{p}: no such file or folder")
+            raise CLIError(f"{p}: cannot read file: no such file or folder")
     seen: set[Path] = set()
     result = []
     for f in out:
@@ -121,5 +192,29 @@ def expand_inputs(items: Sequence[str], exclude: Sequence[str] = ()) -> list[Pat
         if r in skip or r in seen:
             continue
         seen.add(r)
+        if f.suffix.lower() == ".amc":
+            _check_amc(f)
         result.append(f)
     return result
+
+
+def load_all(
+    paths: Sequence[Path | str], lenient: bool, description: str = "reading", show: bool = True
+) -> list[Motion]:
+    """Read every path (:func:`load`) under one progress bar."""
+    out = []
+    with progress(len(paths), description, enabled=show) as step:
+        for p in paths:
+            out.append(load(str(p), lenient))
+            step()
+    return out
+
+
+def echo_json(obj: Any) -> None:
+    """Print ``obj`` (a result's ``to_json()``) as strict JSON (:func:`mocapkit.jsonio`)."""
+    click.echo(to_json_text(obj))
+
+
+def write_json(path: str | Path, obj: Any) -> Path:
+    """Write ``obj`` as strict JSON, atomically."""
+    return atomic_write_text(path, to_json_text(obj) + "\n")

@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 
 import click
 
-from mocapkit.cli.common import CLIError, friendly_errors, main
-from mocapkit.cli.io_commands import convert_motion, motion_info, print_info
+from mocapkit.cli.common import CLIError, friendly_errors, main, write_json
+from mocapkit.cli.io_commands import print_info
+from mocapkit.convert import convert_motion
 from mocapkit.io import read_motion, write_motion
 from mocapkit.io.atomic import atomic_write_text
+from mocapkit.summary import summarize
 
 DemoStep = Callable[[Path], None]
 """A demo step: writes into the demo folder and prints what it did (click.echo)."""
@@ -39,9 +40,9 @@ def foundation_step(out: Path) -> None:
 
     click.echo("\n[info] on the generated walk:")
     walk = read_motion(clips["walk"])
-    summary = motion_info(walk, str(clips["walk"]))
+    summary = summarize(walk, str(clips["walk"])).to_json()
     print_info(summary)
-    atomic_write_text(out / "humanoid_walk.info.json", json.dumps(summary, indent=2) + "\n")
+    write_json(out / "humanoid_walk.info.json", summary)
 
     click.echo("[convert] walk -> 60 fps, ZYX order, .npz and back to BVH:")
     conv = convert_motion(walk, fps=60.0)

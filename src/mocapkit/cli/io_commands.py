@@ -2,77 +2,25 @@
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import click
-import numpy as np
 
-from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main, progress
-from mocapkit.core.motion import Motion
-from mocapkit.io import write_motion
-from mocapkit.io.atomic import refuse_overwrite
+from mocapkit.cli.common import (
+    LENIENT,
+    MOTION_SUFFIXES,
+    CLIError,
+    echo_json,
+    expand_inputs,
+    friendly_errors,
+    main,
+    progress,
+)
+from mocapkit.convert import convert_file
+from mocapkit.summary import summarize_file
 
 
 # --------------------------------------------------------------------------------------- info
-def motion_info(
-    motion: Motion, path: str, up: str | None = None, units: str | None = None
-) -> dict[str, Any]:
-    """A JSON-ready summary of a motion (what ``mocapkit info`` prints).
-
-    ``up`` ("Y", "Z", "-Y", ...) and ``units`` ("m", "cm", "mm", "inch") override the guesses.
-    """
-    from mocapkit import features
-    from mocapkit.core.kinematics import forward_kinematics
-
-    sk = motion.skeleton
-    info: dict[str, Any] = {
-        "path": path,
-        "joints": len(sk.names),
-        "joint_names": list(sk.names),
-        "channels": sk.num_channels,
-        "channels_per_joint": [list(c) for c in sk.channels],
-        "rotation_orders": sorted(
-            set(sk.rotation_orders[j] for j in range(sk.num_joints) if sk.has_rotation[j])
-        ),
-        "end_sites": len(sk.end_site_parents),
-        "frames": motion.num_frames,
-        "frame_time": motion.frame_time,
-        "fps": motion.fps,
-        "duration_s": motion.duration,
-    }
-    up = up.upper() if up else features.detect_up_axis(motion)
-    if units:
-        metres = features.metres_per_unit(motion, units)
-        units = next(k for k, v in features.UNITS.items() if v == metres)
-    else:
-        units, metres = features.detect_units(motion)
-    info["up_axis"] = up
-    info["units_guess"] = units
-    info["metres_per_unit"] = metres
-    if motion.num_frames:
-        pos, _ = forward_kinematics(motion)
-        info["bounding_box"] = {
-            "min": (pos.min(axis=(0, 1)).round(6) + 0.0).tolist(),
-            "max": (pos.max(axis=(0, 1)).round(6) + 0.0).tolist(),
-        }
-        try:
-            fc = features.foot_contacts(motion, up=up, units=metres)
-        except ValueError as e:
-            info["contacts"] = {"error": str(e)}
-        else:
-            info["contacts"] = {
-                name: {
-                    "fraction": round(float(fc.contacts[:, i].mean()), 4),
-                    "segments": int(
-                        np.sum(np.diff(fc.contacts[:, i].astype(int)) == 1) + int(fc.contacts[0, i])
-                    ),
-                }
-                for i, name in enumerate(fc.names)
-            }
-    return info
-
-
 def print_info(info: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -105,7 +53,7 @@ def print_info(info: dict[str, Any]) -> None:
 
 
 @main.command()
-@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("files", nargs=-1, required=True, metavar="FILE_DIR_OR_GLOB...")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (a list when several files).")
 @click.option("--up", default=None, help="Up axis (Y, Z, -Y, ...) instead of the guess.")
 @click.option(
@@ -121,44 +69,30 @@ def info(
 ) -> None:
     """Summarise motion files: joints, channels, frames, fps, units, bounding box, contacts.
 
+    Takes files, folders (their .bvh, .npz and .amc files) and quoted glob patterns; an .amc
+    needs its subject's .asf beside it. The JSON is mocapkit.summary.summarize(...).to_json().
+
     \b
     Example:
       mocapkit info walk.bvh
       mocapkit info --json clips/*.bvh > summary.json
+      mocapkit info --json 'clips/**/*.bvh' takes/
       mocapkit info --up Z --units cm zup_clip.bvh
     """
+    paths = expand_inputs(files, MOTION_SUFFIXES)
     infos = []
-    with progress(len(files), "reading") as step:
-        for f in files:
-            infos.append(motion_info(load(f, lenient), f, up=up, units=units))
+    with progress(len(paths), "reading") as step:
+        for f in paths:
+            infos.append(summarize_file(f, up=up, units=units, lenient=lenient).to_json())
             step()
     if as_json:
-        click.echo(json.dumps(infos[0] if len(infos) == 1 else infos, indent=2))
+        echo_json(infos[0] if len(infos) == 1 else infos)
     else:
         for i in infos:
             print_info(i)
 
 
 # ------------------------------------------------------------------------------------ convert
-def convert_motion(motion: Motion, fps: float | None = None, scale: float | None = None) -> Motion:
-    """Resample and/or scale a motion (what ``mocapkit convert`` does between read and write)."""
-    from mocapkit import features
-
-    if fps is not None:
-        motion = features.resample(motion, fps)
-    if scale is not None:
-        if not scale > 0:
-            raise ValueError(f"--scale must be positive, got {scale}")
-        motion = Motion(
-            motion.skeleton.scaled(scale),
-            motion.rotations,
-            motion.root_positions * scale,
-            motion.frame_time,
-            None if motion.translations is None else motion.translations * scale,
-        )
-    return motion
-
-
 @main.command()
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--fps", type=float, default=None, help="Resample to this frame rate.")
@@ -202,8 +136,7 @@ def convert(
         src = srcs[0]
     else:
         raise CLIError("convert takes IN OUT, or ASF AMC OUT")
-    refuse_overwrite(out, [*srcs])
-    motion = load(src, lenient, asf=asf, fps=amc_fps if src.lower().endswith(".amc") else None)
-    motion = convert_motion(motion, fps=fps, scale=scale)
-    write_motion(motion, out, order=order)
-    click.echo(f"wrote {out} ({motion.num_frames} frames at {motion.fps:.6g} fps)")
+    res = convert_file(
+        src, out, asf=asf, fps=fps, scale=scale, order=order, amc_fps=amc_fps, lenient=lenient
+    )
+    click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {res.motion.fps:.6g} fps)")
