@@ -9,6 +9,10 @@ sparse-joint reconstruction and the paper's rotation baselines.
     cleaner.mdm_                 # (F, J) in [0, 1] on the take's frames
     cleaner.segments()           # flagged runs (joint, start, end, peak)
     fixed = cleaner.repair().motion
+
+    from mocapkit.clean import run  # what `mocapkit clean` does: detect, repair, report
+    report = run(take, [take2, take3], source="take.bvh")
+    report.to_json()             # the --report JSON; report.motion is the repaired take
 """
 
 from mocapkit.clean.baselines import BASELINES, RotationBaseline
@@ -38,6 +42,7 @@ from mocapkit.clean.mdm import (
     neighbour_spread,
 )
 from mocapkit.clean.repair import ContactConstraint, RepairResult, repair_cells
+from mocapkit.clean.run import CleanReport, run
 from mocapkit.clean.sparse import reconstruct
 from mocapkit.clean.texture import (
     ANALYSIS_FPS,
@@ -58,6 +63,7 @@ __all__ = [
     "MAX_RUN",
     "SCALE",
     "THRESHOLD",
+    "CleanReport",
     "ContactConstraint",
     "Context",
     "GroupNeighbours",
@@ -82,6 +88,7 @@ __all__ = [
     "pose_distance_matrices",
     "reconstruct",
     "repair_cells",
+    "run",
     "scan_words",
     "search_group",
     "select_knn",

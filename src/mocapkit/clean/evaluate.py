@@ -65,6 +65,21 @@ class Corrupted:
     truth: np.ndarray
     errors: list[Injected] = field(default_factory=list)
 
+    @property
+    def frames(self) -> np.ndarray:
+        """(F,) bool: frames where any joint was corrupted."""
+        return self.truth.any(axis=1)
+
+    def spans(self) -> list[tuple[str, str, int, int]]:
+        """``(kind, joint name, first frame, last frame)`` of each error that changed a frame."""
+        names = self.motion.skeleton.names
+        out = []
+        for e in self.errors:
+            fr = np.flatnonzero(e.frames)
+            if len(fr):
+                out.append((e.kind, names[e.joint], int(fr[0]), int(fr[-1])))
+        return out
+
 
 def corrupt(
     motion: Motion,
@@ -119,3 +134,50 @@ def repair_error(clean: Motion, repaired: Motion, joints: np.ndarray | None = No
     b = repaired.rotations if joints is None else repaired.rotations[:, joints]
     half = rot.quat_angle(a, b) / 2.0
     return np.sum(half**2, axis=1)
+
+
+def detection_counts(
+    truth: np.ndarray, flagged: np.ndarray, fps: float, joints: np.ndarray | None = None
+) -> Counts:
+    """Unit counts (module docstring) of a (F, J) bool ``flagged`` mask against the (F, J)
+    ``truth`` cells, on the joints ``joints`` (indices or a (J,) bool mask; default all).
+    ``.recall`` and ``.precision`` give the scores."""
+    t = unit_matrix(np.asarray(truth, dtype=bool), fps)
+    f = unit_matrix(np.asarray(flagged, dtype=bool), fps)
+    if joints is not None:
+        t, f = t[:, joints], f[:, joints]
+    c = Counts()
+    c.add(t, f)
+    return c
+
+
+def inject_errors(
+    motion: Motion,
+    plan: Sequence[tuple[str, str | int, int]],
+    rng: np.random.Generator | int = 0,
+) -> Corrupted:
+    """Inject the errors of ``plan``, ``(kind, joint name or index, start frame)`` each, one
+    after the other (:func:`mocapkit.clean.inject`); ``rng``: a generator or a seed."""
+    rng = np.random.default_rng(rng) if isinstance(rng, int) else rng
+    names = list(motion.skeleton.names)
+    cur = motion
+    truth = np.zeros((motion.num_frames, motion.num_joints), dtype=bool)
+    errors = []
+    for kind, joint, start in plan:
+        j = names.index(joint) if isinstance(joint, str) else int(joint)
+        inj = inject(cur, kind, j, rng, start=start)
+        cur = inj.motion
+        truth[inj.frames, inj.joint] = True
+        errors.append(inj)
+    return Corrupted(cur, truth, errors)
+
+
+def worst_error_deg(reference: Motion, motion: Motion, frames: np.ndarray | None = None) -> float:
+    """The largest joint-rotation difference (degrees) between ``motion`` and ``reference`` on
+    ``frames`` (a (F,) bool mask or indices; default all), 0 when there are none."""
+    a, b = reference.rotations, motion.rotations
+    if frames is not None:
+        a, b = a[frames], b[frames]
+    if a.size == 0:
+        return 0.0
+    return float(np.degrees(rot.quat_angle(a, b).max()))

@@ -2,29 +2,29 @@
 
 from __future__ import annotations
 
-import json
-import time
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import click
-import numpy as np
 
+from mocapkit import clean
 from mocapkit.clean import THRESHOLD
 from mocapkit.cli.common import (
     LENIENT,
+    MOTION_SUFFIXES,
     CLIError,
     expand_inputs,
     friendly_errors,
     load,
+    load_all,
     main,
-    progress,
+    progress_callback,
+    write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.motion import Motion
 from mocapkit.io import write_motion
-from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, refuse_overwrite
+from mocapkit.io.atomic import refuse_overwrite
 
 
 def parse_contact(spec: str, motion: Motion) -> Any:
@@ -55,104 +55,6 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     return c
 
 
-def plot_mdm(
-    mdm: np.ndarray,
-    names: Sequence[str],
-    segments: Sequence[dict[str, Any]],
-    path: str | Path,
-    fps: float,
-    title: str = "",
-) -> Path:
-    """The paper's Figure 1 heat map: joints x time, hot = distinct, flagged segments outlined."""
-    import io
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
-
-    F, J = mdm.shape
-    fig, ax = plt.subplots(figsize=(max(6.0, min(20.0, F / 40)), max(3.0, J * 0.22)))
-    im = ax.imshow(
-        mdm.T,
-        aspect="auto",
-        origin="upper",
-        cmap="jet",
-        vmin=0.0,
-        vmax=1.0,
-        interpolation="nearest",
-        extent=(-0.5, F - 0.5, J - 0.5, -0.5),
-    )
-    for s in segments:
-        j = s["joint_index"]
-        ax.add_patch(
-            Rectangle(
-                (s["start"] - 0.5, j - 0.5),
-                s["end"] - s["start"] + 1,
-                1.0,
-                fill=False,
-                edgecolor="white",
-                linewidth=1.2,
-            )
-        )
-    ax.set_yticks(range(J))
-    ax.set_yticklabels(names, fontsize=7)
-    ax.set_xlabel(f"frame ({fps:g} fps)")
-    ax.set_title(title or "movement digression map")
-    fig.colorbar(im, ax=ax, label="MDM")
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    return atomic_write_bytes(path, buf.getvalue())
-
-
-def _load_all(paths: Sequence[Path], lenient: bool) -> list[Motion]:
-    out = []
-    with progress(len(paths), "loading context") as step:
-        for p in paths:
-            out.append(load(str(p), lenient))
-            step()
-    return out
-
-
-def clean_take(
-    motion: Motion,
-    context: Sequence[Motion],
-    threshold: float = THRESHOLD,
-    two_stage: bool = False,
-    baseline: str | None = None,
-    show_progress: bool = False,
-    contacts: Sequence[Any] = (),
-) -> tuple[Any, np.ndarray, np.ndarray, list[dict[str, Any]], Any]:
-    """Run the analysis: (cleaner, mdm (F, J) float32, mask, segments, repair result)."""
-    from mocapkit.clean import RotationBaseline, SelfSimilarityCleaner
-    from mocapkit.core.runs import true_runs
-
-    cleaner = SelfSimilarityCleaner(threshold=threshold, two_stage=two_stage)
-    bar_total = len(cleaner.groups or []) or 5
-    with progress(bar_total, "analysing", enabled=show_progress and not two_stage) as step:
-        cleaner.fit(motion, context, progress=lambda stage, done, total: step())
-    names = list(motion.skeleton.names)
-    if baseline is None:
-        mdm = cleaner.scores().astype(np.float32)
-        mask = cleaner.mask()
-        segments = [s.as_dict() for s in cleaner.segments()]
-    else:
-        if not context:
-            raise CLIError("--baseline needs --context: its limits are learned from clean takes")
-        mask = RotationBaseline(baseline).fit(list(context)).mask(motion)
-        mdm = mask.astype(np.float32)
-        segments = [
-            {"joint": names[j], "joint_index": j, "start": a, "end": b, "peak": 1.0}
-            for j in range(mask.shape[1])
-            for a, b in true_runs(mask[:, j])
-        ]
-    result = cleaner.repair(mask=mask, contacts=contacts)
-    return cleaner, mdm, mask, segments, result
-
-
 @main.command("clean")
 @click.argument("input_path", metavar="IN", type=click.Path(dir_okay=False, exists=True))
 @click.option(
@@ -160,8 +62,9 @@ def clean_take(
     "contexts",
     multiple=True,
     metavar="FILE_OR_DIR",
-    help="Related clean takes (same skeleton) to search; a folder adds its .bvh/.npz files. "
-    "Repeatable. Without it the take is compared with itself (local context).",
+    help="Related clean takes (same skeleton) to search: a file, a folder (its .bvh, .npz and "
+    ".amc files) or a quoted glob pattern. Repeatable. Without it the take is compared with "
+    "itself (local context).",
 )
 @click.option(
     "--two-stage",
@@ -245,57 +148,45 @@ def clean_command(
     for o in outputs:
         refuse_overwrite(o, [input_path])
     motion = load(input_path, lenient)
-    ctx_paths = expand_inputs(contexts, exclude=[input_path])
+    ctx_paths = expand_inputs(contexts, MOTION_SUFFIXES, exclude=[input_path])
     for o in outputs:
         refuse_overwrite(o, [str(p) for p in ctx_paths])
-    context = _load_all(ctx_paths, lenient)
+    context = load_all(ctx_paths, lenient, "loading context", show=not quiet)
     contacts = [parse_contact(c, motion) for c in contact_specs]
-    t0 = time.perf_counter()
-    _, mdm, mask, segments, result = clean_take(
-        motion, context, threshold, two_stage, baseline, show_progress=not quiet, contacts=contacts
-    )
-    elapsed = time.perf_counter() - t0
-    names = list(motion.skeleton.names)
-    report = {
-        "input": str(input_path),
-        "fps": motion.fps,
-        "frames": motion.num_frames,
-        "joints": names,
-        "threshold": threshold,
-        "method": f"baseline {baseline}" if baseline else "self-similarity",
-        "two_stage": two_stage,
-        "context": [str(p) for p in ctx_paths],
-        "segments": segments,
-        "flagged_cells": int(mask.sum()),
-        "repaired_cells": int(result.written.sum()),
-        "blend_margin_frames": result.margin,
-        "analysis_seconds": round(elapsed, 3),
-        "output": str(out_path) if out_path else None,
-    }
+    with progress_callback("analysing", enabled=not quiet) as step:
+        report = clean.run(
+            motion,
+            context,
+            threshold=threshold,
+            two_stage=two_stage,
+            baseline=baseline,
+            contacts=contacts,
+            source=input_path,
+            context_names=[str(p) for p in ctx_paths],
+            output=out_path,
+            progress=step,
+        )
     if out_path:
-        write_motion(result.motion, out_path)
+        write_motion(report.motion, out_path)
     if mdm_path:
-        import io
-
-        buf = io.BytesIO()
-        np.save(buf, np.ascontiguousarray(mdm, dtype=np.float32))
-        atomic_write_bytes(mdm_path, buf.getvalue())
+        report.save_mdm(mdm_path)
     if plot_path:
-        plot_mdm(mdm, names, segments, plot_path, motion.fps, title=Path(input_path).name)
+        from mocapkit.viz.figures.clean import plot_clean_report
+
+        plot_clean_report(report, plot_path)
     if report_path:
-        atomic_write_text(report_path, json.dumps(report, indent=2) + "\n")
+        write_json(report_path, report.to_json())
     if quiet:
         return
     click.echo(
-        f"{input_path}: {motion.num_frames} frames at {motion.fps:g} fps, "
-        f"{len(ctx_paths)} context take(s), {elapsed:.1f} s"
+        f"{input_path}: {report.frames} frames at {report.fps:g} fps, "
+        f"{len(report.context)} context take(s), {report.analysis_seconds:.1f} s"
     )
+    segments = report.segments
     if not segments:
         click.echo("  no erroneous segment above the threshold")
     for s in segments[:50]:
-        click.echo(
-            f"  {s['joint']:>16s}  frames {s['start']:5d}-{s['end']:<5d}  peak {s['peak']:.2f}"
-        )
+        click.echo(f"  {s.joint:>16s}  frames {s.start:5d}-{s.end:<5d}  peak {s.peak:.2f}")
     if len(segments) > 50:
         click.echo(f"  ... {len(segments) - 50} more (see --report)")
     for label, path in (
@@ -316,7 +207,8 @@ def clean_command(
     multiple=True,
     required=True,
     metavar="FILE_OR_DIR",
-    help="Complete takes (one skeleton) to take the missing joints from; repeatable.",
+    help="Complete takes (one skeleton) to take the missing joints from: a file, a folder or a "
+    "quoted glob pattern; repeatable.",
 )
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False))
 @click.option(
@@ -343,10 +235,10 @@ def reconstruct_command(
 
     refuse_overwrite(out_path, [sparse_path])
     sparse = load(sparse_path, lenient)
-    db_paths = expand_inputs(databases, exclude=[sparse_path])
+    db_paths = expand_inputs(databases, MOTION_SUFFIXES, exclude=[sparse_path])
     if not db_paths:
         raise CLIError("the database is empty")
-    db = _load_all(db_paths, lenient)
+    db = load_all(db_paths, lenient, "loading database")
     known = [j.strip() for j in joints.split(",") if j.strip()] if joints else None
     full = reconstruct(sparse, db, known)
     write_motion(full, out_path)
@@ -362,55 +254,35 @@ def reconstruct_command(
 def cleaning_step(out: Path) -> None:
     """Procedural walk with injected errors: detected, repaired, plotted."""
     from mocapkit import datasets
-    from mocapkit.clean import inject
-    from mocapkit.clean.evaluate import unit_matrix
+    from mocapkit.clean import evaluate
     from mocapkit.clean.texture import rotating_joints
+    from mocapkit.viz.figures.clean import plot_clean_report
 
     walk = datasets.procedural_motion("walk", seconds=8.0, seed=3).motion
     ctx = datasets.procedural_motion("walk", seconds=8.0, seed=4).motion
-    rng = np.random.default_rng(0)
-    names = list(walk.skeleton.names)
     plan = [("spike", "LeftForeArm", 60), ("offset", "RightLeg", 130), ("flip", "Head", 190)]
-    cur = walk
-    truth = np.zeros((walk.num_frames, walk.num_joints), dtype=bool)
-    for kind, joint, start in plan:
-        inj = inject(cur, kind, names.index(joint), rng, start=start)
-        cur = inj.motion
-        truth[inj.frames, inj.joint] = True
-        fr = np.flatnonzero(inj.frames)
-        click.echo(f"  injected {kind} on {joint}, frames {fr.min()}-{fr.max()}")
-    src = write_motion(cur, out / "humanoid_walk_corrupted.bvh")
+    bad = evaluate.inject_errors(walk, plan, rng=0)
+    for kind, joint, first, last in bad.spans():
+        click.echo(f"  injected {kind} on {joint}, frames {first}-{last}")
+    src = write_motion(bad.motion, out / "humanoid_walk_corrupted.bvh")
     ctx_path = write_motion(ctx, out / "humanoid_walk_context.bvh")
-    _, mdm, mask, segments, result = clean_take(cur, [ctx])
+    fixed_path = out / "humanoid_walk_repaired.bvh"
+    report = clean.run(bad.motion, [ctx], source=src, context_names=[ctx_path], output=fixed_path)
     click.echo(f"  [clean] {src} with context {ctx_path}:")
-    for s in segments:
-        click.echo(
-            f"    flagged {s['joint']} frames {s['start']}-{s['end']} (peak {s['peak']:.2f})"
-        )
-    act = np.flatnonzero(rotating_joints(walk))
-    t = unit_matrix(truth, walk.fps)[:, act]
-    f = unit_matrix(mask, walk.fps)[:, act]
-    tp = int((t & f).sum())
+    for s in report.segments:
+        click.echo(f"    flagged {s.joint} frames {s.start}-{s.end} (peak {s.peak:.2f})")
+    score = evaluate.detection_counts(bad.truth, report.mask, walk.fps, rotating_joints(walk))
+    click.echo(f"    detection: recall {score.recall:.2f}, precision {score.precision:.2f}")
+    fixed = write_motion(report.motion, fixed_path)
+    before = evaluate.worst_error_deg(walk, bad.motion, bad.frames)
+    after = evaluate.worst_error_deg(walk, report.motion, bad.frames)
     click.echo(
-        f"    detection: recall {tp / max(1, t.sum()):.2f}, precision {tp / max(1, f.sum()):.2f}"
-    )
-    fixed = write_motion(result.motion, out / "humanoid_walk_repaired.bvh")
-    from mocapkit.core.rotations import quat_angle
-
-    bad = truth.any(axis=1)
-    before = np.degrees(quat_angle(walk.rotations[bad], cur.rotations[bad]).max())
-    after = np.degrees(quat_angle(walk.rotations[bad], result.motion.rotations[bad]).max())
-    click.echo(
-        f"    repaired {int(result.written.sum())} cells -> {fixed} "
+        f"    repaired {report.repaired_cells} cells -> {fixed} "
         f"(worst error on corrupted frames {before:.0f} deg -> {after:.0f} deg)"
     )
-    png = plot_mdm(mdm, names, segments, out / "humanoid_walk_mdm.png", walk.fps, "demo walk")
-    np.save(out / "humanoid_walk_mdm.npy", mdm)
-    atomic_write_text(
-        out / "humanoid_walk_clean_report.json",
-        json.dumps({"segments": segments, "repaired_cells": int(result.written.sum())}, indent=2)
-        + "\n",
-    )
+    png = plot_clean_report(report, out / "humanoid_walk_mdm.png", "demo walk")
+    report.save_mdm(out / "humanoid_walk_mdm.npy")
+    write_json(out / "humanoid_walk_clean_report.json", report.to_json())
     click.echo(f"    plotted {png}")
 
 

@@ -1,0 +1,180 @@
+"""One cleaning run, as ``mocapkit clean`` does it: :func:`run` analyses a take (self-similarity
+or one of the paper's rotation baselines), repairs the flagged cells and returns a
+:class:`CleanReport`, whose :meth:`~CleanReport.to_json` is the ``--report`` file.
+
+    from mocapkit.clean import run
+    report = run(take, [ctx1, ctx2], source="take.bvh", context_names=["a.bvh", "b.bvh"])
+    report.segments              # flagged runs (Segment: joint, start, end, peak)
+    report.motion                # the repaired take
+    report.to_json()             # what `mocapkit clean --report` writes
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocapkit.clean.cleaner import THRESHOLD, Progress, Segment, SelfSimilarityCleaner
+from mocapkit.clean.repair import ContactConstraint, RepairResult
+from mocapkit.core.motion import Motion
+
+__all__ = ["CleanReport", "run"]
+
+
+@dataclass(frozen=True, eq=False)
+class CleanReport:
+    """What a cleaning run found and did.
+
+    Attributes:
+        source: the take's name (its path), ``context``: the context takes' names.
+        fps, frames, joints: the take's frame rate, frame count and joint names.
+        threshold, method ("self-similarity" or "baseline a|b|c"), two_stage: the settings.
+        segments: the flagged runs, file frames inclusive.
+        mdm: (F, J) float32 in [0, 1], the movement digression map (for a baseline, its mask as
+            0/1).
+        mask: (F, J) bool, the flagged cells; repair: the :class:`RepairResult` (repaired
+            motion, written cells, blend margin).
+        analysis_seconds: wall time of the analysis and repair.
+        output: where the repaired take is written (recorded in the report only).
+        cleaner: the fitted :class:`SelfSimilarityCleaner` (its neighbours and maps).
+    """
+
+    source: str
+    fps: float
+    frames: int
+    joints: tuple[str, ...]
+    threshold: float
+    method: str
+    two_stage: bool
+    context: tuple[str, ...]
+    segments: tuple[Segment, ...]
+    mdm: np.ndarray
+    mask: np.ndarray
+    repair: RepairResult
+    analysis_seconds: float
+    output: str | None = None
+    cleaner: SelfSimilarityCleaner | None = None
+
+    @property
+    def motion(self) -> Motion:
+        """The repaired take."""
+        return self.repair.motion
+
+    @property
+    def flagged_cells(self) -> int:
+        return int(self.mask.sum())
+
+    @property
+    def repaired_cells(self) -> int:
+        return int(self.repair.written.sum())
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON-ready report (``mocapkit clean --report``)."""
+        return {
+            "input": self.source,
+            "fps": self.fps,
+            "frames": self.frames,
+            "joints": list(self.joints),
+            "threshold": self.threshold,
+            "method": self.method,
+            "two_stage": self.two_stage,
+            "context": list(self.context),
+            "segments": [s.as_dict() for s in self.segments],
+            "flagged_cells": self.flagged_cells,
+            "repaired_cells": self.repaired_cells,
+            "blend_margin_frames": self.repair.margin,
+            "analysis_seconds": round(self.analysis_seconds, 3),
+            "output": self.output,
+        }
+
+    def save_mdm(self, path: str | Path) -> Path:
+        """Write the MDM as a float32 ``.npy`` array (frames x joints), atomically."""
+        import io
+
+        from mocapkit.io.atomic import atomic_write_bytes
+
+        buf = io.BytesIO()
+        np.save(buf, np.ascontiguousarray(self.mdm, dtype=np.float32))
+        return atomic_write_bytes(path, buf.getvalue())
+
+
+def _baseline_segments(mask: np.ndarray, names: Sequence[str]) -> tuple[Segment, ...]:
+    from mocapkit.core.runs import true_runs
+
+    return tuple(
+        Segment(names[j], j, a, b, 1.0)
+        for j in range(mask.shape[1])
+        for a, b in true_runs(mask[:, j])
+    )
+
+
+def run(
+    motion: Motion,
+    context: Sequence[Motion] = (),
+    *,
+    threshold: float = THRESHOLD,
+    two_stage: bool = False,
+    baseline: str | None = None,
+    contacts: Sequence[ContactConstraint] = (),
+    source: str | Path = "",
+    context_names: Sequence[str | Path] | None = None,
+    output: str | Path | None = None,
+    progress: Progress | None = None,
+) -> CleanReport:
+    """Find the erroneous cells of ``motion`` and repair them.
+
+    Detection: :class:`SelfSimilarityCleaner` (``threshold``, ``two_stage``) against the take
+    itself and the ``context`` takes, or with ``baseline`` ("a", "b", "c") the paper's rotation
+    baselines (:class:`~mocapkit.clean.baselines.RotationBaseline`) learned from ``context``
+    (required then). Repair: the KNN words' median in either case, keeping the ``contacts``.
+    ``source``, ``context_names`` and ``output`` are only recorded in the report.
+    ``progress(stage, done, total)`` is called as the search advances.
+    """
+    from mocapkit.clean.baselines import RotationBaseline
+
+    names = [str(n) for n in context_names] if context_names is not None else None
+    if names is not None and len(names) != len(context):
+        raise ValueError(f"{len(names)} context names for {len(context)} context takes")
+    if baseline is not None and not context:
+        raise ValueError(
+            "the baselines need context takes (--context): their limits are learned from clean "
+            "takes"
+        )
+    t0 = time.perf_counter()
+    cleaner = SelfSimilarityCleaner(threshold=threshold, two_stage=two_stage)
+    cleaner.fit(motion, context, progress=progress, names=names)
+    joint_names = tuple(motion.skeleton.names)
+    if baseline is None:
+        mdm = cleaner.scores().astype(np.float32)
+        mask = cleaner.mask()
+        segments = tuple(cleaner.segments())
+    else:
+        mask = RotationBaseline(baseline).fit(list(context)).mask(motion)
+        mdm = mask.astype(np.float32)
+        segments = _baseline_segments(mask, joint_names)
+    result = cleaner.repair(mask=mask, contacts=contacts)
+    elapsed = time.perf_counter() - t0
+    return CleanReport(
+        source=str(source),
+        fps=motion.fps,
+        frames=motion.num_frames,
+        joints=joint_names,
+        threshold=threshold,
+        method=f"baseline {baseline}" if baseline else "self-similarity",
+        two_stage=two_stage,
+        context=tuple(names)
+        if names is not None
+        else tuple(f"context{i}" for i in range(len(context))),
+        segments=segments,
+        mdm=mdm,
+        mask=mask,
+        repair=result,
+        analysis_seconds=elapsed,
+        output=None if output is None else str(output),
+        cleaner=cleaner,
+    )
