@@ -82,9 +82,9 @@ def shared_root() -> Path:
 
 def three_circles_experiment(out: Path) -> list[dict]:
     from mocapkit import datasets
-    from mocapkit._optional import pyplot
     from mocapkit.stitch import elastic_lscore, search_features, sliding_windows
-    from mocapkit.stitch.plots import plot_paths_2d
+    from mocapkit.viz.figures import pyplot
+    from mocapkit.viz.figures.stitch import plot_paths_2d
 
     tc = datasets.three_circles()
     rows, curves, lk = [], {}, {}
@@ -216,8 +216,8 @@ def blank_out_experiment(folder: Path, n_clips: int, out: Path) -> tuple[list[di
 def _blank_out_figure(fig_data: dict, out: Path) -> None:
     if not fig_data:
         return
-    from mocapkit._optional import pyplot
     from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.viz.figures import pyplot
 
     plt = pyplot()
     fig, axes = plt.subplots(1, len(fig_data), figsize=(6 * len(fig_data), 4), squeeze=False)

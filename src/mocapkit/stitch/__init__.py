@@ -56,6 +56,7 @@ from mocapkit.stitch.search import (
     search_features,
 )
 from mocapkit.stitch.transition import (
+    METHODS,
     Stitched,
     align_data,
     crossfade,
@@ -68,6 +69,7 @@ __all__ = [
     "DEFAULT_K_MAX",
     "DEFAULT_MODEL",
     "DEFAULT_W",
+    "METHODS",
     "SCORES",
     "BestStitch",
     "ClipSearchResult",

@@ -17,7 +17,7 @@ Two levels:
 Features for the score (:func:`motion_features`): :func:`mocapkit.features.local_positions`
 (body-local joint positions: pelvis ground position removed, facing the ground frame's forward
 axis, in the clip's units) of the **body joints**, flattened to (F, 3J). Body joints are all
-joints except the strict ancestors of the pelvis (:func:`mocapkit.features.pelvis_index`): such
+joints except the strict ancestors of the pelvis (:attr:`mocapkit.body.Body.pelvis`): such
 joints are reference nodes, not body parts. Bandai-Namco's ``joint_Root`` (a node fixed at the
 world origin above ``Hips``) is the typical case; its body-local position only mirrors the
 pelvis' travel, so keeping it would score the character's location, not its pose. Bandai clips
@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapkit.body import body_of
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel
@@ -67,13 +68,7 @@ SCORES = ("lscore", "euclidean")
 
 def body_joints(skeleton: Skeleton) -> list[int]:
     """Indices of the joints used as features: all but the strict ancestors of the pelvis."""
-    from mocapkit.features import pelvis_index
-
-    above = set()
-    j = int(skeleton.parents[pelvis_index(skeleton)])
-    while j >= 0:
-        above.add(j)
-        j = int(skeleton.parents[j])
+    above = set(skeleton.ancestors(body_of(skeleton).pelvis))
     return [i for i in range(skeleton.num_joints) if i not in above]
 
 
@@ -167,6 +162,22 @@ class Transition:
     @property
     def k_max(self) -> int:
         return int(self.lscore_by_k.shape[0] - 1)
+
+    def as_dict(self) -> dict:
+        """JSON-ready fields (``max_inject`` = k_max; ``lscore_by_k`` as a list)."""
+        return {
+            "clip": self.clip,
+            "takeoff": self.takeoff,
+            "landing": self.landing,
+            "k": self.k,
+            "lscore": float(self.lscore),
+            "lscore_by_k": [float(x) for x in self.lscore_by_k],
+            "euclidean": float(self.euclidean),
+            "window": self.window,
+            "max_inject": self.k_max,
+            "score": self.score,
+            "candidates": self.candidates,
+        }
 
 
 def parse_takeoffs(spec: str | int | Iterable[int]) -> list[int]:

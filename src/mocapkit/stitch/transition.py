@@ -38,8 +38,10 @@ position and translations are interpolated linearly in both).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -53,9 +55,12 @@ from mocapkit.stitch.search import (
     conform,
     find_transition,
     motion_features,
+    parse_takeoffs,
 )
 
 __all__ = [
+    "DEFAULT_BLEND_SECONDS",
+    "METHODS",
     "Stitched",
     "align_data",
     "crossfade",
@@ -63,6 +68,15 @@ __all__ = [
     "stitch",
     "stitch_motions",
 ]
+
+
+DEFAULT_BLEND_SECONDS = 0.25
+"""Cross-fade window of :func:`crossfade` (a quarter second, a common game-engine default)."""
+
+METHODS = ("kalman", "crossfade", "slerp", "linear")
+"""How :func:`stitch` makes the transition frames: the L-score's Kalman smoother
+(:func:`stitch_motions`), a cross-fade (:func:`crossfade`) or slerp / linear interpolation over
+k frames (:func:`interpolate_gap`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,6 +91,11 @@ class Stitched:
     the L-score predicts for the injected frames, ``fk_positions`` (k, J', 3) — the body-local
     forward-kinematics positions of the generated frames, and their distance per joint and
     frame (``fk_error_mean``, ``fk_error_max``, clip units; 0 when k = 0).
+
+    Set by :func:`stitch`: ``transition`` (the search result), ``up`` (the up axis used),
+    ``query_name``/``data_names`` (labels of the query and of the data clips, e.g. their
+    paths), ``takeoff_spec`` (the take-off argument as given), ``search_seconds`` (wall time of
+    the search) and ``output`` (where the motion is written; recorded only).
     """
 
     motion: Motion
@@ -92,6 +111,45 @@ class Stitched:
     fk_positions: np.ndarray | None = None
     fk_error_mean: float = 0.0
     fk_error_max: float = 0.0
+    up: str | None = None
+    query_name: str = "query"
+    data_names: tuple[str, ...] = ()
+    takeoff_spec: Any = None
+    search_seconds: float | None = None
+    output: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON-ready summary of the stitch (``mocapkit stitch --json``): the search's
+        fields (with :attr:`transition`; ``data`` names the chosen clip) and the stitch's."""
+        out: dict[str, Any] = {"query": self.query_name}
+        tr = self.transition
+        if tr is not None:
+            d = tr.as_dict()
+            clip = d.pop("clip")
+            name = self.data_names[clip] if clip < len(self.data_names) else f"data{clip}"
+            out.update(takeoff=d.pop("takeoff"), data=name, data_index=clip, **d)
+        else:
+            out.update(takeoff=self.takeoff, landing=self.landing, k=self.k)
+        out.update(
+            method=self.method,
+            frames=self.motion.num_frames,
+            generated_frames=[self.generated.start, self.generated.stop],
+            landing_output_frame=self.landing_index,
+            fk_error_mean=float(self.fk_error_mean),
+            fk_error_max=float(self.fk_error_max),
+        )
+        if self.transform is not None:
+            out["ground_transform"] = {
+                "angle_rad": float(self.transform.angle),
+                "translation": [float(x) for x in self.transform.translation],
+                "up": self.transform.up,
+            }
+        if self.takeoff_spec is not None:
+            out["takeoff_spec"] = self.takeoff_spec
+        if self.search_seconds is not None:
+            out["search_seconds"] = round(self.search_seconds, 4)
+        out["output"] = self.output
+        return out
 
 
 # --------------------------------------------------------------------------------- alignment
@@ -227,6 +285,7 @@ def stitch_motions(
         fk,
         err_mean,
         err_max,
+        up,
     )
 
 
@@ -246,21 +305,43 @@ def stitch(
     data: Motion | Sequence[Motion],
     landing: int | None = None,
     *,
+    method: str = "kalman",
     window: int = DEFAULT_W,
     max_inject_seconds: float = 1.0,
+    k_max: int | None = None,
     score: str = "lscore",
+    blend_seconds: float = DEFAULT_BLEND_SECONDS,
     model: ConstantAccelerationModel = DEFAULT_MODEL,
     align: bool = True,
     up: str | None = None,
     joints: Sequence[str] | None = None,
+    query_name: str = "query",
+    data_names: Sequence[str] | None = None,
+    output: str | None = None,
 ) -> Stitched:
-    """Search (:func:`mocapkit.stitch.search.find_transition`) then build the Kalman stitch
-    (:func:`stitch_motions`) with the chosen clip, take-off, landing and k. The search result is
-    ``result.transition``."""
+    """Search (:func:`mocapkit.stitch.search.find_transition`) then build the stitch with the
+    chosen clip, take-off, landing and k; the search result is ``result.transition``.
+
+    ``method`` (:data:`METHODS`): "kalman" (:func:`stitch_motions`, k generated frames),
+    "crossfade" (:func:`crossfade` over ``blend_seconds``), "slerp" or "linear"
+    (:func:`interpolate_gap` over k frames). k is searched up to ``max_inject_seconds``, or up
+    to ``k_max`` frames when given. ``query_name``, ``data_names`` (default "data0", ...) and
+    ``output`` label the result's :meth:`Stitched.to_json`.
+    """
     from mocapkit.features import detect_up_axis
 
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     clips = [data] if isinstance(data, Motion) else list(data)
+    names = [f"data{i}" for i in range(len(clips))] if data_names is None else list(data_names)
+    if len(names) != len(clips):
+        raise ValueError(f"{len(names)} data names for {len(clips)} data clips")
+    if k_max is not None:
+        if int(k_max) != k_max or k_max < 0:
+            raise ValueError(f"k_max (--max-inject) must be an integer >= 0, got {k_max}")
+        max_inject_seconds = int(k_max) * query.frame_time
     up = up or detect_up_axis(query)
+    t0 = time.perf_counter()
     tr = find_transition(
         query,
         takeoff,
@@ -273,19 +354,43 @@ def stitch(
         up=up,
         joints=joints,
     )
-    res = stitch_motions(
-        query,
-        tr.takeoff,
-        clips[tr.clip],
-        tr.landing,
-        tr.k,
-        window=window,
-        model=model,
-        align=align,
+    search_seconds = time.perf_counter() - t0
+    chosen = clips[tr.clip]
+    if method == "kalman":
+        res = stitch_motions(
+            query,
+            tr.takeoff,
+            chosen,
+            tr.landing,
+            tr.k,
+            window=window,
+            model=model,
+            align=align,
+            up=up,
+            joints=joints,
+        )
+    elif method == "crossfade":
+        res = crossfade(query, chosen, tr.takeoff, tr.landing, blend_seconds, align=align, up=up)
+    else:
+        res = interpolate_gap(
+            query, chosen, tr.takeoff, tr.landing, tr.k, method, align=align, up=up
+        )
+    if isinstance(takeoff, str):
+        spec: Any = takeoff
+    elif isinstance(takeoff, (int, np.integer)):
+        spec = int(takeoff)
+    else:
+        spec = parse_takeoffs(takeoff)
+    return replace(
+        res,
+        transition=tr,
         up=up,
-        joints=joints,
+        query_name=str(query_name),
+        data_names=tuple(str(n) for n in names),
+        takeoff_spec=spec,
+        search_seconds=search_seconds,
+        output=None if output is None else str(output),
     )
-    return replace(res, transition=tr)
 
 
 # --------------------------------------------------------------------------------- baselines
@@ -300,7 +405,7 @@ def crossfade(
     data: Motion,
     takeoff: int,
     landing: int,
-    window_seconds: float = 0.25,
+    window_seconds: float = DEFAULT_BLEND_SECONDS,
     *,
     align: bool = True,
     up: str | None = None,
@@ -332,7 +437,7 @@ def crossfade(
     has_t = query.translations is not None or data.translations is not None
     blend = Motion(query.skeleton, rots, tra[:, 0], query.frame_time, tra if has_t else None)
     motion = _join(query[: a - n + 1], blend, data[b + n :])
-    return Stitched(motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a + 1, transform)
+    return Stitched(motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a + 1, transform, up=up)
 
 
 def interpolate_gap(
@@ -377,4 +482,4 @@ def interpolate_gap(
         query.skeleton, rots.reshape(g, -1, 4), tra[:, 0], query.frame_time, tra if has_t else None
     )
     motion = _join(query[: a + 1], gen, data[b:])
-    return Stitched(motion, method, a, b, g, slice(a + 1, a + 1 + g), a + 1 + g, transform)
+    return Stitched(motion, method, a, b, g, slice(a + 1, a + 1 + g), a + 1 + g, transform, up=up)

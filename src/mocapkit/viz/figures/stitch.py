@@ -1,0 +1,156 @@
+"""Figures for stitching.
+
+* :func:`plot_stitch` — the paper's Figure 4 for a motion stitch: L_k versus k (k_opt marked),
+  and the stitched trajectory of a few joints around the transition with the take-off frame
+  (red triangle), the generated frames (blue triangles) and the landing frame (green circle),
+  plus the L-score's own Kalman feature trajectory for the injected frames (dashed).
+* :func:`plot_paths_2d` — 2-D paths (Three-Circles): query, data, generated frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.viz.figures import figsize, pyplot, save, wrap
+
+__all__ = ["pick_plot_joints", "plot_paths_2d", "plot_stitch"]
+
+
+def pick_plot_joints(names: Sequence[str], n: int = 3) -> list[int]:
+    """Up to ``n`` joints worth plotting: a hand, the other hand, a foot (by name), else the
+    last joints."""
+    low = [s.lower() for s in names]
+    picks: list[int] = []
+    for pats in (("righthand", "hand_r", "rhand", "r_hand"), ("hand",), ("foot", "ankle")):
+        for i, s in enumerate(low):
+            if i not in picks and any(p in s for p in pats):
+                picks.append(i)
+                break
+    for i in range(len(names) - 1, -1, -1):
+        if len(picks) >= n:
+            break
+        if i not in picks:
+            picks.append(i)
+    return picks[:n]
+
+
+def plot_stitch(
+    stitched,
+    path: str | Path,
+    lscore_by_k=None,
+    joints: Sequence[int] | None = None,
+    up: str | None = None,
+    margin: int = 15,
+    title: str | None = None,
+) -> Path:
+    """Write the two-panel stitch figure to ``path`` (PNG).
+
+    ``stitched`` is a :class:`~mocapkit.stitch.Stitched`; ``lscore_by_k`` defaults to its
+    transition's. ``joints``: joint indices of the motion (default :func:`pick_plot_joints`);
+    the right panel shows their body-local height and forward coordinates (cm) over the output
+    frames ``takeoff - margin .. landing + margin``. ``up`` defaults to the stitch's.
+    """
+    from mocapkit import features
+
+    plt = pyplot()
+    m = stitched.motion
+    names = m.skeleton.names
+    if lscore_by_k is None and stitched.transition is not None:
+        lscore_by_k = stitched.transition.lscore_by_k
+    joints = list(joints) if joints is not None else pick_plot_joints(names)
+    up = up or getattr(stitched, "up", None) or features.detect_up_axis(m)
+    cm = 100.0 * features.metres_per_unit(m, None)
+    fps = m.fps
+    a, land = stitched.takeoff, stitched.landing_index
+    lo, hi = max(0, a - margin), min(m.num_frames, land + margin + 1)
+    lp = features.local_positions(m[lo:hi], up=up) * cm
+    _, ui, fi = features.ground_plane_axes(up)
+    frames = np.arange(lo, hi)
+    fig, axes = plt.subplots(1, 2, figsize=figsize(13, 5.2), gridspec_kw={"width_ratios": [1, 1.6]})
+    ax = axes[0]
+    if lscore_by_k is not None:
+        L = np.asarray(lscore_by_k)
+        ks = np.arange(len(L))
+        ax.plot(ks, L, "k.-", ms=4)
+        k = int(np.argmin(L))
+        ax.plot([k], [L[k]], "r*", ms=14, label=f"k_opt = {k} ({k / fps:.2f} s), L* = {L[k]:.4g}")
+        ax.set_xlabel(f"k, injected frames (at {fps:g} fps)")
+        ax.set_ylabel("L_k (effort; lower = smoother)")
+        ax.set_title("elastic L-score vs k", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    else:
+        ax.set_axis_off()
+    ax = axes[1]
+    gen = np.arange(stitched.generated.start, stitched.generated.stop)
+    kal_idx = None
+    if stitched.kalman_positions is not None:
+        from mocapkit.stitch.search import body_joints
+
+        body = body_joints(m.skeleton)
+        kal_idx = {j: body.index(j) for j in joints if j in body}
+    for c, (coord, label) in enumerate(((ui, "height"), (fi, "forward"))):
+        for n, j in enumerate(joints):
+            y = lp[:, j, coord]
+            color = f"C{n + 3 * c}"
+            ax.plot(frames, y, "-", color=color, lw=1.3, label=f"{names[j]} {label}")
+            sel = lambda f, y=y: y[np.asarray(f) - lo]  # noqa: E731
+            ax.plot([a], sel([a]), "r^", ms=8)
+            if len(gen):
+                ax.plot(gen, sel(gen), "b^", ms=4)
+                if kal_idx and j in kal_idx and len(stitched.kalman_positions):
+                    kal = stitched.kalman_positions[:, kal_idx[j], coord] * cm
+                    ax.plot(gen, kal, "--", color=color, lw=1)
+            if land < hi:
+                ax.plot([land], sel([land]), "go", ms=8, mfc="none", mew=2)
+    ax.axvspan(a + 0.5, land - 0.5, color="0.9", zorder=0)
+    ax.set_xlabel(f"output frame (at {fps:g} fps)")
+    top = ax.secondary_xaxis("top", functions=(lambda f: f / fps, lambda t: t * fps))
+    top.set_xlabel("time (s)", fontsize=8)
+    top.tick_params(labelsize=7)
+    ax.set_ylabel("body-local position (cm)")
+    n_gen = len(gen)
+    ax.set_title(
+        wrap(
+            f"{stitched.method}: take-off ▲ frame {a}, {n_gen} generated ▲, landing ○ frame "
+            f"{land}" + (" (dashed: the L-score's Kalman features)" if kal_idx else ""),
+            70,
+        ),
+        fontsize=10,
+    )
+    ax.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.grid(alpha=0.3)
+    if title is None and stitched.transition is not None:
+        tr = stitched.transition
+        names_ = getattr(stitched, "data_names", ())
+        data = names_[tr.clip] if tr.clip < len(names_) else f"data clip {tr.clip}"
+        title = (
+            f"{Path(str(getattr(stitched, 'query_name', 'query'))).name} → "
+            f"{Path(str(data)).name} (landing frame {tr.landing}), "
+            f"{tr.candidates} candidates ranked by {tr.score}"
+        )
+    if title:
+        fig.suptitle(wrap(title, 110), fontsize=11)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def plot_paths_2d(path: str | Path, curves: dict, title: str = "", units: str = "") -> Path:
+    """2-D paths: ``curves`` maps a label to ``(points (n, 2), matplotlib format)``;
+    ``units`` labels the axes."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=figsize(7, 5.5))
+    for label, (pts, fmt) in curves.items():
+        pts = np.asarray(pts)
+        ax.plot(pts[:, 0], pts[:, 1], fmt, label=label, ms=4)
+    ax.set_aspect("equal")
+    u = f" ({units})" if units else ""
+    ax.set_xlabel(f"x{u}")
+    ax.set_ylabel(f"y{u}")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.set_title(wrap(title, 60), fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
