@@ -55,9 +55,11 @@ __all__ = [
     "Body",
     "Part",
     "body_of",
+    "chain_size",
     "guess_units",
     "name_side",
     "split_name",
+    "up_from_poses",
 ]
 
 CENTRE_PARTS = ("pelvis", "neck", "head")
@@ -657,7 +659,7 @@ def _unit(v: np.ndarray, eps: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(ok, n, 1.0)[..., None], ok
 
 
-def _up_axis(pos: np.ndarray, head: int | None, pelvis: int, ankles: list[int]) -> str:
+def up_from_poses(pos: np.ndarray, head: int | None, pelvis: int, ankles: list[int]) -> str:
     """Up from poses (F, J, 3): the sum of the mean unit vectors from the feet to the head and
     to the pelvis (both point up for a standing human; the pelvis term keeps a quadruped, whose
     head is far forward, right), reduced to its dominant signed axis. Without feet: the axis
@@ -741,6 +743,17 @@ def _animated_lengths(obj: Motion | Skeleton) -> np.ndarray:
     return lengths
 
 
+def chain_size(obj: Motion | Skeleton, body: Body) -> float:
+    """The head-to-ankle chain of ``body`` measured on ``obj`` (its median animated bone
+    lengths where it has them), the mean over the legs; 0.0 without a head or ankles."""
+    sk = body.skeleton
+    ankles = body.both("ankle")
+    if body.head is None or not ankles:
+        return 0.0
+    lengths = _animated_lengths(obj)
+    return float(np.mean([_chain_length(sk, lengths, body.head, a) for a in ankles]))
+
+
 def guess_units(size: float, candidates: dict[str, float] | None = None) -> tuple[str, float]:
     """``(name, metres_per_unit)`` of the candidate unit that makes a head-to-ankle chain of
     ``size`` file units closest, on a log scale, to an adult's :data:`NOMINAL_CHAIN_M`.
@@ -801,22 +814,20 @@ def _build(obj: Motion | Skeleton, sk: Skeleton) -> Body:
         if top is not None and pelvis in sk.ancestors(top):
             spine = [j for j in reversed(sk.ancestors(top)) if pelvis in sk.ancestors(j)]
         ankles = [j for (s, n), (j, _) in sided.items() if n == "ankle"]
-        up = _up_axis(pos, centre.get("head"), pelvis, ankles)
+        up = up_from_poses(pos, centre.get("head"), pelvis, ankles)
     else:
         c, limbs, spine = _structure(sk, _animated_lengths(obj))
         pelvis = c.get("pelvis", 0)
         ankles = [lb["ankle"] for lb in limbs if "ankle" in lb]
-        up = _up_axis(pos, c.get("head"), pelvis, ankles)
+        up = up_from_poses(pos, c.get("head"), pelvis, ankles)
         for name, j in c.items():
             parts.append(Part(name, "centre", j, 0.6, "structure"))
         parts += _sided_by_geometry(sk, pos, limbs, pelvis, up)
     head = next((p.joint for p in parts if p.name == "head"), None)
     ankles = sorted({p.joint for p in parts if p.name == "ankle"})
     lengths = _animated_lengths(obj)
-    if head is not None and ankles:
-        size = float(np.mean([_chain_length(sk, lengths, head, a) for a in ankles]))
-    else:
-        size = 0.0
+    size = float(np.mean([_chain_length(sk, lengths, head, a) for a in ankles])) if (
+        head is not None and ankles) else 0.0  # fmt: skip
     u = _up_vector(up)
     if not size > 0:
         h = (pos @ u) if len(pos) else np.zeros((1, 1))

@@ -36,12 +36,13 @@ Conventions (stated once, used by every function here):
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from mocapkit import body as body_model
+from mocapkit.body import UNITS, body_of
 from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.core.motion import Motion
@@ -71,13 +72,6 @@ __all__ = [
     "resample",
     "root_trajectory",
 ]
-
-#: Candidate length units and their size in metres.
-UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254}
-
-#: Nominal head-to-ankle chain length of an adult (metres) used by :func:`detect_units`; the
-#: chain from the head joint to the ankle joint is ~0.85 x stature (1.7 m tall -> ~1.45 m).
-NOMINAL_CHAIN_M = 1.45
 
 _AXES = "XYZ"
 
@@ -145,174 +139,6 @@ def _flatten(v: np.ndarray, up: str) -> np.ndarray:
 
 
 # =============================================================================================
-# joint names
-
-
-_SEP = re.compile(r"[^A-Za-z0-9]+")
-_CAMEL = re.compile(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+|[0-9]+")
-_LEFT = frozenset({"left", "l", "lft", "lt"})
-_RIGHT = frozenset({"right", "r", "rgt", "rt"})
-# Body-part words that may follow a glued one-letter side prefix (CMU ASF: lfemur, rtoes...).
-_GLUED_PARTS = (
-    "hip", "upleg", "upperleg", "thigh", "femur", "leg", "knee", "tibia", "shin", "calf",
-    "foot", "ankle", "toe", "heel", "ball", "shoulder", "clavicle", "collar", "humerus", "arm",
-    "uparm", "upperarm", "forearm", "elbow", "radius", "wrist", "hand", "finger", "thumb",
-    "index", "middle", "ring", "pinky",
-)  # fmt: skip
-_EXCLUDE = re.compile(r"twist|roll|end$|nub|site|^ik|ik$|pole|target|helper|dummy|ctrl|null")
-
-
-def joint_side_and_base(name: str) -> tuple[str, str]:
-    """(side, base) of a joint name: side in {"left", "right", ""}, base the lower-case rest."""
-    name = name.rsplit(":", 1)[-1]
-    tokens: list[str] = []
-    for part in _SEP.split(name):
-        tokens.extend(t.lower() for t in _CAMEL.findall(part))
-    side = ""
-    rest: list[str] = []
-    for t in tokens:
-        if not side and t in _LEFT:
-            side = "left"
-        elif not side and t in _RIGHT:
-            side = "right"
-        elif not side and t.startswith("left") and len(t) > 4:
-            side, t = "left", t[4:]
-            rest.append(t)
-        elif not side and t.startswith("right") and len(t) > 5:
-            side, t = "right", t[5:]
-            rest.append(t)
-        elif not side and len(t) > 1 and t[0] in "lr" and t[1:].startswith(_GLUED_PARTS):
-            side = "left" if t[0] == "l" else "right"
-            rest.append(t[1:])
-        else:
-            rest.append(t)
-    return side, "".join(rest)
-
-
-# Ordered by priority: the first pattern that matches some joint of a side wins.
-_HIP_PATTERNS = (r"up(per)?leg", r"thigh", r"femur", r"hip")
-_SHOULDER_PATTERNS = (
-    r"up(per)?arm", r"humerus", r"(?<!fore)(?<!lower)(?<!low)arm$", r"shoulder", r"clavicle|collar"
-)  # fmt: skip
-_ANKLE_PATTERNS = (r"ankle", r"foot", r"tarsus")
-_TOE_PATTERNS = (r"toe", r"ball", r"foot")
-_HEAD_PATTERNS = (r"head", r"skull", r"neck")
-_KNEE_PATTERNS = (r"low(er)?leg", r"^leg$", r"shin", r"calf", r"tibia", r"knee")
-_ELBOW_PATTERNS = (r"fore ?arm", r"low(er)?arm", r"radius", r"elbow")
-_PELVIS_PATTERNS = (r"^(hips?|pelvis)$", r"hips|pelvis", r"^hip")
-
-
-def _find_sided(sk: Skeleton, patterns: Sequence[str]) -> dict[str, int]:
-    """{"left": j, "right": j} for the best joint per side matching ``patterns`` (priority, then
-    hierarchy depth). Sides without a match are absent."""
-    depth = sk.depth()
-    best: dict[str, tuple[int, int, int]] = {}
-    for j, name in enumerate(sk.names):
-        side, base = joint_side_and_base(name)
-        if not side or _EXCLUDE.search(base):
-            continue
-        for prio, pat in enumerate(patterns):
-            if re.search(pat, base):
-                key = (prio, int(depth[j]), j)
-                if side not in best or key < best[side]:
-                    best[side] = key
-                break
-    return {s: k[2] for s, k in best.items()}
-
-
-def _find_unsided(sk: Skeleton, patterns: Sequence[str]) -> int | None:
-    depth = sk.depth()
-    best: tuple[int, int, int] | None = None
-    for j, name in enumerate(sk.names):
-        side, base = joint_side_and_base(name)
-        if side or _EXCLUDE.search(base):
-            continue
-        for prio, pat in enumerate(patterns):
-            if re.search(pat, base):
-                key = (prio, int(depth[j]), j)
-                if best is None or key < best:
-                    best = key
-                break
-    return None if best is None else best[2]
-
-
-def _ancestors(sk: Skeleton, j: int) -> list[int]:
-    """j, its parent, ..., the root."""
-    out = [j]
-    while sk.parents[out[-1]] >= 0:
-        out.append(int(sk.parents[out[-1]]))
-    return out
-
-
-def _lca(sk: Skeleton, a: int, b: int) -> int:
-    anc = set(_ancestors(sk, a))
-    for j in _ancestors(sk, b):
-        if j in anc:
-            return j
-    return 0
-
-
-def _hip_pair(sk: Skeleton) -> tuple[int, int] | None:
-    h = _find_sided(sk, _HIP_PATTERNS)
-    return (h["left"], h["right"]) if len(h) == 2 else None
-
-
-def _shoulder_pair(sk: Skeleton) -> tuple[int, int] | None:
-    h = _find_sided(sk, _SHOULDER_PATTERNS)
-    return (h["left"], h["right"]) if len(h) == 2 else None
-
-
-def pelvis_index(skeleton: Skeleton) -> int:
-    """Index of the body's root joint (pelvis): the lowest common ancestor of the left and right
-    hip joints, else a joint named like hips/pelvis, else 0."""
-    pair = _hip_pair(skeleton)
-    if pair is not None:
-        return _lca(skeleton, *pair)
-    j = _find_unsided(skeleton, _PELVIS_PATTERNS)
-    return 0 if j is None else j
-
-
-def _head_index(sk: Skeleton) -> int | None:
-    return _find_unsided(sk, _HEAD_PATTERNS)
-
-
-def _named_feet(sk: Skeleton) -> list[tuple[str, int]]:
-    """[(side, joint)] for ankles then toes found by name: per side the ankle (shallowest
-    ankle/foot joint) and, if present, a distinct toe joint below it."""
-    ankles = _find_sided(sk, _ANKLE_PATTERNS)
-    out: list[tuple[str, int]] = []
-    depth = sk.depth()
-    for side in ("left", "right"):
-        if side not in ankles:
-            continue
-        a = ankles[side]
-        out.append((side, a))
-        # toe: a descendant of the ankle matching toe patterns (priority, then depth)
-        best: tuple[int, int, int] | None = None
-        for j, name in enumerate(sk.names):
-            if j == a or a not in _ancestors(sk, j):
-                continue
-            s, base = joint_side_and_base(name)
-            if s not in (side, "") or _EXCLUDE.search(base):
-                continue
-            for prio, pat in enumerate(_TOE_PATTERNS):
-                if re.search(pat, base):
-                    key = (prio, int(depth[j]), j)
-                    if best is None or key < best:
-                        best = key
-                    break
-        if best is not None:
-            out.append((side, best[2]))
-    return out
-
-
-def _leaves(sk: Skeleton) -> list[int]:
-    has_child = np.zeros(sk.num_joints, dtype=bool)
-    has_child[sk.parents[1:]] = True
-    return [int(j) for j in np.flatnonzero(~has_child)]
-
-
-# =============================================================================================
 # small helpers
 
 
@@ -330,6 +156,11 @@ def _skeleton_of(obj: Motion | Skeleton) -> Skeleton:
     if isinstance(obj, Skeleton):
         return obj
     raise TypeError(f"expected a Motion or a Skeleton, got {type(obj).__name__}")
+
+
+def pelvis_index(skeleton: Skeleton) -> int:
+    """The body's root joint (pelvis) of the body model (:attr:`mocapkit.body.Body.pelvis`)."""
+    return body_of(skeleton).pelvis
 
 
 def _fill_invalid(v: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -418,31 +249,8 @@ def resample(motion: Motion, fps: float) -> Motion:
 
 def _up_from_positions(sk: Skeleton, pos: np.ndarray) -> str:
     """Up axis from joint positions (F, J, 3) (see :func:`detect_up_axis`)."""
-    head = _head_index(sk)
-    ankles = list(_find_sided(sk, _ANKLE_PATTERNS).values())
-    pelvis = pelvis_index(sk)
-    if ankles:
-        low = pos[:, ankles].mean(axis=1)
-        # Sum of the unit feet->head and feet->pelvis directions: both point up for a standing
-        # human; for a quadruped the head is far forward but the pelvis is above the feet.
-        total = np.zeros(3)
-        for top in {head, pelvis} - {None}:
-            if top in ankles:
-                continue
-            d, ok = _unit(pos[:, top] - low)
-            if ok.any():
-                total += d[ok].mean(axis=0)
-        a = int(np.argmax(np.abs(total)))
-        if abs(total[a]) > 0.3:
-            return ("-" if total[a] < 0 else "") + _AXES[a]
-    # Geometric fallback: the axis of largest typical extent; sign from where most joints lie
-    # relative to the pelvis (a humanoid has more joints above the hips than below).
-    ext = np.median(pos.max(axis=1) - pos.min(axis=1), axis=0)
-    a = int(np.argmax(ext))
-    rel = pos[:, :, a] - pos[:, pelvis, a][:, None]
-    above = np.sum(rel > 1e-9 * max(ext[a], 1e-12))
-    below = np.sum(rel < -1e-9 * max(ext[a], 1e-12))
-    return ("-" if below > above else "") + _AXES[a]
+    body = body_of(sk)
+    return body_model.up_from_poses(pos, body.head, body.pelvis, body.both("ankle"))
 
 
 def detect_up_axis(obj: Motion | Skeleton, max_frames: int = 200) -> str:
@@ -473,47 +281,20 @@ def detect_up_axis(obj: Motion | Skeleton, max_frames: int = 200) -> str:
     return _up_from_positions(sk, sk.rest_positions()[None])
 
 
-def _bone_lengths(obj: Motion | Skeleton) -> np.ndarray:
-    """(J,) length of each joint's local translation (median over frames when animated)."""
-    sk = _skeleton_of(obj)
-    lengths = np.linalg.norm(sk.offsets, axis=1)
-    if isinstance(obj, Motion) and obj.translations is not None and obj.num_frames:
-        anim = sk.has_position.copy()
-        anim[0] = False
-        if anim.any():
-            lengths[anim] = np.median(np.linalg.norm(obj.translations[:, anim], axis=2), axis=0)
-    return lengths
-
-
-def _chain_length(sk: Skeleton, lengths: np.ndarray, a: int, b: int) -> float:
-    """Sum of bone lengths along the hierarchy path between joints a and b."""
-    c = _lca(sk, a, b)
-    total = 0.0
-    for j in (a, b):
-        while j != c:
-            total += lengths[j]
-            j = int(sk.parents[j])
-    return total
-
-
 def character_height(obj: Motion | Skeleton, up: str | None = None) -> float:
-    """Size of the character in file units (pose independent where names allow).
+    """Size of the character in file units (pose independent where the body model allows).
 
-    * If a head-like joint and ankle-like joints are found by name: the mean, over the two legs,
-      of the head-to-ankle chain length (sum of bone lengths along the hierarchy; animated bone
+    * With a head and ankles (:mod:`mocapkit.body`): the mean, over the two legs, of the
+      head-to-ankle chain length (sum of bone lengths along the hierarchy; animated bone
       lengths use their median). This is about 0.85 x stature for a human.
     * Else, with a Motion: the 90th percentile over frames of the vertical extent of the joint
       positions (``up`` detected when None).
     * Else: the rest-pose extent (:meth:`Skeleton.height`).
     """
     sk = _skeleton_of(obj)
-    head = _head_index(sk)
-    ankles = _find_sided(sk, _ANKLE_PATTERNS)
-    if head is not None and ankles:
-        lengths = _bone_lengths(obj)
-        h = float(np.mean([_chain_length(sk, lengths, head, a) for a in ankles.values()]))
-        if h > 0:
-            return h
+    h = body_model.chain_size(obj, body_of(sk))
+    if h > 0:
+        return h
     if isinstance(obj, Motion) and obj.num_frames:
         up = up or detect_up_axis(obj)
         _, u, _ = ground_frame(up)
@@ -525,103 +306,29 @@ def character_height(obj: Motion | Skeleton, up: str | None = None) -> float:
     return sk.height()
 
 
-#: A limb's two long bones (thigh + shin, upper arm + forearm) span at least this fraction of
-#: :func:`character_height`; a neck and head, or a finger, span less.
-LIMB_MIN_FRACTION = 0.25
-
-
 def limb_hinges(skeleton: Skeleton) -> list[int]:
-    """Knees and elbows: joint indices, in joint order.
-
-    By name first (one knee and one elbow per side: ``LowerLeg``/``Leg``/``shin``/``calf``/
-    ``tibia``/``knee``, ``ForeArm``/``LowerArm``/``radius``/``elbow``; twist and helper bones
-    skipped). When no name matches, by structure: a joint with one bone out (one child joint or
-    one End Site) that joins the two longest consecutive bones of its chain. Its bone in (its
-    offset) and its bone out sum to at least :data:`LIMB_MIN_FRACTION` of the character's
-    height, the shorter is at least 0.3x the longer, the sum beats the parent's pair and is not
-    beaten by the child's pair, and everything below it stays within its bone out plus half the
-    pair (a foot and toes, a hand and fingers, not a chest carrying arms and a head).
-    """
-    named = sorted({*_find_sided(skeleton, _KNEE_PATTERNS).values(),
-                    *_find_sided(skeleton, _ELBOW_PATTERNS).values()})  # fmt: skip
-    if named:
-        return named
-    sk = skeleton
-    J = sk.num_joints
-    size = character_height(sk)
-    rest = sk.rest_positions()
-    kids = [sk.children(j) for j in range(J)]
-    ends = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
-
-    def bone_out(j: int) -> float | None:
-        if len(kids[j]) + len(ends[j]) != 1:
-            return None
-        off = sk.offsets[kids[j][0]] if kids[j] else sk.end_site_offsets[ends[j][0]]
-        return float(np.linalg.norm(off))
-
-    def pair(j: int) -> float | None:
-        out = bone_out(j)
-        if out is None or sk.parents[j] < 0:
-            return None
-        return float(np.linalg.norm(sk.offsets[j])) + out
-
-    def descendants(j: int) -> list[int]:
-        stack, out = list(kids[j]), []
-        while stack:
-            c = stack.pop()
-            out.append(c)
-            stack.extend(kids[c])
-        return out
-
-    hinges = []
-    for j in range(1, J):
-        here = pair(j)
-        if here is None or here < LIMB_MIN_FRACTION * size:
-            continue
-        upper = float(np.linalg.norm(sk.offsets[j]))
-        lower = here - upper
-        if min(upper, lower) < 0.3 * max(upper, lower):
-            continue
-        before = pair(int(sk.parents[j]))
-        if before is not None and before >= here:
-            continue
-        if kids[j] and (after := pair(kids[j][0])) is not None and after > here:
-            continue
-        below = descendants(j)
-        reach = np.linalg.norm(rest[below] - rest[j], axis=1).max() if below else lower
-        if reach <= lower + 0.5 * here + 1e-9:
-            hinges.append(j)
-    return hinges
+    """Knees and elbows (joint indices, in joint order) of the body model
+    (:attr:`mocapkit.body.Body.hinges`: by name, else by structure)."""
+    return body_of(skeleton).hinges
 
 
 def detect_units(
     obj: Motion | Skeleton, candidates: dict[str, float] | None = None
 ) -> tuple[str, float]:
-    """Length unit of a humanoid's file: ``(name, metres_per_unit)`` among :data:`UNITS` (or
-    ``candidates``, e.g. ``{**UNITS, "cmu": 0.0254 / 0.45}`` for CMU ASF-scaled files).
+    """Length unit of a humanoid's file: ``(name, metres_per_unit)``.
 
-    Picks the unit that makes :func:`character_height` closest, on a log scale, to the nominal
-    head-to-ankle chain of an adult (:data:`NOMINAL_CHAIN_M` = 1.45 m, i.e. ~1.7 m tall). The
-    log-midpoints between neighbouring units give the decision boundaries on the chain length in
-    file units: m < 9.1 <= inch < 91 <= cm < 459 <= mm. Humans 1.0-2.2 m tall (chain ~0.85-1.9 m)
-    are therefore classified correctly in every unit except one overlap, the only real ambiguity,
-    between cm and inch (ratio 2.54): a character under ~1.07 m tall in cm (chain < 91 cm) reads
-    as inches. Above that, the ratio to the nominal height decides (a 91-inch chain would be a
-    2.7 m giant, so such a file is taken as cm).
-
-    Limits: non-human skeletons (animals, props, a few VR trackers) have no meaningful height;
-    the answer is then a guess. Without head/ankle names the fallback measures of
-    :func:`character_height` (vertical extent) are used with the same boundaries. Files in a unit
-    outside the candidates get the nearest candidate: CMU cgspeed conversions (1 unit = 1/0.45
-    inch, chain ~25 units) read as "inch"; pass ``candidates`` or the callers' ``units=``
-    override.
+    Where the file states its unit (ASF ``:units``, kept on the skeleton) that unit is
+    returned, named ``"file"`` unless it is one of :data:`UNITS`; otherwise the guess of
+    :func:`mocapkit.body.guess_units` on :func:`character_height` among :data:`UNITS` (or
+    ``candidates``). Limits of the guess: see there; non-human skeletons have no meaningful
+    height, and the answer is then a guess.
     """
-    cands = UNITS if candidates is None else candidates
-    h = character_height(obj)
-    if not (h > 0 and math.isfinite(h)):
-        return ("m", 1.0) if "m" in cands else next(iter(cands.items()))
-    name, mpu = min(cands.items(), key=lambda kv: abs(math.log(h * kv[1] / NOMINAL_CHAIN_M)))
-    return name, float(mpu)
+    sk = _skeleton_of(obj)
+    if sk.metres_per_unit is not None and candidates is None:
+        mpu = sk.metres_per_unit
+        name = next((k for k, v in UNITS.items() if math.isclose(v, mpu, rel_tol=1e-9)), "file")
+        return name, mpu
+    return body_model.guess_units(character_height(obj), candidates)
 
 
 def metres_per_unit(obj: Motion | Skeleton, units: str | float | None) -> float:
@@ -657,7 +364,7 @@ def metres_per_unit(obj: Motion | Skeleton, units: str | float | None) -> float:
 def _rest_forward(sk: Skeleton, up: str) -> np.ndarray:
     """Forward direction of the rest pose (3,): mean ground-projected ankle->toe direction, or
     the ground frame's forward axis."""
-    feet = _named_feet(sk)
+    feet = body_of(sk).feet
     rest = sk.rest_positions()
     vecs = []
     for side in ("left", "right"):
@@ -676,7 +383,8 @@ def _facing_from_fk(sk: Skeleton, pos: np.ndarray, grot: np.ndarray, up: str) ->
     _, u, _ = ground_frame(up)
     F = pos.shape[0]
     across = np.zeros((F, 3))
-    for pair in (_hip_pair(sk), _shoulder_pair(sk)):
+    body = body_of(sk)
+    for pair in (body.pair("hip"), body.pair("shoulder")):
         if pair is not None:
             d, ok = _unit(pos[:, pair[0]] - pos[:, pair[1]])
             across += np.where(ok[:, None], d, 0.0)
@@ -1001,10 +709,10 @@ def find_feet(
     Without names: the two leaf joints that are lowest on average (over ``motion``'s frames, or
     in the rest pose) among the leaves of different subtrees of the pelvis, sides unknown ("").
     """
-    feet = _named_feet(skeleton)
+    feet = body_of(skeleton).feet
     if feet:
         return feet
-    leaves = _leaves(skeleton)
+    leaves = skeleton.leaves()
     if motion is not None and motion.num_frames:
         up = _norm_up(up) if up else detect_up_axis(motion)
         pos, _ = _fk(motion, 200)
@@ -1017,7 +725,7 @@ def find_feet(
     chosen: list[int] = []
     branches: set[int] = set()
     for j in sorted(leaves, key=lambda k: mean_h[k]):
-        anc = _ancestors(skeleton, j)
+        anc = [j, *skeleton.ancestors(j)]
         if pelvis not in anc or j == pelvis:
             continue
         branch = anc[anc.index(pelvis) - 1]
@@ -1080,7 +788,8 @@ def foot_contacts(
         sides = [s for s, _ in found]
     else:
         joints = [sk.index(f) if isinstance(f, str) else int(f) for f in feet]
-        sides = [joint_side_and_base(sk.names[j])[0] for j in joints]
+        body = body_of(sk)
+        sides = [s if s in ("left", "right") else "" for s in map(body.side_of, joints)]
     if not joints:
         raise ValueError("no foot joints found; pass feet= explicitly")
     H = character_height(motion, up)

@@ -154,12 +154,7 @@ class ContactConstraint:
 
 def chain_of(motion: Motion, joint: int, length: int = 2) -> list[int]:
     """The ``length`` ancestors of ``joint`` that move it (parent first), e.g. elbow, shoulder."""
-    out = []
-    p = int(motion.skeleton.parents[joint])
-    while p >= 0 and len(out) < length:
-        out.append(p)
-        p = int(motion.skeleton.parents[p])
-    return out
+    return motion.skeleton.ancestors(joint)[:length]
 
 
 def effector_error(motion: Motion, contact: ContactConstraint, target: np.ndarray) -> np.ndarray:

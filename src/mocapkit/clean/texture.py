@@ -15,13 +15,13 @@ Conventions (used by the whole :mod:`mocapkit.clean` package):
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from mocapkit import features
+from mocapkit.body import body_of
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
@@ -83,31 +83,6 @@ def source_word_starts(num_frames: int, length: int, step: int) -> np.ndarray:
 
 # ---------------------------------------------------------------------------------- groups
 
-_SIDE_RE = {
-    "left": re.compile(r"(^|[^a-z])(l|left)([^a-z]|$)|^left|left$|^l(?=[A-Z])"),
-    "right": re.compile(r"(^|[^a-z])(r|right)([^a-z]|$)|^right|right$|^r(?=[A-Z])"),
-}
-
-
-_LEG_RE = re.compile(r"leg|thigh|knee|foot|toe|ankle|shin|calf|femur|tibia")
-_ARM_RE = re.compile(r"arm|hand|shoulder|clavicle|elbow|wrist|neck|head|spine|chest")
-
-
-def _name_side(name: str) -> str | None:
-    low = name.lower()
-    for side in ("left", "right"):
-        if _SIDE_RE[side].search(low) or _SIDE_RE[side].search(name):
-            return side
-    return None
-
-
-def _subtree(sk: Skeleton, j: int) -> list[int]:
-    out = [j]
-    for c in sk.children(j):
-        out += _subtree(sk, c)
-    return out
-
-
 def rotating_joints(motion: Motion, tol: float = 1e-6) -> np.ndarray:
     """(J,) bool: joints whose local rotation changes during the take (beyond ``tol`` radians)."""
     q = motion.rotations
@@ -120,52 +95,26 @@ def rotating_joints(motion: Motion, tol: float = 1e-6) -> np.ndarray:
 def default_groups(skeleton: Skeleton, include: Sequence[int] | None = None) -> list[JointGroup]:
     """The paper's groups: whole body (trim 3), upper and lower half, left and right half (trim 1).
 
-    Legs are the subtrees of the pelvis' children that hang below it in the rest pose; everything
-    else below the pelvis is the upper body. Sides come from joint names (``_L``, ``Left``...),
-    else from the sign of the rest-pose lateral offset. The pelvis and the spine belong to both
-    halves. ``include`` restricts every group to those joints (for instance the joints that
-    rotate); groups left with fewer than two joints are dropped.
+    From the body model (:func:`mocapkit.body.body_of`): the lower half is the pelvis and its
+    leg branches (the subtrees that hold a hip), the upper half everything else with the
+    pelvis; a joint is left or right when it lies on a limb of that side, and the centre
+    (pelvis, spine, neck and head; limbs of unknown side) belongs to both halves. ``include``
+    restricts every group to those joints (for instance the joints that rotate); groups left
+    with fewer than two joints are dropped.
     """
     J = skeleton.num_joints
     keep = np.ones(J, dtype=bool) if include is None else np.isin(np.arange(J), include)
-    pelvis = features.pelvis_index(skeleton)
-    up = features.detect_up_axis(skeleton)
-    up_axis = "XYZ".index(up.lstrip("+-")[-1])
-    up_sign = -1.0 if up.startswith("-") else 1.0
-    rest = skeleton.rest_positions()
+    body = body_of(skeleton)
+    pelvis = body.pelvis
     lower: set[int] = {pelvis}
     for c in skeleton.children(pelvis):
-        sub = _subtree(skeleton, c)
-        named = any(_LEG_RE.search(skeleton.names[j].lower()) for j in sub)
-        below = up_sign * (rest[sub, up_axis].min() - rest[pelvis, up_axis]) < -1e-9
-        if len(sub) > 1 and (
-            named or (below and not any(_ARM_RE.search(skeleton.names[j].lower()) for j in sub))
-        ):
+        sub = skeleton.subtree(c)
+        if len(sub) > 1 and any(j in sub for j in body.both("hip")):
             lower.update(sub)
     upper = set(range(J)) - lower | {pelvis}
-    # sides: by name, else by lateral sign
-    side = {j: _name_side(skeleton.names[j]) for j in range(J)}
-    if not any(s == "left" for s in side.values()) or not any(s == "right" for s in side.values()):
-        lat_axes = [a for a in range(3) if a != up_axis]
-        spread = [np.ptp(rest[:, a]) for a in lat_axes]
-        lat = lat_axes[int(np.argmin(spread))]
-        rel = rest[:, lat] - rest[pelvis, lat]
-        scale = max(float(np.abs(rel).max()), 1e-9)
-        side = {
-            j: ("left" if rel[j] > 0.05 * scale else "right" if rel[j] < -0.05 * scale else None)
-            for j in range(J)
-        }
-    # a joint inherits the side of its nearest sided ancestor (hands' fingers etc.)
-    for j in range(J):
-        if side[j] is None:
-            p = int(skeleton.parents[j])
-            while p >= 0 and side[p] is None:
-                p = int(skeleton.parents[p])
-            if p >= 0 and p != pelvis:
-                side[j] = side[p]
-    centre = {j for j in range(J) if side[j] is None}
-    left = {j for j in range(J) if side[j] == "left"} | centre
-    right = {j for j in range(J) if side[j] == "right"} | centre
+    side = [body.side_of(j) for j in range(J)]
+    left = {j for j in range(J) if side[j] != "right"}
+    right = {j for j in range(J) if side[j] != "left"}
     groups = []
     for name, js, trim in (
         ("body", set(range(J)), 3),
@@ -186,32 +135,9 @@ def default_groups(skeleton: Skeleton, include: Sequence[int] | None = None) -> 
 
 def _ancestor_rotations(motion: Motion, j: int) -> np.ndarray:
     """(F, 4) global rotation of joint ``j``'s parent."""
-    sk = motion.skeleton
-    chain = []
-    p = int(sk.parents[j])
-    while p >= 0:
-        chain.append(p)
-        p = int(sk.parents[p])
     q = rot.quat_identity((motion.num_frames,))
-    for a in reversed(chain):
+    for a in reversed(motion.skeleton.ancestors(j)):
         q = rot.quat_mul(q, motion.rotations[:, a])
-    return q
-
-
-def facing_aligned_rotations(motion: Motion, up: str | None = None) -> np.ndarray:
-    """(F, J, 4) local rotations with the heading removed (the body always faces forward).
-
-    The heading (rotation about the up axis, :func:`mocapkit.features.heading_angles`) is taken
-    out of the pelvis' global rotation; all other joints keep their local rotations, so the
-    result only differs from ``motion.rotations`` in the pelvis column. The root translation is
-    simply not part of the texture.
-    """
-    q = np.array(motion.rotations, dtype=np.float64)
-    if motion.num_frames == 0:
-        return q
-    up = up or features.detect_up_axis(motion)
-    pelvis = features.pelvis_index(motion.skeleton)
-    q[:, pelvis] = rot.quat_mul(pelvis_alignment(motion, up), q[:, pelvis])
     return q
 
 
@@ -220,7 +146,7 @@ def pelvis_alignment(motion: Motion, up: str | None = None) -> np.ndarray:
     ``A`` is the pelvis' parent's global rotation and ``U`` turns the heading back to zero."""
     up = up or features.detect_up_axis(motion)
     heading = features.heading_angles(motion, up)
-    pelvis = features.pelvis_index(motion.skeleton)
+    pelvis = body_of(motion.skeleton).pelvis
     axis = np.zeros(3)
     axis["XYZ".index(up.lstrip("+-")[-1])] = -1.0 if up.startswith("-") else 1.0
     unturn = rot.rotvec_to_quat(-heading[:, None] * axis)  # (F, 4)
@@ -278,7 +204,7 @@ def make_texture(motion: Motion, fps: float = ANALYSIS_FPS, name: str = "") -> T
     if motion.num_frames == 0:
         raise ValueError(f"{name or 'motion'}: the take has no frames")
     motion.check_finite(name or "motion")
-    pelvis = features.pelvis_index(motion.skeleton)
+    pelvis = body_of(motion.skeleton).pelvis
     align = pelvis_alignment(motion)
     aligned = np.array(motion.rotations, dtype=np.float64)
     aligned[:, pelvis] = rot.quat_mul(align, aligned[:, pelvis])

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapkit.body import body_of
 from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
-from mocapkit.features import pelvis_index
 
 __all__ = ["BodyParts", "body_parts", "point_cloud"]
 
@@ -57,23 +57,17 @@ class BodyParts:
         return [int(c) for c in np.flatnonzero(self.parents == b)]
 
     def descendants(self, b: int) -> list[int]:
-        """Parts outward from part ``b`` (not including ``b``)."""
-        out: list[int] = []
-        stack = self.children(b)
-        while stack:
-            c = stack.pop()
-            out.append(c)
-            stack.extend(self.children(c))
-        return out
+        """Parts outward from part ``b`` (not including ``b``), in part order."""
+        return [self.part_of_joint(j) for j in self.skeleton.descendants(int(self.joints[b]))]
 
     def ancestors(self, b: int) -> list[int]:
         """Parts inward from ``b`` up to and including the pelvis (nearest first)."""
-        out: list[int] = []
-        p = int(self.parents[b])
-        while p >= 0:
-            out.append(p)
-            p = int(self.parents[p])
-        return out
+        above = self.skeleton.ancestors(int(self.joints[b]))
+        return [self.part_of_joint(j) for j in above if j in self._index]
+
+    @property
+    def _index(self) -> dict[int, int]:
+        return {int(j): b for b, j in enumerate(self.joints)}
 
     def part_of_joint(self, joint: int) -> int:
         """Part index of a joint (KeyError if the joint is not a part)."""
@@ -84,17 +78,10 @@ class BodyParts:
 
 
 def body_parts(skeleton: Skeleton) -> BodyParts:
-    """Body parts of a skeleton: the pelvis (see :func:`mocapkit.features.pelvis_index`) and
+    """Body parts of a skeleton: the pelvis (see :attr:`mocapkit.body.Body.pelvis`) and
     every joint below it."""
-    pelvis = pelvis_index(skeleton)
-    J = skeleton.num_joints
-    inside = np.zeros(J, dtype=bool)
-    inside[pelvis] = True
-    for j in range(pelvis + 1, J):
-        p = skeleton.parents[j]
-        if p >= 0 and inside[p]:
-            inside[j] = True
-    joints = np.flatnonzero(inside)
+    pelvis = body_of(skeleton).pelvis
+    joints = np.flatnonzero(skeleton.subtree_mask(pelvis))
     where = {int(j): b for b, j in enumerate(joints)}
     parents = np.array(
         [-1 if j == pelvis else where[int(skeleton.parents[j])] for j in joints], dtype=np.int64

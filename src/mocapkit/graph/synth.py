@@ -137,14 +137,11 @@ class Synthesizer:
     def _chain(self) -> list[int]:
         """Joints from joint 0 down to the pelvis: blended as global transforms (a static
         ground root such as Bandai-Namco's ``joint_Root`` must not swing the pelvis)."""
-        from mocapkit.features import pelvis_index
+        from mocapkit.body import body_of
 
         sk = self.motions[0].skeleton
-        j = pelvis_index(sk)
-        chain = [j]
-        while sk.parents[chain[-1]] >= 0:
-            chain.append(int(sk.parents[chain[-1]]))
-        return chain[::-1]
+        pelvis = body_of(sk).pelvis
+        return [*reversed(sk.ancestors(pelvis)), pelvis]
 
     # ---- walks ---------------------------------------------------------------------------
     def random_walk(self, seconds: float, seed: int = 0, start: int | None = None) -> list[Step]:

@@ -14,20 +14,21 @@ the frame pair ``(i, j)`` is ``static[b] + frame[i, b] + frame[j, b]``.
   the root body that belongs to no limb), 0 otherwise. Masses in kg.
 
 Masses come from de Leva (1996), "Adjustments to Zatsiorsky-Seluyanov's segment inertia
-parameters", male column (% of body mass, :data:`DE_LEVA_MALE`), mapped to joints by name.
+parameters", male column (% of body mass, :data:`DE_LEVA_MALE`), mapped to joints by the body
+model's segments (:mod:`mocapkit.body`).
 """
 
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from mocapkit.body import body_of
 from mocapkit.core.motion import Motion
-from mocapkit.features import FootContacts, foot_contacts, joint_side_and_base
+from mocapkit.features import FootContacts, foot_contacts
 from mocapkit.graph.pointcloud import BodyParts
 
 __all__ = [
@@ -79,32 +80,13 @@ TORSO_WEIGHTS: dict[str, float] = {
 #: Heuristic 2's extra weight on the part carrying most of the mass.
 TORSO_EXTRA = 4.0
 
-_CATEGORY_PATTERNS: tuple[tuple[str, str], ...] = (
-    ("hand", r"hand|wrist|finger|thumb|index|middle|ring|pinky|carpal|palm"),
-    ("forearm", r"forearm|lowerarm|lowarm|elbow|radius|ulna"),
-    ("upperarm", r"upperarm|uparm|humerus|^arm$"),
-    ("trunk", r"shoulder|clavicle|collar|spine|abdomen|chest|thorax|torso|back|waist|rib"),
-    ("foot", r"foot|ankle|toe|ball|tarsal|heel"),
-    ("thigh", r"upperleg|upleg|thigh|femur|hip"),
-    ("shank", r"lowerleg|lowleg|leg|shin|knee|tibia|calf|crus"),
-    ("head", r"head|neck|skull|jaw|eye|nose"),
-)
-
-
 def part_categories(parts: BodyParts) -> list[str]:
-    """de Leva category of each part by name (the pelvis part is "pelvis"); a part whose name
-    matches nothing inherits its parent's category ("" when the parent is the pelvis)."""
-    cats: list[str] = []
-    for b, name in enumerate(parts.names):
-        if b == 0:
-            cats.append("pelvis")
-            continue
-        base = joint_side_and_base(name)[1]
-        cat = next((c for c, pat in _CATEGORY_PATTERNS if re.search(pat, base)), "")
-        if not cat:
-            parent = int(parts.parents[b])
-            cat = cats[parent] if parent > 0 else ""
-        cats.append(cat)
+    """de Leva category of each part, from the body model's segments
+    (:meth:`mocapkit.body.Body.category`: the pelvis part is "pelvis"; "" for a part no
+    segment reaches)."""
+    body = body_of(parts.skeleton)
+    cats = [body.category(int(j)) for j in parts.joints]
+    cats[0] = "pelvis"
     return cats
 
 
@@ -132,13 +114,15 @@ def part_masses(
     ``overrides`` (joint name -> kg) replaces the masses of the named joints afterwards.
     """
     cats = part_categories(parts)
+    body = body_of(parts.skeleton)
     lengths = _bone_lengths(parts)
     B = parts.num_parts
     mass = np.zeros(B)
     groups: dict[tuple[str, str], list[int]] = {}
     for b, cat in enumerate(cats):
         if cat:
-            side = joint_side_and_base(parts.names[b])[0] if cat != "trunk" else ""
+            side = body.side_of(int(parts.joints[b])) if cat != "trunk" else ""
+            side = side if side in ("left", "right") else ""
             if cat in ("pelvis", "head", "trunk"):
                 side = ""
             elif not side:
