@@ -540,12 +540,17 @@ def _hinge_on(chain: list[int], length: np.ndarray) -> int | None:
 
 
 def _head_of(sk: Skeleton, chain: list[int]) -> int:
-    """The head on a neck chain: its last joint, unless that is a bare end marker (no child, no
-    End Site of any length) past the head, as Mixamo's ``HeadTop_End``."""
+    """The head on a neck chain: the first joint past the neck that branches (jaw and eyes of a
+    face rig), else the last joint, unless that is an end marker past the head (a leaf whose
+    End Site, if any, is under half its own bone, as Mixamo's ``HeadTop_End``)."""
+    for j in chain[1:]:
+        if len(sk.children(j)) >= 2:
+            return j
     last = chain[-1]
     ends = sk.end_site_offsets[sk.end_site_parents == last]
-    bare = not sk.children(last) and not (len(ends) and np.linalg.norm(ends, axis=1).max() > 0)
-    if len(chain) >= 3 and bare:
+    tip = float(np.linalg.norm(ends, axis=1).max()) if len(ends) else 0.0
+    marker = not sk.children(last) and tip < 0.5 * float(np.linalg.norm(sk.offsets[last]))
+    if len(chain) >= 3 and marker:
         return chain[-2]
     return last
 
