@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mocapkit.clean import dtw
-from mocapkit.clean.texture import JointGroup
+from mocapkit.clean.words import JointGroup
 from mocapkit.core import rotations as rot
 
 from . import naive

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from mocapkit import datasets, features
-from mocapkit.clean import knn, texture
-from mocapkit.clean.texture import JointGroup
+from mocapkit.clean import knn, texture, words
+from mocapkit.clean.words import JointGroup
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 
@@ -20,11 +20,11 @@ def walk() -> Motion:
 
 
 def test_word_lengths_scale_with_rate() -> None:
-    assert texture.word_lengths(24.0) == (15, 5, 20)
-    assert texture.word_lengths(48.0) == (30, 10, 40)
-    starts = texture.source_word_starts(50, 15, 5)
+    assert words.word_lengths(24.0) == (15, 5, 20)
+    assert words.word_lengths(48.0) == (30, 10, 40)
+    starts = words.source_word_starts(50, 15, 5)
     assert starts[0] == 0 and starts[-1] == 35 and np.all(np.diff(starts) <= 5)
-    assert texture.source_word_starts(10, 15, 5).tolist() == [0]
+    assert words.source_word_starts(10, 15, 5).tolist() == [0]
 
 
 def test_default_groups_follow_the_body(walk: Motion) -> None:
@@ -110,7 +110,7 @@ def test_pruned_scan_selects_the_same_neighbours() -> None:
     )
     groups = texture.default_groups(take.skeleton)
     P = dtw.pose_distance_matrices(src, ctx.rotations, groups)
-    starts = texture.source_word_starts(src.shape[0], 15, 5)
+    starts = words.source_word_starts(src.shape[0], 15, 5)
     tst = ctx.target_starts(20)
     seg = ctx.clip[tst]
     lo, hi = starts - 7, starts + 22

@@ -44,14 +44,8 @@ from mocapkit.clean.mdm import (
 from mocapkit.clean.repair import ContactConstraint, RepairResult, repair_cells
 from mocapkit.clean.run import CleanReport, run
 from mocapkit.clean.sparse import reconstruct
-from mocapkit.clean.texture import (
-    ANALYSIS_FPS,
-    JointGroup,
-    Texture,
-    default_groups,
-    make_texture,
-    word_lengths,
-)
+from mocapkit.clean.texture import Texture, default_groups, make_texture
+from mocapkit.clean.words import ANALYSIS_FPS, JointGroup, word_lengths
 
 __all__ = [
     "ANALYSIS_FPS",

@@ -21,15 +21,12 @@ from mocapkit.clean.repair import (
     repair_cells,
 )
 from mocapkit.clean.texture import (
-    ANALYSIS_FPS,
-    JointGroup,
     default_groups,
     interpolate_track,
     make_texture,
     rotating_joints,
-    source_word_starts,
-    word_lengths,
 )
+from mocapkit.clean.words import ANALYSIS_FPS, JointGroup, source_word_starts, word_lengths
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.runs import true_runs

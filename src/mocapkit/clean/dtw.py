@@ -33,7 +33,7 @@ from collections.abc import Sequence
 import numba as nb
 import numpy as np
 
-from mocapkit.clean.texture import JointGroup
+from mocapkit.clean.words import JointGroup
 
 MAX_RUN = 2
 """Default slope constraint: at most two consecutive non-diagonal steps in one direction."""

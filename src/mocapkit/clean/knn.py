@@ -21,7 +21,7 @@ from mocapkit.clean.dtw import (
     scan_words,
     scan_words_pruned,
 )
-from mocapkit.clean.texture import JointGroup
+from mocapkit.clean.words import JointGroup
 
 K_NEIGHBOURS = 5
 

@@ -18,15 +18,8 @@ from scipy.signal import savgol_filter
 from mocapkit import features
 from mocapkit.clean.dtw import MAX_RUN, constrained_dtw, pose_distance, pose_distance_matrices
 from mocapkit.clean.knn import K_NEIGHBOURS, Context, _warp_word, search_group
-from mocapkit.clean.texture import (
-    ANALYSIS_FPS,
-    JointGroup,
-    interpolate_track,
-    make_texture,
-    source_word_starts,
-    texture_from_rotations,
-    word_lengths,
-)
+from mocapkit.clean.texture import interpolate_track, make_texture, texture_from_rotations
+from mocapkit.clean.words import ANALYSIS_FPS, JointGroup, source_word_starts, word_lengths
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
