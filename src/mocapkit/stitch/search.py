@@ -233,6 +233,56 @@ def _check_score(score: str) -> str:
     return score
 
 
+def _best_at_landing(Q, takeoffs, clips, b, w, k_max, model, score):
+    """((value, clip, take-off, landing), candidates) over one landing frame of every clip."""
+    ok = [i for i, c in enumerate(clips) if 0 <= b <= c.shape[0] - w]
+    if not ok:
+        raise ValueError(
+            f"landing frame {b} has no full landing window {b}..{b + w - 1} "
+            f"in any data clip (w = {w})"
+        )
+    best = None
+    for a in takeoffs:
+        wins = np.stack([sliding_windows(Q, a, clips[i], w, landings=[b])[0] for i in ok])
+        vals = (
+            elastic_lscores(wins, model, w, k_max).min(axis=1)
+            if score == "lscore"
+            else windowed_euclidean(wins, w)
+        )
+        j = int(np.argmin(vals))
+        if best is None or vals[j] < best[0]:
+            best = (float(vals[j]), ok[j], a, b)
+    return best, len(ok) * len(takeoffs)
+
+
+def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype):
+    """((value, clip, take-off, landing), candidates) over every landing frame of every clip:
+    one batched search over the concatenated clips per take-off, windows that would cross a
+    clip boundary discarded."""
+    usable = [i for i, c in enumerate(clips) if c.shape[0] >= w]
+    if not usable:
+        raise ValueError(f"no data clip has at least w = {w} frames")
+    X = np.concatenate([clips[i] for i in usable]) if len(usable) > 1 else clips[usable[0]]
+    lengths = np.array([clips[i].shape[0] for i in usable])
+    starts = np.r_[0, np.cumsum(lengths)[:-1]]
+    n_land = X.shape[0] - w + 1
+    owner = np.repeat(np.arange(len(usable)), lengths)[:n_land]
+    local = np.arange(n_land) - starts[owner]
+    valid = local <= lengths[owner] - w
+    best = None
+    for a in takeoffs:
+        if score == "lscore":
+            res = search_landings(Q, a, X, w, k_max, model, dtype=dtype)
+            vals = res.lscore_by_k.min(axis=1).astype(float)
+        else:
+            vals = euclidean_landings(Q, a, X, w)
+        vals[~valid] = np.inf
+        g = int(np.argmin(vals))
+        if best is None or vals[g] < best[0]:
+            best = (float(vals[g]), usable[int(owner[g])], a, int(local[g]))
+    return best, int(valid.sum()) * len(takeoffs)
+
+
 def search_features(
     query_feats,
     takeoffs,
@@ -280,50 +330,12 @@ def search_features(
                 f"take-off frame {a} outside [{w - 1}, {Q.shape[0] - 1}] (the take-off window "
                 f"{a - w + 1}..{a} must lie in the query; w = {w})"
             )
-
-    best = None  # (value, clip, a, b)
-    candidates = 0
     if landing is not None:
-        b = int(landing)
-        ok = [i for i, c in enumerate(clips) if 0 <= b <= c.shape[0] - w]
-        if not ok:
-            raise ValueError(
-                f"landing frame {landing} has no full landing window {landing}..{landing + w - 1} "
-                f"in any data clip (w = {w})"
-            )
-        for a in takeoffs:
-            wins = np.stack([sliding_windows(Q, a, clips[i], w, landings=[b])[0] for i in ok])
-            vals = (
-                elastic_lscores(wins, model, w, k_max).min(axis=1)
-                if score == "lscore"
-                else windowed_euclidean(wins, w)
-            )
-            candidates += len(ok)
-            j = int(np.argmin(vals))
-            if best is None or vals[j] < best[0]:
-                best = (float(vals[j]), ok[j], a, b)
+        best, candidates = _best_at_landing(
+            Q, takeoffs, clips, int(landing), w, k_max, model, score
+        )
     else:
-        usable = [i for i, c in enumerate(clips) if c.shape[0] >= w]
-        if not usable:
-            raise ValueError(f"no data clip has at least w = {w} frames")
-        X = np.concatenate([clips[i] for i in usable]) if len(usable) > 1 else clips[usable[0]]
-        lengths = np.array([clips[i].shape[0] for i in usable])
-        starts = np.r_[0, np.cumsum(lengths)[:-1]]
-        n_land = X.shape[0] - w + 1
-        owner = np.repeat(np.arange(len(usable)), lengths)[:n_land]
-        local = np.arange(n_land) - starts[owner]
-        valid = local <= lengths[owner] - w
-        candidates = int(valid.sum()) * len(takeoffs)
-        for a in takeoffs:
-            if score == "lscore":
-                res = search_landings(Q, a, X, w, k_max, model, dtype=dtype)
-                vals = res.lscore_by_k.min(axis=1).astype(float)
-            else:
-                vals = euclidean_landings(Q, a, X, w)
-            vals[~valid] = np.inf
-            g = int(np.argmin(vals))
-            if best is None or vals[g] < best[0]:
-                best = (float(vals[g]), usable[int(owner[g])], a, int(local[g]))
+        best, candidates = _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype)
     _, ci, a, b = best
     window = sliding_windows(Q, a, clips[ci], w, landings=[b]).astype(float)
     scores = elastic_lscores(window, model, w, k_max)[0]
