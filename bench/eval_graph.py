@@ -82,14 +82,19 @@ def main() -> int:
             )
         sys.stdout.flush()
         if args.plots:
-            from mocapkit.graph.plots import plot_cost_comparison
+            from mocapkit.graph.graph import cost_comparison
+            from mocapkit.viz.figures.graph import plot_cost_comparison
 
             Path(args.plots).mkdir(parents=True, exist_ok=True)
             for other in ("uniform", "torso"):
-                p = plot_cost_comparison(
-                    Path(args.plots) / f"costs_{name}_dynamics_vs_{other}.png",
+                cmp = cost_comparison(
                     {"dynamics": dbs["dynamics"], other: dbs[other]},
                     {"dynamics": graphs["dynamics"][0], other: graphs[other][0]},
+                )
+                p = plot_cost_comparison(
+                    cmp,
+                    Path(args.plots) / f"costs_{name}_dynamics_vs_{other}.png",
+                    title=f"{name}: dynamics vs {other} metric, T = {T}",
                 )
                 print(f"  wrote {p}")
     if args.json:

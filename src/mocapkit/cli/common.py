@@ -149,11 +149,13 @@ def expand_inputs(
     items: Sequence[str | Path],
     suffixes: Sequence[str] = MOTION_SUFFIXES,
     exclude: Sequence[str | Path] = (),
+    unique: bool = True,
 ) -> list[Path]:
     """The motion files named by ``items``: files as given, the files of folders and the matches
     of glob patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
     extension is one of ``suffixes`` (folders and patterns skip the rest, e.g. Bandai's
-    ``.json`` labels), sorted; duplicates and ``exclude`` removed, order kept.
+    ``.json`` labels), sorted; duplicates (unless ``unique=False``: ``view a.bvh a.bvh``
+    overlays a file on itself) and ``exclude`` removed, order kept.
 
     An ``.amc`` needs its subject's skeleton beside it (``NN.asf`` for ``NN_MM.amc``, or the only
     ``.asf`` of its folder; :func:`mocapkit.io.find_asf`). A missing path, an empty folder or a
@@ -189,7 +191,7 @@ def expand_inputs(
     result = []
     for f in out:
         r = f.resolve()
-        if r in skip or r in seen:
+        if r in skip or (unique and r in seen):
             continue
         seen.add(r)
         if f.suffix.lower() == ".amc":

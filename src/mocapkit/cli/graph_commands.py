@@ -3,14 +3,21 @@ and the motion-graph step of ``mocapkit demo``."""
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 import click
-import numpy as np
 
-from mocapkit.cli.common import CLIError, expand_inputs, friendly_errors, load, main, progress
+from mocapkit.cli.common import (
+    MOTION_SUFFIXES,
+    CLIError,
+    echo_json,
+    expand_inputs,
+    friendly_errors,
+    load_all,
+    main,
+    progress_callback,
+)
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
 
@@ -110,36 +117,25 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
       mocapkit graph build clips/ --out graph.json --metric uniform --transitions 60
       mocapkit graph build clips/ --out graph.json --plot costs.png --graphml graph.graphml
     """
-    from mocapkit.graph.distance import build_database, candidate_grid
-    from mocapkit.graph.graph import build_graph, default_stride
+    from mocapkit.graph.graph import build_graph
     from mocapkit.graph.weights import load_masses
 
     if T is not None and threshold is not None:
         raise CLIError("give --transitions or --threshold, not both")
-    files = expand_inputs(inputs)
-    motions = []
-    with progress(len(files), "reading", enabled=not quiet) as step:
-        for f in files:
-            motions.append(load(str(f), False))
-            step()
+    files = expand_inputs(inputs, MOTION_SUFFIXES)
+    motions = load_all(files, False, show=not quiet)
     overrides = load_masses(masses) if masses else None
-    db = build_database(motions, metric, window, masses=overrides)
-    stride = default_stride(db.num_frames) if stride is None else stride
-    tile = 1024
-    G = len(candidate_grid(db, stride))
-    n = -(-(G - 2) // tile)
     outp = Path(out)
-    with progress(n * (n + 1) // 2, "comparing frames", enabled=not quiet) as step:
+    with progress_callback("comparing frames", enabled=not quiet) as step:
         g, db, _minima = build_graph(
             motions, metric, paths=[_rel(f, outp.parent) for f in files], transitions=T,
-            threshold=threshold, window=window, stride=stride, tile=tile, database=db,
-            progress=lambda done, total: step(),
+            threshold=threshold, window=window, stride=stride, masses=overrides, progress=step,
         )  # fmt: skip
     g.save(outp)
     st = g.stats
     click.echo(
         f"{len(files)} clips, {db.num_frames} frames at {db.fps:g} fps; window "
-        f"{2 * db.half + 1} frames; {st['candidates']} candidate transitions "
+        f"{len(db.window)} frames; {st['candidates']} candidate transitions "
         f"({st['gflop']:.1f} GFLOP in {st['tile_seconds']:.1f} s, stride {g.stride})"
     )
     click.echo(
@@ -151,36 +147,12 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
     if graphml:
         click.echo(f"wrote {g.save_graphml(graphml)}")
     if plot:
-        from mocapkit.graph.plots import plot_cost_comparison
+        from mocapkit.graph.graph import compare_metrics
+        from mocapkit.viz.figures.graph import plot_cost_comparison
 
-        other = "uniform" if metric != "uniform" else "dynamics"
-        db2 = build_database(motions, other, window, masses=overrides)
-        g2, _, _ = build_graph(
-            motions, other, transitions=g.T, window=window, stride=stride, database=db2
-        )
-        p = plot_cost_comparison(plot, {metric: db, other: db2}, {metric: g, other: g2})
+        cmp = compare_metrics(motions, g, db, masses=overrides)
+        p = plot_cost_comparison(cmp, plot, title=f"{outp.name}: {' vs '.join(cmp.metrics)}")
         click.echo(f"wrote {p}")
-
-
-def _read_path_csv(path: str) -> np.ndarray:
-    rows = []
-    for k, line in enumerate(Path(path).read_text().splitlines()):
-        line = line.strip()
-        if not line or line.startswith("#"):
-            continue
-        cells = [c for c in line.replace(";", ",").replace("\t", ",").split(",") if c.strip()]
-        try:
-            vals = [float(c) for c in cells]
-        except ValueError:
-            if not rows:
-                continue  # header
-            raise ValueError(f"{path}:{k + 1}: not a number in {line!r}") from None
-        if len(vals) < 2:
-            raise ValueError(f"{path}:{k + 1}: need two columns (x, z)")
-        rows.append(vals[:2])
-    if len(rows) < 2:
-        raise ValueError(f"{path}: a path needs at least two points")
-    return np.array(rows)
 
 
 @graph.command("synth")
@@ -215,52 +187,20 @@ def synth(graph_file, seconds, path_csv, out, seed, blend):
       mocapkit graph synth graph.json --seconds 30 --out walk.bvh --seed 7
       mocapkit graph synth graph.json --path path.csv --out follow.bvh
     """
-    from mocapkit.graph.graph import load_graph
-    from mocapkit.graph.synth import Synthesizer
+    from mocapkit.graph.graph import load_graph, load_path_csv, synthesize
     from mocapkit.io import write_motion
 
     if (seconds is None) == (path_csv is None):
         raise CLIError("give exactly one of --seconds or --path")
     g = load_graph(graph_file)
-    motions = [load(str(p), False) for p in g.clip_paths(Path(graph_file).parent)]
-    syn = Synthesizer(g, motions)
-    if seconds is not None:
-        if not seconds > 0:
-            raise CLIError("--seconds must be positive")
-        steps = syn.random_walk(seconds, seed)
-        m = syn.render(steps, blend, max_frames=max(1, round(seconds * motions[0].fps)))
-    else:
-        pts = _read_path_csv(path_csv)
-        steps = syn.follow_path(pts, seed)
-        m = syn.render(steps, blend, start=syn.start_transform)
-    write_motion(m, out)
-    n_tr = sum(s.kind == "transition" for s in steps)
-    click.echo(f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {n_tr} transitions)")
-
-
-def graph_report(g, base: Path | None) -> dict:
-    """The numbers ``mocapkit graph report`` prints."""
-    from mocapkit.graph.skate import transition_skate
-
-    nodes, _edges = g.scc()
-    out = {
-        "clips": len(g.clips),
-        "frames": int(sum(c.frames for c in g.clips)),
-        "metric": g.metric,
-        "T": g.T,
-        "transitions": g.num_transitions,
-        "transitions_in_scc": int(g.in_scc.sum()),
-        "scc_nodes": len(nodes),
-        "scc_frames": g.scc_frames(),
-    }
-    try:
-        motions = [load(str(p), False) for p in g.clip_paths(base)]
-    except (OSError, ValueError) as e:
-        out["foot_skate"] = None
-        out["foot_skate_error"] = str(e)
-        return out
-    out["foot_skate"] = transition_skate(g, motions).summary() if g.num_transitions else None
-    return out
+    motions = load_all(g.clip_paths(Path(graph_file).parent), False)
+    pts = load_path_csv(path_csv) if path_csv is not None else None
+    res = synthesize(g, motions, seconds=seconds, path=pts, seed=seed, blend=blend)
+    write_motion(res.motion, out)
+    m = res.motion
+    click.echo(
+        f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {res.transitions} transitions)"
+    )
 
 
 @graph.command("report")
@@ -277,10 +217,9 @@ def report(graph_file, as_json):
     """
     from mocapkit.graph.graph import load_graph
 
-    g = load_graph(graph_file)
-    r = graph_report(g, Path(graph_file).parent)
+    r = load_graph(graph_file).report(Path(graph_file).parent).to_json()
     if as_json:
-        click.echo(json.dumps(r, indent=2))
+        echo_json(r)
         return
     click.echo(f"{graph_file}: {r['clips']} clips, {r['frames']} frames, metric {r['metric']}")
     click.echo(
@@ -305,11 +244,12 @@ def report(graph_file, as_json):
 
 
 def graph_step(out: Path) -> None:
-    """Demo: a motion graph of the procedural humanoid, a random walk and a path walk."""
+    """Demo: a motion graph of the procedural humanoid, a random walk, the foot skate of its
+    transitions and the cost matrices of two metrics."""
     from mocapkit import datasets
-    from mocapkit.graph.graph import build_graph
-    from mocapkit.graph.synth import Synthesizer
+    from mocapkit.graph.graph import build_graph, compare_metrics, synthesize
     from mocapkit.io import write_motion
+    from mocapkit.viz.figures.graph import plot_cost_comparison
 
     paths, motions = [], []
     for n, (kind, secs) in enumerate((("walk", 4.0), ("run", 3.0), ("walk", 4.0), ("idle", 3.0))):
@@ -320,25 +260,27 @@ def graph_step(out: Path) -> None:
         motions.append(m)
     g, db, _ = build_graph(motions, "dynamics", paths=paths, transitions=40)
     gp = g.save(out / "humanoid_graph.json")
+    r = g.report(motions=motions)
     click.echo(
-        f"  {db.num_frames} frames -> {g.num_transitions} transitions, "
-        f"{int(g.in_scc.sum())} in the strongly connected component; wrote {gp}"
+        f"  {db.num_frames} frames -> {r.transitions} transitions, "
+        f"{r.transitions_in_scc} in the strongly connected component; wrote {gp}"
     )
-    syn = Synthesizer(g, motions)
-    steps = syn.random_walk(10.0, seed=0)
-    m = syn.render(steps, max_frames=round(10.0 * motions[0].fps))
+    walk = synthesize(g, motions, seconds=10.0, seed=0)
     click.echo(
-        f"  random walk: wrote {write_motion(m, out / 'graph_random_walk.bvh')} "
-        f"({m.num_frames} frames, {sum(s.kind == 'transition' for s in steps)} "
-        "transitions)"
+        f"  random walk: wrote {write_motion(walk.motion, out / 'graph_random_walk.bvh')} "
+        f"({walk.motion.num_frames} frames, {walk.transitions} transitions)"
     )
-    r = graph_report(g, out)
-    fs = r["foot_skate"]
+    fs = r.foot_skate
     if fs and fs["start_to_end_cm"]["mean"] is not None:
         click.echo(
             f"  foot skate of the transitions: {fs['start_to_end_cm']['mean']:.2f} cm "
             f"start-to-end, {fs['arc_length_cm']['mean']:.2f} cm arc length (mean)"
         )
+    cmp = compare_metrics(motions, g, db)
+    png = plot_cost_comparison(
+        cmp, out / "humanoid_graph_costs.png", title="demo graph: dynamics vs uniform metric"
+    )
+    click.echo(f"  plotted {png}")
 
 
 DEMO_STEPS.append((20, "motion graphs: build, walk, foot skate", graph_step))

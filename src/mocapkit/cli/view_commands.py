@@ -2,70 +2,25 @@
 
 from __future__ import annotations
 
-import json
 import webbrowser
 from pathlib import Path
-from typing import Any
 
 import click
 
-from mocapkit.cli.common import LENIENT, CLIError, friendly_errors, load, main
+from mocapkit.cli.common import (
+    LENIENT,
+    MOTION_SUFFIXES,
+    CLIError,
+    expand_inputs,
+    friendly_errors,
+    main,
+)
 from mocapkit.cli.demo import DEMO_STEPS
-
-
-def _read_json(path: str | Path, what: str) -> dict[str, Any]:
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise CLIError(f"{what} not found: {path}") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise CLIError(f"cannot read {what} {path}: {e}") from None
-    if not isinstance(data, dict):
-        raise CLIError(f"{what} {path}: expected a JSON object")
-    return data
-
-
-def _read_mdm(path: str | Path):
-    import numpy as np
-
-    try:
-        return np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise CLIError(f"MDM not found: {path}") from None
-    except (OSError, ValueError) as e:
-        raise CLIError(f"cannot read the MDM {path}: {e}") from None
-
-
-def view_files(
-    files: list[str],
-    out: str | Path,
-    clean_report: str | None = None,
-    mdm: str | None = None,
-    stitch: str | None = None,
-    graph: str | None = None,
-    lenient: bool = False,
-    up: str | None = None,
-    units: str | None = None,
-) -> Path:
-    """Read the motions and overlays and write the viewer page; returns its path."""
-    from mocapkit.viz import ViewMotion, write_page
-
-    motions = [ViewMotion(load(f, lenient), f) for f in files]
-    return write_page(
-        out,
-        motions,
-        up=up,
-        units=units,
-        clean_report=_read_json(clean_report, "cleaning report") if clean_report else None,
-        mdm=_read_mdm(mdm) if mdm else None,
-        stitch=_read_json(stitch, "stitch result") if stitch else None,
-        graph=_read_json(graph, "motion graph") if graph else None,
-        graph_dir=Path(graph).parent if graph else None,
-    )
+from mocapkit.viz.viewer import view_files
 
 
 @main.command("view")
-@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("files", nargs=-1, required=True, metavar="FILE_DIR_OR_GLOB...")
 @click.option(
     "--clean-report",
     type=click.Path(dir_okay=False),
@@ -129,12 +84,11 @@ def view_cmd(
       mocapkit view stitched.bvh --stitch best.json --open
       mocapkit view synth.bvh --graph graph.json
     """
-    out = Path(out_path) if out_path else Path(files[0]).with_suffix(".html")
+    paths = expand_inputs(files, MOTION_SUFFIXES, unique=False)
+    out = Path(out_path) if out_path else paths[0].with_suffix(".html")
     if out.suffix.lower() not in (".html", ".htm"):
         raise CLIError(f"--out must end in .html, got {out}")
-    page = view_files(
-        list(files), out, clean_report, mdm, stitch_json, graph_json, lenient, up, units
-    )
+    page = view_files(paths, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units)
     click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
     if open_page:
         webbrowser.open(page.resolve().as_uri())

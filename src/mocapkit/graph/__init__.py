@@ -10,10 +10,10 @@ Modules (data flows down the list):
   local minima over all frame pairs without holding the N x N matrix;
 * :mod:`~mocapkit.graph.select` merging, the knee rule for T, refinement;
 * :mod:`~mocapkit.graph.graph` the graph, pruning to the largest strongly connected component,
-  JSON / GraphML;
+  JSON / GraphML, its report, synthesis entry point and the two-metric cost comparison;
 * :mod:`~mocapkit.graph.synth` random and path-following walks, blended rendering;
 * :mod:`~mocapkit.graph.skate` foot skate of the transitions;
-* :mod:`~mocapkit.graph.plots` the cost-matrix and rank-curve figures (matplotlib).
+* the cost-matrix and rank-curve figures: :mod:`mocapkit.viz.figures.graph`.
 
 Quick start::
 
@@ -34,7 +34,17 @@ from mocapkit.graph.distance import (
     tiled_local_minima,
     window_weights,
 )
-from mocapkit.graph.graph import MotionGraph, build_graph, load_graph
+from mocapkit.graph.graph import (
+    CostComparison,
+    GraphReport,
+    MotionGraph,
+    Synthesis,
+    build_graph,
+    compare_metrics,
+    cost_comparison,
+    load_graph,
+    synthesize,
+)
 from mocapkit.graph.pointcloud import BodyParts, body_parts, point_cloud
 from mocapkit.graph.select import knee_rank, select_transitions
 from mocapkit.graph.skate import SkateReport, transition_skate
@@ -44,13 +54,18 @@ from mocapkit.graph.weights import METRICS, metric_weights, part_masses
 __all__ = [
     "METRICS",
     "BodyParts",
+    "CostComparison",
     "CostDatabase",
+    "GraphReport",
     "MotionGraph",
     "SkateReport",
+    "Synthesis",
     "Synthesizer",
     "body_parts",
     "build_database",
     "build_graph",
+    "compare_metrics",
+    "cost_comparison",
     "cost_matrix",
     "cost_tile",
     "follow_path",
@@ -64,6 +79,7 @@ __all__ = [
     "random_walk",
     "render",
     "select_transitions",
+    "synthesize",
     "tiled_local_minima",
     "transition_skate",
     "window_weights",

@@ -11,9 +11,10 @@ Frames are 0-based everywhere.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -23,11 +24,27 @@ from mocapkit.graph.distance import (
     CostDatabase,
     MinimaResult,
     build_database,
+    cost_tile,
     tiled_local_minima,
 )
 from mocapkit.graph.select import Candidates, select_transitions
 
-__all__ = ["FORMAT", "ClipInfo", "MotionGraph", "build_graph", "default_stride", "load_graph"]
+__all__ = [
+    "FORMAT",
+    "ClipInfo",
+    "CostComparison",
+    "GraphReport",
+    "MotionGraph",
+    "Synthesis",
+    "build_graph",
+    "compare_metrics",
+    "cost_comparison",
+    "default_stride",
+    "load_graph",
+    "load_path_csv",
+    "sampled_cost_matrix",
+    "synthesize",
+]
 
 FORMAT = "mocapkit-motion-graph"
 
@@ -213,13 +230,49 @@ class MotionGraph:
             "stats": self.stats,
         }
 
+    def to_json(self) -> dict:
+        """The graph file's content (:meth:`to_dict`), what ``mocapkit graph build`` writes."""
+        return self.to_dict()
+
     def save(self, path: str | Path) -> Path:
-        """Write the graph as JSON (atomically)."""
+        """Write the graph as strict JSON (atomically)."""
         from mocapkit.io.atomic import atomic_write_text
+        from mocapkit.jsonio import to_json_text
 
         path = Path(path)
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
+        atomic_write_text(path, to_json_text(self.to_dict(), indent=1) + "\n")
         return path
+
+    def report(
+        self, base: Path | None = None, motions: Sequence[Motion] | None = None
+    ) -> GraphReport:
+        """Transition count, the strongly connected component and the foot skate of the
+        transitions (:func:`mocapkit.graph.skate.transition_skate`) on ``motions``, or on the
+        clips read from their paths (relative ones against ``base``, the graph file's folder);
+        clips that cannot be read leave the skate out and say why."""
+        from mocapkit.graph.skate import transition_skate
+        from mocapkit.graph.synth import load_clips
+
+        nodes, _edges = self.scc()
+        skate = error = None
+        try:
+            clips = list(motions) if motions is not None else load_clips(self, base)
+        except (OSError, ValueError) as e:
+            error = str(e)
+        else:
+            skate = transition_skate(self, clips).summary() if self.num_transitions else None
+        return GraphReport(
+            clips=len(self.clips),
+            frames=int(sum(c.frames for c in self.clips)),
+            metric=self.metric,
+            T=self.T,
+            transitions=self.num_transitions,
+            transitions_in_scc=int(self.in_scc.sum()),
+            scc_nodes=len(nodes),
+            scc_frames=self.scc_frames(),
+            foot_skate=skate,
+            foot_skate_error=error,
+        )
 
     def save_graphml(self, path: str | Path) -> Path:
         """Write the (unpruned) graph as GraphML: nodes ``clip:frame`` with ``clip``, ``frame``,
@@ -292,6 +345,42 @@ class MotionGraph:
             if not p.is_absolute() and not p.exists() and base is not None:
                 p = base / p
             out.append(p)
+        return out
+
+
+@dataclass(frozen=True)
+class GraphReport:
+    """What ``mocapkit graph report`` says about a graph (:meth:`MotionGraph.report`).
+
+    ``foot_skate``: :meth:`~mocapkit.graph.skate.SkateReport.summary` (cm), None without
+    transitions or when the clips could not be read (``foot_skate_error`` says why).
+    """
+
+    clips: int
+    frames: int
+    metric: str
+    T: int
+    transitions: int
+    transitions_in_scc: int
+    scc_nodes: int
+    scc_frames: int
+    foot_skate: dict | None = None
+    foot_skate_error: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "clips": self.clips,
+            "frames": self.frames,
+            "metric": self.metric,
+            "T": self.T,
+            "transitions": self.transitions,
+            "transitions_in_scc": self.transitions_in_scc,
+            "scc_nodes": self.scc_nodes,
+            "scc_frames": self.scc_frames,
+            "foot_skate": self.foot_skate,
+        }
+        if self.foot_skate_error is not None:
+            out["foot_skate_error"] = self.foot_skate_error
         return out
 
 
@@ -386,3 +475,201 @@ def _fit_blend(db: CostDatabase, cand: Candidates, blend: int) -> Candidates:
     cs = db.clip_of(cand.src)
     ok = (cand.dst + blend <= db.starts[cd + 1] - 1) & (cand.src + blend <= db.starts[cs + 1])
     return cand.take(np.flatnonzero(ok))
+
+
+# ------------------------------------------------------------------------------- synthesis
+
+
+@dataclass(frozen=True, eq=False)
+class Synthesis:
+    """A synthesised motion and the walk through the graph that made it."""
+
+    motion: Motion
+    steps: list
+
+    @property
+    def transitions(self) -> int:
+        return sum(s.kind == "transition" for s in self.steps)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "frames": self.motion.num_frames,
+            "seconds": self.motion.duration,
+            "transitions": self.transitions,
+        }
+
+
+def synthesize(
+    graph: MotionGraph,
+    motions: Sequence[Motion],
+    *,
+    seconds: float | None = None,
+    path: np.ndarray | None = None,
+    seed: int = 0,
+    blend: str = "crossfade",
+) -> Synthesis:
+    """A seeded random walk of ``seconds`` (exactly that long, rounded to frames), or a walk
+    following the 2-D ground ``path`` ((n, 2) x, z points, file units;
+    :meth:`~mocapkit.graph.synth.Synthesizer.follow_path`), rendered with ``blend``
+    ("crossfade" or "inertialize")."""
+    from mocapkit.graph.synth import Synthesizer
+
+    if (seconds is None) == (path is None):
+        raise ValueError("give exactly one of --seconds or --path")
+    syn = Synthesizer(graph, motions)
+    if seconds is not None:
+        if not seconds > 0:
+            raise ValueError("--seconds must be positive")
+        steps = syn.random_walk(seconds, seed)
+        m = syn.render(steps, blend, max_frames=max(1, round(seconds * motions[0].fps)))
+    else:
+        steps = syn.follow_path(np.asarray(path, dtype=float), seed)
+        m = syn.render(steps, blend, start=syn.start_transform)
+    return Synthesis(m, list(steps))
+
+
+def load_path_csv(path: str | Path) -> np.ndarray:
+    """A 2-D ground path from a CSV file: (n, 2) x, z points from the first two columns
+    (commas, semicolons or tabs; a header line and ``#`` comments are skipped)."""
+    rows = []
+    for k, line in enumerate(Path(path).read_text().splitlines()):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        cells = [c for c in line.replace(";", ",").replace("\t", ",").split(",") if c.strip()]
+        try:
+            vals = [float(c) for c in cells]
+        except ValueError:
+            if not rows:
+                continue  # header
+            raise ValueError(f"{path}:{k + 1}: not a number in {line!r}") from None
+        if len(vals) < 2:
+            raise ValueError(f"{path}:{k + 1}: need two columns (x, z)")
+        rows.append(vals[:2])
+    if len(rows) < 2:
+        raise ValueError(f"{path}: a path needs at least two points")
+    return np.array(rows)
+
+
+# ------------------------------------------------------------------------- metric comparison
+
+
+def sampled_cost_matrix(db: CostDatabase, max_size: int = 1200) -> tuple[np.ndarray, np.ndarray]:
+    """The cost matrix on every k-th frame (k chosen so that it is at most ``max_size``
+    square), divided by its 95th percentile and clipped to [0, 1] (NaN where a frame has no
+    full window); and the sampled frames."""
+    N = db.num_frames
+    k = max(1, -(-N // max_size))
+    frames = np.arange(0, N, k)
+    m = np.full((len(frames), len(frames)), np.nan)
+    ok = db.valid_centres()[frames]
+    f = frames[ok]
+    if len(f):
+        t = cost_tile(db, f, f)
+        m[np.ix_(ok, ok)] = t
+    fin = np.isfinite(m)
+    if fin.any():
+        # robust normalisation: a few extreme frames (a T-pose, a fall) would darken the rest
+        scale = max(float(np.percentile(m[fin], 95.0)), 1e-300)
+        m[fin] = np.minimum(m[fin] / scale, 1.0)
+    return m, frames
+
+
+@dataclass(frozen=True, eq=False)
+class CostComparison:
+    """Two metrics' normalised cost matrices on the same frames, and their transitions: the
+    data of the paper's Figures 3 and 4 (:func:`mocapkit.viz.figures.graph.plot_cost_comparison`
+    draws it).
+
+    Attributes:
+        metrics: the metric names (one or two).
+        matrices: per metric, (n, n) normalised costs on the sampled frames (NaN: no window).
+        frames: (n,) the sampled library frames (all clips one after the other).
+        num_frames, fps: the library's length and frame rate.
+        clip_starts: (C + 1,) first library frame of each clip, then num_frames.
+        clip_names: the clips' names (file names).
+        transitions: per metric, (T, 2) library frames (source, destination).
+        shared: per metric, (T,) bool: within a quarter second of a transition of the other.
+        ranked_costs: per metric, the rank-ordered candidate costs; T: per metric, the chosen T.
+    """
+
+    metrics: tuple[str, ...]
+    matrices: dict[str, np.ndarray]
+    frames: np.ndarray
+    num_frames: int
+    fps: float
+    clip_starts: np.ndarray
+    clip_names: tuple[str, ...]
+    transitions: dict[str, np.ndarray]
+    shared: dict[str, np.ndarray]
+    ranked_costs: dict[str, np.ndarray]
+    T: dict[str, int]
+
+
+def cost_comparison(
+    dbs: Mapping[str, CostDatabase], graphs: Mapping[str, MotionGraph], max_size: int = 1200
+) -> CostComparison:
+    """The :class:`CostComparison` of (up to) two metrics' databases and graphs (same clips)."""
+    names = list(dbs)[:2]
+    first = dbs[names[0]]
+    mats, frames = {}, np.zeros(0, dtype=np.int64)
+    for n in names:
+        mats[n], frames = sampled_cost_matrix(dbs[n], max_size)
+    pts = {}
+    for n in names:
+        g = graphs[n]
+        pts[n] = np.stack(
+            [first.starts[g.src_clip] + g.src_frame, first.starts[g.dst_clip] + g.dst_frame], 1
+        ).reshape(-1, 2)
+    q = max(1, round(0.25 * first.fps))
+
+    def near(p: np.ndarray, others: np.ndarray) -> np.ndarray:
+        if len(others) == 0 or len(p) == 0:
+            return np.zeros(len(p), dtype=bool)
+        d = np.abs(p[:, None, :] - others[None, :, :]).max(-1)
+        return (d <= q).any(1)
+
+    shared = {}
+    for n in names:
+        other = [m for m in names if m != n]
+        shared[n] = near(pts[n], pts[other[0]]) if other else np.zeros(len(pts[n]), dtype=bool)
+    g0 = graphs[names[0]]
+    return CostComparison(
+        metrics=tuple(names),
+        matrices=mats,
+        frames=frames,
+        num_frames=first.num_frames,
+        fps=float(first.fps),
+        clip_starts=np.asarray(first.starts, dtype=np.int64),
+        clip_names=tuple(Path(c.path).name for c in g0.clips),
+        transitions=pts,
+        shared=shared,
+        ranked_costs={n: np.asarray(graphs[n].ranked_costs) for n in names},
+        T={n: int(graphs[n].T) for n in names},
+    )
+
+
+def compare_metrics(
+    motions: Sequence[Motion],
+    graph: MotionGraph,
+    database: CostDatabase,
+    other: str | None = None,
+    masses: dict[str, float] | None = None,
+    max_size: int = 1200,
+) -> CostComparison:
+    """Build the graph of ``motions`` with another metric (``other``; default "uniform", or
+    "dynamics" when ``graph`` is uniform) with the same T, window and stride, and compare it
+    with ``graph`` (built on ``database``): :func:`cost_comparison`."""
+    metric = graph.metric
+    other = other or ("uniform" if metric != "uniform" else "dynamics")
+    db2 = build_database(motions, other, graph.window, masses=masses)
+    g2, _, _ = build_graph(
+        motions,
+        other,
+        paths=[c.path for c in graph.clips],
+        transitions=graph.T,
+        window=graph.window,
+        stride=graph.stride,
+        database=db2,
+    )
+    return cost_comparison({metric: database, other: db2}, {metric: graph, other: g2}, max_size)

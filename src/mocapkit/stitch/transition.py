@@ -479,7 +479,11 @@ def interpolate_gap(
     tra = t0[None] * (1 - t[:, None, None]) + t1[None] * t[:, None, None]
     has_t = query.translations is not None or data.translations is not None
     gen = Motion(
-        query.skeleton, rots.reshape(g, -1, 4), tra[:, 0], query.frame_time, tra if has_t else None
+        query.skeleton,
+        rots.reshape(g, q0.shape[0], 4),
+        tra[:, 0],
+        query.frame_time,
+        tra if has_t else None,
     )
     motion = _join(query[: a + 1], gen, data[b:])
     return Stitched(motion, method, a, b, g, slice(a + 1, a + 1 + g), a + 1 + g, transform, up=up)

@@ -240,7 +240,11 @@ class Browser:
         self._id += 1
         my = self._id
         self.ws.sock.settimeout(timeout or self.timeout)
-        self.ws.send(json.dumps({"id": my, "method": method, "params": params or {}}))
+        from mocapkit.jsonio import to_json_text
+
+        self.ws.send(
+            to_json_text({"id": my, "method": method, "params": params or {}}, indent=None)
+        )
         while True:
             try:
                 msg = json.loads(self.ws.recv())

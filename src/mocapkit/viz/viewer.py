@@ -33,6 +33,7 @@ __all__ = [
     "match_graph_transitions",
     "page_data",
     "to_y_up",
+    "view_files",
     "write_page",
 ]
 
@@ -393,7 +394,9 @@ def _script(text: str) -> str:
 
 def build_page(data: dict[str, Any]) -> str:
     """The HTML text of the page for :func:`page_data`'s result."""
-    blob = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    from mocapkit.jsonio import to_json_text
+
+    blob = to_json_text(data, indent=None, separators=(",", ":")).replace("</", "<\\/")
     html = _static("template.html")
     parts = {
         "{{TITLE}}": _html_escape(f"mocapkit view: {data['title']}"),
@@ -432,3 +435,56 @@ def write_page(path: str | Path, motions: Sequence[ViewMotion], **kwargs: Any) -
     p = Path(path)
     atomic_write_text(p, build_page(page_data(motions, **kwargs)))
     return p
+
+
+def read_overlay_json(path: str | Path, what: str) -> dict[str, Any]:
+    """A JSON overlay file (cleaning report, stitch result, motion graph) as a dict;
+    FileNotFoundError / ValueError with a one-line message naming ``what``."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{what} not found: {path}") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"cannot read {what} {path}: {e}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} {path}: expected a JSON object")
+    return data
+
+
+def read_mdm(path: str | Path) -> np.ndarray:
+    """An MDM ``.npy`` file (``mocapkit clean --mdm``)."""
+    try:
+        return np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"MDM not found: {path}") from None
+    except (OSError, ValueError) as e:
+        raise ValueError(f"cannot read the MDM {path}: {e}") from None
+
+
+def view_files(
+    files: Sequence[str | Path],
+    out: str | Path,
+    clean_report: str | Path | None = None,
+    mdm: str | Path | None = None,
+    stitch: str | Path | None = None,
+    graph: str | Path | None = None,
+    lenient: bool = False,
+    up: str | None = None,
+    units: str | None = None,
+) -> Path:
+    """Read the motion files and the overlay files and write the viewer page (what ``mocapkit
+    view`` does); returns its path."""
+    from mocapkit.io import read_motion
+
+    motions = [ViewMotion(read_motion(f, lenient=lenient), str(f)) for f in files]
+    return write_page(
+        out,
+        motions,
+        up=up,
+        units=units,
+        clean_report=read_overlay_json(clean_report, "cleaning report") if clean_report else None,
+        mdm=read_mdm(mdm) if mdm else None,
+        stitch=read_overlay_json(stitch, "stitch result") if stitch else None,
+        graph=read_overlay_json(graph, "motion graph") if graph else None,
+        graph_dir=Path(graph).parent if graph else None,
+    )
