@@ -178,8 +178,12 @@ def untainted(gn: GroupNeighbours, tainted: np.ndarray, target_len: int) -> Grou
     return GroupNeighbours(gn.group, gn.starts, gn.index, gn.distance, gn.words, usable)
 
 
-def _warp_word(target: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:
-    """Target frames along the DTW path (p, m, 4), resampled to ``n`` frames (polyphase)."""
+def warp_word(target: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:
+    """A target word brought onto a source word of ``n`` frames: the frames of ``target``
+    (M, m, 4) visited by the DTW path (p, 2) of (source, target) frame pairs, i.e. the target
+    frames ``path[:, 1]`` (p, m, 4), resampled to ``n`` frames (polyphase, renormalised).
+    Used for the KNN words of :func:`search_group` and the full-body words of
+    :func:`mocapkit.clean.sparse.reconstruct`."""
     seq = target[path[:, 1]]  # (p, m, 4)
     p = seq.shape[0]
     if p == n:
@@ -258,7 +262,7 @@ def search_group(
             t0 = int(tst[c])
             block = distances[a - row_offset : a - row_offset + N, t0 : t0 + M]
             _, path = constrained_dtw(block, max_run)
-            ww = _warp_word(context.rotations[t0 : t0 + M][:, js], path, N)
+            ww = warp_word(context.rotations[t0 : t0 + M][:, js], path, N)
             sign = np.where(np.sum(ww * src_word, axis=-1, keepdims=True) < 0, -1.0, 1.0)
             words[w, r] = ww * sign
             index[w, r] = t0

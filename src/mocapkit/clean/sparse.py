@@ -17,7 +17,7 @@ from scipy.signal import savgol_filter
 
 from mocapkit import features
 from mocapkit.clean.dtw import MAX_RUN, constrained_dtw, pose_distance, pose_distance_matrices
-from mocapkit.clean.knn import K_NEIGHBOURS, Context, _warp_word, search_group
+from mocapkit.clean.knn import K_NEIGHBOURS, Context, GroupNeighbours, search_group, warp_word
 from mocapkit.clean.texture import interpolate_track, make_texture, texture_from_rotations
 from mocapkit.clean.words import ANALYSIS_FPS, JointGroup, source_word_starts, word_lengths
 from mocapkit.core import rotations as rot
@@ -49,6 +49,128 @@ def _full_layout(
     return out, sorted(set(idx))
 
 
+def _database_skeleton(database: Sequence[Motion]) -> Skeleton:
+    """The one skeleton of the database takes (checked by joint names)."""
+    if not database:
+        raise ValueError("the database needs at least one take")
+    full = database[0].skeleton
+    for m in database[1:]:
+        if list(m.skeleton.names) != list(full.names):
+            raise ValueError("database takes must share one skeleton")
+    return full
+
+
+def _analysis_texture(sparse: Motion, full: Skeleton, rots: np.ndarray, fps: float) -> np.ndarray:
+    """(F_a, J_full, 4) analysis texture at ``fps`` of the sparse take laid out on the full
+    skeleton (``rots``, from :func:`_full_layout`)."""
+    if abs(sparse.fps - fps) > 1e-6 * fps:
+        partial = Motion(full, rots, np.zeros((sparse.num_frames, 3)), sparse.frame_time)
+        return texture_from_rotations(features.resample(partial, fps).rotations)
+    return texture_from_rotations(rots)
+
+
+def _word_candidates(
+    ctx: Context,
+    gn: GroupNeighbours,
+    distances: np.ndarray,
+    w: int,
+    source_len: int,
+    target_len: int,
+    max_run: int,
+) -> list[tuple[float, np.ndarray]]:
+    """(word distance, full-body neighbour word (N, J, 4)) of each neighbour found for source
+    word ``w``: its target word warped along the DTW path of the known joints."""
+    N, M = source_len, target_len
+    a = gn.starts[w]
+    cands = []
+    for r in range(gn.index.shape[1]):
+        t0 = gn.index[w, r]
+        if t0 < 0:
+            continue
+        block = distances[a : a + N, t0 : t0 + M]
+        _, path = constrained_dtw(block, max_run)
+        word = warp_word(ctx.rotations[t0 : t0 + M], path, N)
+        cands.append((gn.distance[w, r], word))
+    return cands
+
+
+def _chain_words(
+    ctx: Context,
+    gn: GroupNeighbours,
+    distances: np.ndarray,
+    source_len: int,
+    target_len: int,
+    max_run: int,
+    transition_weight: float,
+) -> list[np.ndarray | None]:
+    """One full-body word per source word (None where no neighbour was found): the first word
+    takes its nearest neighbour, every later one the neighbour minimising its word distance plus
+    ``transition_weight`` times the mean pose distance to the previous choice over the frames
+    they share."""
+    N = source_len
+    chosen: list[np.ndarray | None] = []
+    prev = None
+    for w, a in enumerate(gn.starts):
+        cands = _word_candidates(ctx, gn, distances, w, N, target_len, max_run)
+        if not cands:
+            chosen.append(None)
+            continue
+        if prev is None:
+            best = min(cands, key=lambda c: c[0])[1]
+        else:
+            pa, pword = prev
+            ov = pa + N - a  # overlapping frames with the previous word
+            if ov > 0:
+                costs = [
+                    d + transition_weight * float(np.mean(pose_distance(wd[:ov], pword[a - pa :])))
+                    for d, wd in cands
+                ]
+            else:
+                costs = [d for d, _ in cands]
+            best = cands[int(np.argmin(costs))][1]
+        chosen.append(best)
+        prev = (int(a), best)
+    return chosen
+
+
+def _blend_words(
+    chosen: Sequence[np.ndarray | None],
+    starts: np.ndarray,
+    source_len: int,
+    num_frames: int,
+    num_joints: int,
+) -> np.ndarray:
+    """(num_frames, J, 4) texture of the chosen words (``source_len`` frames each, starting at
+    ``starts``) blended with triangular weights, each word on the hemisphere of the one before
+    (identity where no word covers a frame)."""
+    N = source_len
+    acc = np.zeros((num_frames, num_joints, 4))
+    tri = 1.0 - np.abs(np.arange(N) - (N - 1) / 2) / ((N + 1) / 2)
+    ref = None
+    for a, word in zip(starts, chosen, strict=True):
+        if word is None:
+            continue
+        if ref is None:
+            ref = word[0]
+        word = np.where(np.sum(word * ref, axis=-1, keepdims=True) < 0, -word, word)
+        acc[a : a + N] += word * tri[:, None, None]
+        ref = word[-1]
+    n = np.linalg.norm(acc, axis=-1, keepdims=True)
+    rec = np.where(n > 1e-12, acc / np.where(n > 0, n, 1.0), rot.quat_identity((1, 1)))
+    return texture_from_rotations(rec)
+
+
+def _to_take_frames(rec: np.ndarray, fps: float, sparse: Motion) -> np.ndarray:
+    """The analysis texture ``rec`` (at ``fps``) slerped to the take's frames and smoothed with
+    a quadratic Savitzky-Golay filter over about 0.2 s."""
+    times = np.arange(sparse.num_frames) * sparse.frame_time
+    rec_f = interpolate_track(rec, fps, times)
+    win = max(5, round(0.2 * sparse.fps) | 1)
+    if sparse.num_frames >= win:
+        rec_f = rot.quat_normalize(savgol_filter(rec_f, win, 2, axis=0, mode="interp"))
+    return rec_f
+
+
 def reconstruct(
     sparse: Motion,
     database: Sequence[Motion],
@@ -74,26 +196,14 @@ def reconstruct(
         A Motion on the database skeleton at the input's frame rate: known joints and the root
         translation copied from the input, the other joints reconstructed.
     """
-    if not database:
-        raise ValueError("the database needs at least one take")
-    full = database[0].skeleton
-    for m in database[1:]:
-        if list(m.skeleton.names) != list(full.names):
-            raise ValueError("database takes must share one skeleton")
+    full = _database_skeleton(database)
     rots, kidx = _full_layout(sparse, full, known)
     pelvis = features.pelvis_index(full)
     search_joints = [j for j in kidx if j != pelvis]
     if len(search_joints) < 2:
         raise ValueError("at least two known joints (besides the pelvis) are needed")
-    J = full.num_joints
-    partial = Motion(full, rots, np.zeros((sparse.num_frames, 3)), sparse.frame_time)
-    src_file = texture_from_rotations(rots)
-    if abs(sparse.fps - fps) > 1e-6 * fps:
-        src = texture_from_rotations(features.resample(partial, fps).rotations)
-    else:
-        src = src_file.copy()
-    db = [make_texture(m, fps).rotations for m in database]
-    ctx = Context.build(db)
+    src = _analysis_texture(sparse, full, rots, fps)
+    ctx = Context.build([make_texture(m, fps).rotations for m in database])
     N, step, M = word_lengths(fps)
     if src.shape[0] < N:
         raise ValueError(f"the take is too short: {src.shape[0]} analysis frames, a word needs {N}")
@@ -102,57 +212,9 @@ def reconstruct(
     group = JointGroup("known", tuple(search_joints), trim)
     D = pose_distance_matrices(src, ctx.rotations, [group])[0]
     gn = search_group(src, ctx, group, starts, N, M, k, 0, max_run, distances=D)
-    all_j = np.arange(J)
-    chosen = []
-    prev = None
-    for w, a in enumerate(starts):
-        cands = []
-        for r in range(k):
-            t0 = gn.index[w, r]
-            if t0 < 0:
-                continue
-            block = D[a : a + N, t0 : t0 + M]
-            _, path = constrained_dtw(block, max_run)
-            word = _warp_word(ctx.rotations[t0 : t0 + M][:, all_j], path, N)
-            cands.append((gn.distance[w, r], word))
-        if not cands:
-            chosen.append(None)
-            continue
-        if prev is None:
-            best = min(cands, key=lambda c: c[0])[1]
-        else:
-            pa, pword = prev
-            ov = pa + N - a  # overlapping frames with the previous word
-            if ov > 0:
-                costs = [
-                    d + transition_weight * float(np.mean(pose_distance(wd[:ov], pword[a - pa :])))
-                    for d, wd in cands
-                ]
-            else:
-                costs = [d for d, _ in cands]
-            best = cands[int(np.argmin(costs))][1]
-        chosen.append(best)
-        prev = (int(a), best)
-    acc = np.zeros((src.shape[0], J, 4))
-    tri = 1.0 - np.abs(np.arange(N) - (N - 1) / 2) / ((N + 1) / 2)
-    ref = None
-    for a, word in zip(starts, chosen, strict=True):
-        if word is None:
-            continue
-        if ref is None:
-            ref = word[0]
-        word = np.where(np.sum(word * ref, axis=-1, keepdims=True) < 0, -word, word)
-        acc[a : a + N] += word * tri[:, None, None]
-        ref = word[-1]
-    n = np.linalg.norm(acc, axis=-1, keepdims=True)
-    rec = np.where(n > 1e-12, acc / np.where(n > 0, n, 1.0), rot.quat_identity((1, 1)))
-    rec = texture_from_rotations(rec)
-    times = np.arange(sparse.num_frames) * sparse.frame_time
-    rec_f = interpolate_track(rec, fps, times)
-    win = max(5, round(0.2 * sparse.fps) | 1)
-    if sparse.num_frames >= win:
-        rec_f = rot.quat_normalize(savgol_filter(rec_f, win, 2, axis=0, mode="interp"))
-    out = rec_f.copy()
+    chosen = _chain_words(ctx, gn, D, N, M, max_run, transition_weight)
+    rec = _blend_words(chosen, starts, N, src.shape[0], full.num_joints)
+    out = _to_take_frames(rec, fps, sparse)
     out[:, kidx] = rots[:, kidx]
     root = np.asarray(sparse.root_positions, dtype=np.float64).copy()
     return Motion(full, out, root, sparse.frame_time)
