@@ -396,6 +396,7 @@ class Body:
             "height_m": round(self.height_m, 4),
             "metres_per_unit": self.metres_per_unit,
             "units_source": self.units_source,
+            "labels": self.labels(),
         }
 
     def labels(self) -> list[str]:

@@ -53,6 +53,8 @@ class MotionSummary:
     bounding_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     contacts: dict[str, ContactSummary] | None = None
     contacts_error: str | None = None
+    parents: tuple[int, ...] = ()
+    body: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -83,6 +85,8 @@ class MotionSummary:
                 name: {"fraction": c.fraction, "segments": c.segments}
                 for name, c in self.contacts.items()
             }
+        out["parents"] = list(self.parents)
+        out["body"] = self.body
         out.update(self.extra)
         return out
 
@@ -97,10 +101,12 @@ def summarize(
     Contacts: :func:`mocapkit.features.foot_contacts`, fraction rounded to 4 digits.
     """
     from mocapkit import features
+    from mocapkit.body import body_of
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.core.runs import true_runs
 
     sk = motion.skeleton
+    body = body_of(motion)
     up = up.upper() if up else features.detect_up_axis(motion)
     if units:
         metres = features.metres_per_unit(motion, units)
@@ -144,6 +150,8 @@ def summarize(
         bounding_box=box,
         contacts=contacts,
         contacts_error=error,
+        parents=tuple(int(p) for p in sk.parents),
+        body=body.to_json(),
     )
 
 

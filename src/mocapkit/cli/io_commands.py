@@ -21,6 +21,23 @@ from mocapkit.summary import summarize_file
 
 
 # --------------------------------------------------------------------------------------- info
+def tree_lines(names: list[str], parents: list[int], labels: list[str]) -> list[str]:
+    """The hierarchy as indented lines, each joint with its body part (iterative: rigs can
+    nest thousands of joints)."""
+    children: list[list[int]] = [[] for _ in names]
+    for j, p in enumerate(parents):
+        if p >= 0:
+            children[p].append(j)
+    lines: list[str] = []
+    stack = [(j, 0) for j in reversed(range(len(names))) if parents[j] < 0]
+    while stack:
+        j, depth = stack.pop()
+        label = f"  ({labels[j]})" if labels and labels[j] else ""
+        lines.append(f"{'  ' * depth}{names[j]}{label}")
+        stack.extend((c, depth + 1) for c in reversed(children[j]))
+    return lines
+
+
 def print_info(info: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -34,7 +51,13 @@ def print_info(info: dict[str, Any]) -> None:
     t.add_row("frame time", f"{info['frame_time']!r} s ({info['fps']:.6g} fps)")
     t.add_row("duration", f"{info['duration_s']:.3f} s")
     t.add_row("up axis", info["up_axis"])
-    t.add_row("units (guess)", f"{info['units_guess']} ({info['metres_per_unit']:g} m per unit)")
+    body = info.get("body", {})
+    how = "from the file" if body.get("units_source") == "file" else "guess"
+    t.add_row(f"units ({how})", f"{info['units_guess']} ({info['metres_per_unit']:g} m per unit)")
+    if body:
+        t.add_row("height", f"{body['height_m']:.2f} m")
+        if body.get("ground_root"):
+            t.add_row("ground root", body["ground_root"])
     if "bounding_box" in info:
         bb = info["bounding_box"]
         t.add_row("bounding box", f"min {bb['min']}  max {bb['max']}")
@@ -62,10 +85,16 @@ def print_info(info: dict[str, Any]) -> None:
     type=click.Choice(["m", "cm", "mm", "inch"]),
     help="Length unit instead of the guess.",
 )
+@click.option("--tree", is_flag=True, help="Also print the hierarchy with each joint's body part.")
 @LENIENT
 @friendly_errors
 def info(
-    files: tuple[str, ...], as_json: bool, up: str | None, units: str | None, lenient: bool
+    files: tuple[str, ...],
+    as_json: bool,
+    up: str | None,
+    units: str | None,
+    tree: bool,
+    lenient: bool,
 ) -> None:
     """Summarise motion files: joints, channels, frames, fps, units, bounding box, contacts.
 
@@ -78,6 +107,7 @@ def info(
       mocapkit info --json clips/*.bvh > summary.json
       mocapkit info --json 'clips/**/*.bvh' takes/
       mocapkit info --up Z --units cm zup_clip.bvh
+      mocapkit info --tree take.bvh              (hierarchy: Hips (pelvis), LeftUpLeg (left_hip)...)
     """
     paths = expand_inputs(files, MOTION_SUFFIXES)
     infos = []
@@ -90,6 +120,9 @@ def info(
     else:
         for i in infos:
             print_info(i)
+            if tree:
+                for line in tree_lines(i["joint_names"], i["parents"], i["body"]["labels"]):
+                    click.echo(line)
 
 
 # ------------------------------------------------------------------------------------ convert
