@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -269,6 +269,7 @@ def humanoid_skeleton(height: float = 1.7, units: str = "m") -> Skeleton:
 #   elbow_l/r    elbow flexion             elbow_swing  extra flexion while the arm is forward
 #   fore_raise_r right forearm raised in the arm's plane (waving), wave_amp/wave_freq its
 #                oscillation; idle_sway/idle_freq a slow lateral weight shift
+# fmt: off
 _PARAMS: dict[str, dict[str, float]] = {
     "walk": dict(
         speed=1.1, freq=0.95, duty=0.62, clearance=0.05, heel=30.0, crouch=0.01, bob=0.004,
@@ -312,6 +313,7 @@ _UPPER_BODY = (
     "Spine", "Chest", "Neck", "Head", "LeftShoulder", "RightShoulder", "LeftArm", "RightArm",
     "LeftForeArm", "RightForeArm", "LeftHand", "RightHand",
 )
+# fmt: on
 
 
 @dataclass(eq=False)
@@ -479,6 +481,7 @@ def _foot_plan(
     Returns contact (n,), forward (n,), lateral (n,), height (n,) and foot pitch (n,) (heel
     rise, radians) for the phases ``phi`` of that foot (0 = its touch-down).
     """
+
     def at(key: str, ph: np.ndarray) -> np.ndarray:
         return np.interp(ph, phi_grid, grid[key])
 
@@ -509,6 +512,240 @@ def _foot_plan(
     rise = _smoothstep((u / np.maximum(b, 1e-9) - 0.5) / 0.5)
     pitch = heel[k] * np.where(contact, rise, 1.0 - _smoothstep(sigma / 0.6))
     return contact, f, la, h, pitch
+
+
+class _Gait(NamedTuple):
+    """Blended gait parameters and phases on the padded frame grid (frames ``-pad .. F+pad-1``)."""
+
+    params: dict[str, np.ndarray]  # per-frame gait table, plus "s": distance travelled (units)
+    phase: np.ndarray  # gait phase in cycles (0 = left touch-down)
+    sway: np.ndarray  # cos 2π(phase - duty / 2): the side-to-side cycle of pelvis and chest
+    wave_phase: np.ndarray  # cycles of the waving forearm
+    idle_phase: np.ndarray  # cycles of the idle weight shift
+    pad: int  # frames before frame 0 (and after the last frame)
+
+
+class _Path(NamedTuple):
+    """The world frame of the straight path: unit forward, left and up vectors, and the
+    heading rotation (3, 3)."""
+
+    fwd: np.ndarray
+    left: np.ndarray
+    up: np.ndarray
+    R_head: np.ndarray
+
+
+def _segment_params(
+    segments: Sequence[tuple[str, float] | tuple[str, float, Mapping[str, float]]],
+    rng: np.random.Generator,
+    froude: float,
+) -> tuple[list[str], list[float], list[dict[str, float]]]:
+    """Kinds, durations (seconds) and seeded gait tables of the segments, in segment order."""
+    kinds: list[str] = []
+    durations: list[float] = []
+    params: list[dict[str, float]] = []
+    for seg in segments:
+        kind, seconds = seg[0], float(seg[1])
+        if not seconds > 0:
+            raise ValueError(f"segment {kind!r}: seconds must be positive, got {seconds}")
+        ov = seg[2] if len(seg) > 2 else None  # type: ignore[misc]
+        kinds.append(kind)
+        durations.append(seconds)
+        params.append(_kind_params(kind, rng, ov, froude))  # type: ignore[arg-type]
+    return kinds, durations, params
+
+
+def _gait_timeline(
+    params: list[dict[str, float]],
+    bounds: np.ndarray,
+    F: int,
+    fps: float,
+    blend: float,
+    froude: float,
+    units: str,
+    phase0: float,
+    idle0: float,
+) -> _Gait:
+    """Per-frame blended parameters and the integrated phases and distance, on a frame grid
+    padded so that footholds one and a half cycles ahead/behind are defined."""
+    min_freq = min(p["freq"] for p in params) / froude
+    P = int(np.ceil(2.5 * fps / min_freq)) + 2
+    idx = np.arange(-P, F + P)
+    t = idx / fps
+    g = _blend_params(params, bounds, t, blend)
+    dt = 1.0 / fps
+    speed = g["speed"] * froude * _unit_scale(units)
+    freq = g["freq"] / froude
+
+    def integral(rate: np.ndarray) -> np.ndarray:
+        c = np.concatenate([[0.0], np.cumsum(rate[:-1] * dt)])
+        return c - c[P]
+
+    phi = phase0 + integral(freq)
+    g["s"] = integral(speed)
+    wave_ph = integral(g["wave_freq"] / froude)
+    idle_ph = idle0 + integral(g["idle_freq"] / froude)
+    sway = np.cos(2.0 * np.pi * (phi - g["duty"] / 2.0))
+    return _Gait(g, phi, sway, wave_ph, idle_ph, P)
+
+
+def _path_frame(heading: float) -> _Path:
+    ch, sh = np.cos(heading), np.sin(heading)
+    return _Path(
+        fwd=np.array([sh, 0.0, ch]),
+        left=np.array([ch, 0.0, -sh]),
+        up=np.array([0.0, 1.0, 0.0]),
+        R_head=rot.euler_to_matrix(np.array([0.0, 0.0, heading]), ORDER),
+    )
+
+
+def _plan_feet(
+    gait: _Gait, path: _Path, H: float, d_toe: np.ndarray
+) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per foot ("Left", "Right"): contact (n,), world toe and ankle positions (n, 3) and the
+    global foot rotation (n, 3, 3) on the padded grid; ``d_toe`` is the ankle -> toe offset."""
+    feet = {}
+    for side, name, shift in ((1.0, "Left", 0.0), (-1.0, "Right", 0.5)):
+        ph = gait.phase - shift
+        contact, f, la, h, pitch = _foot_plan(side, H, d_toe[2], ph, gait.params, ph)
+        toe = f[:, None] * path.fwd + la[:, None] * path.left + h[:, None] * path.up
+        g_foot = path.R_head @ _axis_rot(0, pitch)
+        ankle = toe - g_foot @ d_toe
+        feet[name] = (contact, toe, ankle, g_foot)
+    return feet
+
+
+def _pelvis(
+    gait: _Gait,
+    path: _Path,
+    H: float,
+    skel: Skeleton,
+    feet: Mapping[str, tuple[np.ndarray, ...]],
+    reach: float,
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Global pelvis rotation (n, 3, 3), root position (n, 3) and hip positions (n, 3) per side
+    on the padded grid. The pelvis height is a smooth minimum of its nominal height and the
+    heights at which each hip is ``reach`` from its ankle."""
+    g, phi, up = gait.params, gait.phase, path.up
+    off = skel.offsets
+    d2 = g["duty"] / 2.0
+    c1 = gait.sway
+    lat = g["sway"] * H * c1 + g["idle_sway"] * H * np.sin(2.0 * np.pi * gait.idle_phase)
+    y_nom = off[0, 1] - g["crouch"] * H + g["bob"] * H * np.cos(4.0 * np.pi * (phi - d2))
+    cos_c = np.cos(2.0 * np.pi * phi)
+    root_e = np.stack(
+        [
+            np.deg2rad(g["pelvis_roll"]) * c1,
+            np.deg2rad(g["lean"]),
+            -np.deg2rad(g["pelvis_yaw"]) * cos_c,
+        ],
+        axis=-1,
+    )
+    R0 = path.R_head @ rot.euler_to_matrix(root_e, ORDER)
+    p_xz = g["s"][:, None] * path.fwd + lat[:, None] * path.left
+    limits = [y_nom]
+    hips0 = {}
+    for name in ("Left", "Right"):
+        hip0 = p_xz + R0 @ off[skel.index(f"{name}UpLeg")]
+        hips0[name] = hip0
+        ankle = feet[name][2]
+        horiz = np.hypot(*(hip0 - ankle)[:, [0, 2]].T)
+        limits.append(ankle[:, 1] - hip0[:, 1] + np.sqrt(np.maximum(reach**2 - horiz**2, 0.0)))
+    k_soft = 0.002 * H
+    lim = np.stack(limits)
+    lo = lim.min(axis=0)
+    y = lo - k_soft * np.log(np.exp(-(lim - lo) / k_soft).sum(axis=0))  # smooth min, <= min
+    root_pos = p_xz + y[:, None] * up
+    hips = {name: hip0 + y[:, None] * up for name, hip0 in hips0.items()}
+    return R0, root_pos, hips
+
+
+def _leg_rotations(
+    R0: np.ndarray,
+    hips: Mapping[str, np.ndarray],
+    feet: Mapping[str, tuple[np.ndarray, ...]],
+    path: _Path,
+    l1: float,
+    l2: float,
+) -> dict[str, np.ndarray]:
+    """Local rotation matrices (n, 3, 3) of the pelvis and both legs: two-bone IK from each
+    hip to its ankle (knees forward), feet from the foot plan, toes flat."""
+    local: dict[str, np.ndarray] = {"Hips": R0}
+    for name in ("Left", "Right"):
+        _, _, ankle, g_foot = feet[name]
+        hip = hips[name]
+        g1, g2 = _two_bone_ik(hip, ankle, np.broadcast_to(path.fwd, hip.shape), l1, l2)
+        local[f"{name}UpLeg"] = np.swapaxes(R0, -1, -2) @ g1
+        local[f"{name}Leg"] = np.swapaxes(g1, -1, -2) @ g2
+        local[f"{name}Foot"] = np.swapaxes(g2, -1, -2) @ g_foot
+        local[f"{name}Toe"] = np.swapaxes(g_foot, -1, -2) @ path.R_head  # toes stay flat
+    return local
+
+
+def _upper_body_angles(
+    gait: _Gait, F: int, fps: float, noise: float, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
+    """ZXY Euler angles (F, 3) of the spine, neck, head, shoulders and arms on the output
+    frames: counter-rotation, arm swing opposite to the legs, waving, breathing, plus smooth
+    seeded noise of ``noise`` radians."""
+    sl = slice(gait.pad, gait.pad + F)
+    gg = {k: v[sl] for k, v in gait.params.items()}
+    cos_p = np.cos(2.0 * np.pi * gait.phase[sl])
+    c1s = gait.sway[sl]
+    rad = np.deg2rad
+    twist = rad(gg["pelvis_yaw"] + gg["thorax_yaw"]) * cos_p  # chest yaw relative to pelvis
+    zeros = np.zeros(F)
+
+    def e(z: np.ndarray, x: np.ndarray, yy: np.ndarray) -> np.ndarray:
+        return np.stack(np.broadcast_arrays(z, x, yy), axis=-1).astype(np.float64)
+
+    lean = rad(gg["lean"])
+    roll = rad(gg["pelvis_roll"]) * c1s
+    breath = rad(1.0) * np.sin(2.0 * np.pi * 0.3 * np.arange(F) / fps)
+    upper = {
+        "Spine": e(-0.5 * roll, -0.2 * lean, 0.5 * twist),
+        "Chest": e(-0.3 * roll, breath, 0.5 * twist),
+        "Neck": e(0.3 * roll, -0.3 * lean, -0.4 * rad(gg["thorax_yaw"]) * cos_p),
+        "Head": e(0.2 * roll, -0.3 * lean, -0.4 * rad(gg["thorax_yaw"]) * cos_p),
+        "LeftShoulder": e(zeros, zeros, zeros),
+        "RightShoulder": e(-0.3 * rad(np.maximum(gg["arm_abd_r"] - 90.0, 0.0)), zeros, zeros),
+        "LeftHand": e(zeros, zeros, zeros),
+        "RightHand": e(zeros, zeros, zeros),
+    }
+    # Arms swing opposite to the legs: the left leg is forward at phase 0, the left arm back.
+    swing = rad(gg["arm_swing"])
+    fwd_l = -swing * cos_p
+    fwd_r = swing * cos_p + rad(gg["arm_fwd_r"])
+    flex_l = rad(gg["elbow_l"]) - rad(gg["elbow_swing"]) * cos_p
+    flex_r = rad(gg["elbow_r"]) + rad(gg["elbow_swing"]) * cos_p
+    raise_r = rad(gg["fore_raise_r"]) + rad(gg["wave_amp"]) * np.sin(
+        2.0 * np.pi * gait.wave_phase[sl]
+    )
+    # T-pose arms along +-X: Z lowers/raises the arm, Y swings it fore-aft (for the left arm
+    # a negative Y angle is forward, for the right arm a positive one); the forearm flexes
+    # forward about Y and rises in the arm's plane about Z.
+    upper["LeftArm"] = e(-(np.pi / 2 - rad(gg["arm_abd_l"])), zeros, -fwd_l)
+    upper["RightArm"] = e(np.pi / 2 - rad(gg["arm_abd_r"]), zeros, fwd_r)
+    upper["LeftForeArm"] = e(zeros, zeros, -flex_l)
+    upper["RightForeArm"] = e(-raise_r, zeros, flex_r)
+    if noise > 0:
+        sig = 0.15 * fps
+        for n in _UPPER_BODY:
+            upper[n] = upper[n] + noise * _smooth_noise(rng, F, sig)
+    return upper
+
+
+def _segment_labels(
+    kinds: Sequence[str], bounds: np.ndarray, F: int, fps: float
+) -> tuple[np.ndarray, tuple[tuple[str, int, int], ...]]:
+    """(F,) kind of each frame and the (kind, first frame, end frame) of each segment."""
+    tf = np.arange(F) / fps
+    seg_of = np.clip(np.searchsorted(bounds, tf, side="right") - 1, 0, len(kinds) - 1)
+    labels = np.array(kinds, dtype=object)[seg_of]
+    starts = np.searchsorted(seg_of, np.arange(len(kinds)), side="left")
+    ends = np.searchsorted(seg_of, np.arange(len(kinds)), side="right")
+    segs = tuple((k, int(a), int(b)) for k, a, b in zip(kinds, starts, ends, strict=True))
+    return labels, segs
 
 
 def procedural_sequence(
@@ -563,176 +800,38 @@ def procedural_sequence(
     rng = np.random.default_rng(seed)
     phase0 = float(rng.uniform())
     idle0 = float(rng.uniform())
-    kinds: list[str] = []
-    durations: list[float] = []
-    params: list[dict[str, float]] = []
-    for seg in segments:
-        kind, seconds = seg[0], float(seg[1])
-        if not seconds > 0:
-            raise ValueError(f"segment {kind!r}: seconds must be positive, got {seconds}")
-        ov = seg[2] if len(seg) > 2 else None  # type: ignore[misc]
-        kinds.append(kind)
-        durations.append(seconds)
-        params.append(_kind_params(kind, rng, ov, froude))  # type: ignore[arg-type]
+    kinds, durations, params = _segment_params(segments, rng, froude)
     bounds = np.concatenate([[0.0], np.cumsum(durations)])
     F = max(1, round(bounds[-1] * fps))
     blend = float(min(blend, min(durations))) if len(segments) > 1 else 1.0
     blend = max(blend, 1e-6)
+    gait = _gait_timeline(params, bounds, F, fps, blend, froude, units, phase0, idle0)
+    path = _path_frame(heading)
+    sl = slice(gait.pad, gait.pad + F)
 
-    # Padded frame grid so that footholds one and a half cycles ahead/behind are defined.
-    min_freq = min(p["freq"] for p in params) / froude
-    P = int(np.ceil(2.5 * fps / min_freq)) + 2
-    idx = np.arange(-P, F + P)
-    t = idx / fps
-    g = _blend_params(params, bounds, t, blend)
-    dt = 1.0 / fps
-    speed = g["speed"] * froude * _unit_scale(units)
-    freq = g["freq"] / froude
-
-    def integral(rate: np.ndarray) -> np.ndarray:
-        c = np.concatenate([[0.0], np.cumsum(rate[:-1] * dt)])
-        return c - c[P]
-
-    phi = phase0 + integral(freq)
-    g["s"] = integral(speed)
-    wave_ph = integral(g["wave_freq"] / froude)
-    idle_ph = idle0 + integral(g["idle_freq"] / froude)
-
-    # ---- world frame of the path
-    ch, sh = np.cos(heading), np.sin(heading)
-    fwd_dir = np.array([sh, 0.0, ch])
-    left_dir = np.array([ch, 0.0, -sh])
-    up = np.array([0.0, 1.0, 0.0])
-    R_head = rot.euler_to_matrix(np.array([0.0, 0.0, heading]), ORDER)
-
-    names = skel.names
-    J = {n: i for i, n in enumerate(names)}
     off = skel.offsets
-    l1 = float(np.linalg.norm(off[J["LeftLeg"]]))
-    l2 = float(np.linalg.norm(off[J["LeftFoot"]]))
-    d_toe = off[J["LeftToe"]]  # ankle -> toe in the foot frame
-    sl = slice(P, P + F)
+    l1 = float(np.linalg.norm(off[skel.index("LeftLeg")]))
+    l2 = float(np.linalg.norm(off[skel.index("LeftFoot")]))
+    feet = _plan_feet(gait, path, H, off[skel.index("LeftToe")])
+    R0, root_pos, hips = _pelvis(gait, path, H, skel, feet, 0.999 * (l1 + l2))
+    local = _leg_rotations(R0, hips, feet, path, l1, l2)
+    angles = {n: rot.matrix_to_euler(m[sl], ORDER) for n, m in local.items()}
+    angles.update(_upper_body_angles(gait, F, fps, noise, rng))
 
-    # ---- feet
-    feet = {}
-    for side, name, shift in ((1.0, "Left", 0.0), (-1.0, "Right", 0.5)):
-        contact, f, la, h, pitch = _foot_plan(side, H, d_toe[2], phi - shift, g, phi - shift)
-        toe = f[:, None] * fwd_dir + la[:, None] * left_dir + h[:, None] * up
-        g_foot = R_head @ _axis_rot(0, pitch)
-        ankle = toe - g_foot @ d_toe
-        feet[name] = (contact, toe, ankle, g_foot)
-
-    # ---- pelvis
-    d2 = g["duty"] / 2.0
-    c1 = np.cos(2.0 * np.pi * (phi - d2))
-    lat = g["sway"] * H * c1 + g["idle_sway"] * H * np.sin(2.0 * np.pi * idle_ph)
-    y_nom = (
-        off[0, 1] - g["crouch"] * H + g["bob"] * H * np.cos(4.0 * np.pi * (phi - d2))
-    )
-    cos_c = np.cos(2.0 * np.pi * phi)
-    root_e = np.stack(
-        [
-            np.deg2rad(g["pelvis_roll"]) * c1,
-            np.deg2rad(g["lean"]),
-            -np.deg2rad(g["pelvis_yaw"]) * cos_c,
-        ],
-        axis=-1,
-    )
-    R0 = R_head @ rot.euler_to_matrix(root_e, ORDER)
-    p_xz = g["s"][:, None] * fwd_dir + lat[:, None] * left_dir
-    reach = 0.999 * (l1 + l2)
-    limits = [y_nom]
-    hips0 = {}
-    for name in ("Left", "Right"):
-        hip0 = p_xz + R0 @ off[J[f"{name}UpLeg"]]
-        hips0[name] = hip0
-        ankle = feet[name][2]
-        horiz = np.hypot(*(hip0 - ankle)[:, [0, 2]].T)
-        limits.append(ankle[:, 1] - hip0[:, 1] + np.sqrt(np.maximum(reach**2 - horiz**2, 0.0)))
-    k_soft = 0.002 * H
-    lim = np.stack(limits)
-    lo = lim.min(axis=0)
-    y = lo - k_soft * np.log(np.exp(-(lim - lo) / k_soft).sum(axis=0))  # smooth min, <= min
-    root_pos = p_xz + y[:, None] * up
-
-    # ---- legs (IK), in local rotations
-    local: dict[str, np.ndarray] = {"Hips": R0}
-    for name in ("Left", "Right"):
-        _, _, ankle, g_foot = feet[name]
-        hip = hips0[name] + y[:, None] * up
-        g1, g2 = _two_bone_ik(hip, ankle, np.broadcast_to(fwd_dir, hip.shape), l1, l2)
-        local[f"{name}UpLeg"] = np.swapaxes(R0, -1, -2) @ g1
-        local[f"{name}Leg"] = np.swapaxes(g1, -1, -2) @ g2
-        local[f"{name}Foot"] = np.swapaxes(g2, -1, -2) @ g_foot
-        local[f"{name}Toe"] = np.swapaxes(g_foot, -1, -2) @ R_head  # toes stay flat
-    angles: dict[str, np.ndarray] = {
-        n: rot.matrix_to_euler(m[sl], ORDER) for n, m in local.items()
-    }
-
-    # ---- upper body (Euler angles directly, columns Z, X, Y)
-    ph = phi[sl]
-    gg = {k: v[sl] for k, v in g.items()}
-    cos_p = np.cos(2.0 * np.pi * ph)
-    c1s = c1[sl]
-    rad = np.deg2rad
-    twist = rad(gg["pelvis_yaw"] + gg["thorax_yaw"]) * cos_p  # chest yaw relative to pelvis
-    zeros = np.zeros(F)
-
-    def e(z: np.ndarray, x: np.ndarray, yy: np.ndarray) -> np.ndarray:
-        return np.stack(np.broadcast_arrays(z, x, yy), axis=-1).astype(np.float64)
-
-    lean = rad(gg["lean"])
-    roll = rad(gg["pelvis_roll"]) * c1s
-    breath = rad(1.0) * np.sin(2.0 * np.pi * 0.3 * np.arange(F) / fps)
-    upper = {
-        "Spine": e(-0.5 * roll, -0.2 * lean, 0.5 * twist),
-        "Chest": e(-0.3 * roll, breath, 0.5 * twist),
-        "Neck": e(0.3 * roll, -0.3 * lean, -0.4 * rad(gg["thorax_yaw"]) * cos_p),
-        "Head": e(0.2 * roll, -0.3 * lean, -0.4 * rad(gg["thorax_yaw"]) * cos_p),
-        "LeftShoulder": e(zeros, zeros, zeros),
-        "RightShoulder": e(-0.3 * rad(np.maximum(gg["arm_abd_r"] - 90.0, 0.0)), zeros, zeros),
-        "LeftHand": e(zeros, zeros, zeros),
-        "RightHand": e(zeros, zeros, zeros),
-    }
-    # Arms swing opposite to the legs: the left leg is forward at phase 0, the left arm back.
-    swing = rad(gg["arm_swing"])
-    fwd_l = -swing * cos_p
-    fwd_r = swing * cos_p + rad(gg["arm_fwd_r"])
-    flex_l = rad(gg["elbow_l"]) - rad(gg["elbow_swing"]) * cos_p
-    flex_r = rad(gg["elbow_r"]) + rad(gg["elbow_swing"]) * cos_p
-    raise_r = rad(gg["fore_raise_r"]) + rad(gg["wave_amp"]) * np.sin(2.0 * np.pi * wave_ph[sl])
-    # T-pose arms along +-X: Z lowers/raises the arm, Y swings it fore-aft (for the left arm
-    # a negative Y angle is forward, for the right arm a positive one); the forearm flexes
-    # forward about Y and rises in the arm's plane about Z.
-    upper["LeftArm"] = e(-(np.pi / 2 - rad(gg["arm_abd_l"])), zeros, -fwd_l)
-    upper["RightArm"] = e(np.pi / 2 - rad(gg["arm_abd_r"]), zeros, fwd_r)
-    upper["LeftForeArm"] = e(zeros, zeros, -flex_l)
-    upper["RightForeArm"] = e(-raise_r, zeros, flex_r)
-    if noise > 0:
-        sig = 0.15 * fps
-        for n in _UPPER_BODY:
-            upper[n] = upper[n] + noise * _smooth_noise(rng, F, sig)
-    angles.update(upper)
-
+    J = {n: i for i, n in enumerate(skel.names)}
     rotations = np.empty((F, skel.num_joints, 4))
     for n, a in angles.items():
         rotations[:, J[n]] = rot.euler_to_quat(a, ORDER)
     rotations = rot.quat_unroll(rotations, axis=0)
     motion = Motion(skel, rotations, root_pos[sl], 1.0 / fps)
-
     contacts = np.stack([feet["Left"][0][sl], feet["Right"][0][sl]], axis=-1)
-    tf = np.arange(F) / fps
-    seg_of = np.clip(np.searchsorted(bounds, tf, side="right") - 1, 0, len(kinds) - 1)
-    labels = np.array(kinds, dtype=object)[seg_of]
-    starts = np.searchsorted(seg_of, np.arange(len(kinds)), side="left")
-    ends = np.searchsorted(seg_of, np.arange(len(kinds)), side="right")
-    segs = tuple((k, int(a), int(b)) for k, a, b in zip(kinds, starts, ends, strict=True))
+    labels, segs = _segment_labels(kinds, bounds, F, fps)
     return SyntheticMotion(
         motion=motion,
         contacts=contacts,
         foot_joints=(J["LeftToe"], J["RightToe"]),
-        phase=np.mod(ph, 1.0),
-        angles={n: angles[n] for n in names},
+        phase=np.mod(gait.phase[sl], 1.0),
+        angles={n: angles[n] for n in skel.names},
         labels=labels,
         segments=segs,
     )
@@ -767,6 +866,11 @@ def procedural_motion(
     if speed is not None:
         ov["speed"] = speed
     return procedural_sequence(
-        [(kind, seconds, ov)], seed, fps=fps, heading=heading, height=height, units=units,
+        [(kind, seconds, ov)],
+        seed,
+        fps=fps,
+        heading=heading,
+        height=height,
+        units=units,
         noise=noise,
     )
