@@ -151,7 +151,9 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
         from mocapkit.viz.figures.graph import plot_cost_comparison
 
         cmp = compare_metrics(motions, g, db, masses=overrides)
-        p = plot_cost_comparison(cmp, plot, title=f"{outp.name}: {' vs '.join(cmp.metrics)}")
+        p = plot_cost_comparison(
+            cmp, plot, title=f"{outp.name}: {' vs '.join(cmp.metrics)} metric, T = {g.T}"
+        )
         click.echo(f"wrote {p}")
 
 

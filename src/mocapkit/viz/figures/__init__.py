@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import io
 import textwrap
+from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -27,6 +28,7 @@ __all__ = [
     "figsize",
     "pyplot",
     "save",
+    "short_labels",
     "thin_ticks",
     "wrap",
 ]
@@ -50,6 +52,38 @@ def pyplot() -> ModuleType:
 def wrap(text: str, width: int = 70) -> str:
     """``text`` wrapped to lines of at most ``width`` characters (for titles)."""
     return "\n".join(textwrap.wrap(text, width)) if len(text) > width else text
+
+
+def shorten(text: str, width: int) -> str:
+    """``text`` shortened to ``width`` characters, the middle elided."""
+    if len(text) <= width:
+        return text
+    head = (width - 1) // 2
+    return text[:head] + "…" + text[len(text) - (width - 1 - head) :]
+
+
+def _common_prefix(texts: Sequence[str]) -> str:
+    first = min(texts, key=len)
+    n = 0
+    while n < len(first) and all(t[n] == first[n] for t in texts):
+        n += 1
+    return first[:n]
+
+
+def short_labels(names: Sequence[str], width: int = 22, separators: str = "_-:|") -> list[str]:
+    """Tick labels for many names: the prefix and suffix they all share removed (cut at a
+    ``separators`` character, e.g. ``dataset-1_`` and ``_001`` of Bandai's clips or
+    ``mixamorig:`` of Mixamo joints), then each :func:`shorten`-ed to ``width``."""
+    names = [str(n) for n in names]
+    if len(names) > 1:
+        pre = _common_prefix(names)
+        pre = pre[: max(pre.rfind(c) for c in separators) + 1]
+        suf = _common_prefix([t[::-1] for t in names])[::-1]
+        cut = [i for i, ch in enumerate(suf) if ch in separators]
+        suf = suf[cut[0] :] if cut else ""
+        if all(len(t) > len(pre) + len(suf) for t in names):
+            names = [t[len(pre) : len(t) - len(suf)] for t in names]
+    return [shorten(t, width) for t in names]
 
 
 def thin_ticks(n: int, max_labels: int) -> int:

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from mocapkit.viz.figures import figsize, pyplot, save, thin_ticks, wrap
+from mocapkit.viz.figures import figsize, pyplot, save, short_labels, thin_ticks, wrap
 
 __all__ = ["plot_clean_report", "plot_mdm"]
 
@@ -55,12 +55,14 @@ def plot_mdm(
         interpolation="nearest",
         extent=(-0.5 * dt, (F - 0.5) * dt, J - 0.5, -0.5),
     )
+    min_w = seconds / 300.0  # a one-frame segment of a long take stays visible
     for s in segments:
         j, a, b = _seg(s)
+        w = max((b - a + 1) * dt, min_w)
         ax.add_patch(
             Rectangle(
-                ((a - 0.5) * dt, j - 0.5),
-                (b - a + 1) * dt,
+                ((a + b) / 2 * dt - w / 2, j - 0.5),
+                w,
                 1.0,
                 fill=False,
                 edgecolor="cyan",
@@ -70,8 +72,9 @@ def plot_mdm(
     step = thin_ticks(J, _MAX_ROW_LABELS)
     rows = list(range(0, J, step))
     ax.set_yticks(rows)
-    ax.set_yticklabels([names[j] for j in rows], fontsize=7 if J > 30 else 8)
-    ax.set_ylabel("joint" + (f" (every {step}th named)" if step > 1 else ""))
+    labels = short_labels(names, 26)
+    ax.set_yticklabels([labels[j] for j in rows], fontsize=7 if J > 30 else 8)
+    ax.set_ylabel("joint" + (f" (1 in {step} named)" if step > 1 else ""))
     ax.set_xlabel(f"time (s) at {fps:g} fps")
     top = ax.secondary_xaxis("top", functions=(lambda t: t * fps, lambda f: f / fps))
     top.set_xlabel("frame", fontsize=8)

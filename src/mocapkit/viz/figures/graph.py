@@ -6,42 +6,50 @@ the chosen T (Figure 4). The data is a :class:`~mocapkit.graph.graph.CostCompari
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mocapkit.viz.figures import figsize, pyplot, save, thin_ticks, wrap
+from mocapkit.viz.figures import figsize, pyplot, save, short_labels, thin_ticks, wrap
 
-__all__ = ["clip_label", "plot_cost_comparison"]
+__all__ = ["clip_labels", "plot_cost_comparison"]
 
 _MAX_CLIP_LABELS = 24  # per axis; more would overlap at 6 pt on a 5-inch axis
 
 
-def clip_label(name: str, width: int = 22) -> str:
-    """A clip's file name without its extension, shortened to ``width`` characters."""
-    stem = Path(name).stem
-    return stem if len(stem) <= width else stem[: width - 1] + "…"
+def clip_labels(names: Sequence[str], width: int = 22) -> list[str]:
+    """Short labels for clips: their file stems without the prefix and suffix they all share
+    (e.g. Bandai's ``dataset-1_`` and ``_001``), shortened to ``width`` characters."""
+    return short_labels([Path(n).stem for n in names], width)
 
 
 def _clip_axes(ax: Any, cmp: Any) -> None:
-    """Clip boundaries as faint lines, clip names at their middles (thinned)."""
+    """Clip boundaries as faint lines, clip names at their middles (thinned so that they do
+    not overlap)."""
     starts = np.asarray(cmp.clip_starts)
     C = len(starts) - 1
     for b in starts[1:-1]:
         ax.axhline(b, color="w", lw=0.4, alpha=0.6)
         ax.axvline(b, color="w", lw=0.4, alpha=0.6)
+    names = clip_labels(list(cmp.clip_names) + [str(c) for c in range(len(cmp.clip_names), C)])
     step = thin_ticks(C, _MAX_CLIP_LABELS)
-    idx = list(range(0, C, step))
-    mids = [(starts[c] + starts[c + 1]) / 2 for c in idx]
-    labels = [clip_label(cmp.clip_names[c]) if c < len(cmp.clip_names) else str(c) for c in idx]
-    size = 7 if len(idx) <= 8 else 6
+    gap = cmp.num_frames / _MAX_CLIP_LABELS  # labels closer than this would overlap
+    mids, labels, last = [], [], -np.inf
+    for c in range(0, C, step):
+        mid = (starts[c] + starts[c + 1]) / 2
+        if mid - last >= gap:
+            mids.append(mid)
+            labels.append(names[c])
+            last = mid
+    size = 7 if len(labels) <= 8 else 6
     ax.set_xticks(mids)
     ax.set_xticklabels(labels, rotation=90, fontsize=size)
     ax.set_yticks(mids)
     ax.set_yticklabels(labels, fontsize=size)
-    every = f", every {step}th named" if step > 1 else ""
-    ax.set_xlabel(f"target clip ({C} clips, {cmp.num_frames} frames at {cmp.fps:g} fps{every})")
+    shown = f", {len(labels)} named" if len(labels) < C else ""
+    ax.set_xlabel(f"target clip ({C} clips{shown}; {cmp.num_frames} frames at {cmp.fps:g} fps)")
     ax.set_ylabel("source clip")
 
 
@@ -100,7 +108,7 @@ def plot_cost_comparison(cmp: Any, path: str | Path, title: str | None = None) -
             ax.plot(np.arange(1, len(shown) + 1), shown / max(shown.max(), 1e-300), label=n)
     Ts = sorted(set(cmp.T.values()))
     for T in Ts:
-        ax.axvline(T, color="r", lw=1)
+        ax.axvline(T, color="r", lw=1, label=f"T = {T}")
     ax.set_xlabel("rank of the candidate transition")
     ax.set_ylabel("cost / largest cost shown")
     ax.set_title(f"rank-ordered costs, chosen T = {', '.join(str(t) for t in Ts)}", fontsize=10)

@@ -113,27 +113,42 @@ def plot_stitch(
     top.tick_params(labelsize=7)
     ax.set_ylabel("body-local position (cm)")
     n_gen = len(gen)
+    from matplotlib.lines import Line2D
+
+    handles, _ = ax.get_legend_handles_labels()
+    handles += [
+        Line2D([], [], ls="", marker="^", color="r", ms=8, label=f"take-off (frame {a})"),
+        Line2D([], [], ls="", marker="^", color="b", ms=5, label=f"generated ({n_gen} frames)"),
+        Line2D(
+            [], [], ls="", marker="o", mfc="none", mec="g", mew=2, ms=8,
+            label=f"landing (output frame {land})",
+        ),
+    ]  # fmt: skip
+    if kal_idx:
+        handles.append(Line2D([], [], ls="--", color="0.3", label="L-score's Kalman features"))
     ax.set_title(
         wrap(
-            f"{stitched.method}: take-off ▲ frame {a}, {n_gen} generated ▲, landing ○ frame "
-            f"{land}" + (" (dashed: the L-score's Kalman features)" if kal_idx else ""),
-            70,
+            f"{stitched.method} transition: output frames {lo}-{hi - 1}, shaded = between "
+            "take-off and landing",
+            80,
         ),
         fontsize=10,
     )
-    ax.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.legend(
+        handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False
+    )
     ax.grid(alpha=0.3)
     if title is None and stitched.transition is not None:
         tr = stitched.transition
         names_ = getattr(stitched, "data_names", ())
         data = names_[tr.clip] if tr.clip < len(names_) else f"data clip {tr.clip}"
+        query = getattr(stitched, "query_name", "query")
         title = (
-            f"{Path(str(getattr(stitched, 'query_name', 'query'))).name} → "
-            f"{Path(str(data)).name} (landing frame {tr.landing}), "
-            f"{tr.candidates} candidates ranked by {tr.score}"
+            f"{Path(str(query)).stem} → {Path(str(data)).stem} at its frame {tr.landing}: "
+            f"best of {tr.candidates} candidates by {tr.score}"
         )
     if title:
-        fig.suptitle(wrap(title, 110), fontsize=11)
+        fig.suptitle(wrap(title, 140), fontsize=11)
     fig.tight_layout()
     return save(fig, path)
 
@@ -142,7 +157,7 @@ def plot_paths_2d(path: str | Path, curves: dict, title: str = "", units: str = 
     """2-D paths: ``curves`` maps a label to ``(points (n, 2), matplotlib format)``;
     ``units`` labels the axes."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=figsize(7, 5.5))
+    fig, ax = plt.subplots(figsize=figsize(8, 4.6))
     for label, (pts, fmt) in curves.items():
         pts = np.asarray(pts)
         ax.plot(pts[:, 0], pts[:, 1], fmt, label=label, ms=4)

@@ -1,0 +1,79 @@
+"""The figures (mocapkit.viz.figures): PNGs of capped size from each capability's result, and
+matplotlib is only imported when a figure is drawn."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mocapkit import datasets
+from mocapkit.viz.figures import DPI, MAX_HEIGHT_IN, MAX_WIDTH_IN, short_labels, wrap
+
+pytest.importorskip("matplotlib")
+
+
+def png_size(path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def assert_capped(path) -> None:
+    w, h = png_size(path)
+    assert w <= MAX_WIDTH_IN * DPI + 1 and h <= MAX_HEIGHT_IN * DPI + 1, (w, h)
+
+
+def test_mdm_heat_map_of_a_long_many_joint_take_is_capped(tmp_path) -> None:
+    from mocapkit.viz.figures.clean import plot_mdm
+
+    rng = np.random.default_rng(0)
+    names = [f"mixamorig:Joint{i}" for i in range(90)]
+    segs = [{"joint_index": 3, "start": 10, "end": 10}]
+    p = plot_mdm(rng.random((20000, 90)), names, segs, tmp_path / "m.png", 120.0, "x " * 100)
+    assert_capped(p)
+
+
+def test_clean_report_and_stitch_and_graph_figures(tmp_path) -> None:
+    from mocapkit import clean
+    from mocapkit.graph import build_graph, compare_metrics
+    from mocapkit.stitch import stitch
+    from mocapkit.viz.figures.clean import plot_clean_report
+    from mocapkit.viz.figures.graph import plot_cost_comparison
+    from mocapkit.viz.figures.stitch import plot_stitch
+
+    walk = datasets.procedural_motion("walk", 4.0, seed=0).motion
+    idle = datasets.procedural_motion("idle", 3.0, seed=3).motion
+    rep = clean.run(walk, source="walk.bvh")
+    assert_capped(plot_clean_report(rep, tmp_path / "c.png"))
+    res = stitch(walk, "50:60", idle, up="Y", query_name="walk.bvh", data_names=["idle.bvh"])
+    assert_capped(plot_stitch(res, tmp_path / "s.png"))
+    g, db, _ = build_graph([walk, idle], paths=["a_walk_1.bvh", "a_idle_1.bvh"], transitions=10)
+    cmp = compare_metrics([walk, idle], g, db)
+    assert cmp.metrics == ("dynamics", "uniform") and cmp.clip_names == (
+        "a_walk_1.bvh",
+        "a_idle_1.bvh",
+    )
+    assert cmp.matrices["dynamics"].shape == (len(cmp.frames), len(cmp.frames))
+    assert_capped(plot_cost_comparison(cmp, tmp_path / "g.png", title="t"))
+
+
+def test_labels_and_titles() -> None:
+    assert short_labels(["dataset-1_walk_normal_001", "dataset-1_run_happy_001"]) == [
+        "walk_normal",
+        "run_happy",
+    ]
+    assert short_labels(["LeftArm", "LeftLeg"]) == ["LeftArm", "LeftLeg"]
+    assert all(len(s) <= 10 for s in short_labels(["a" * 40, "b" * 40], 10))
+    assert max(len(line) for line in wrap("word " * 40, 30).splitlines()) <= 30
+
+
+def test_the_library_and_the_cli_do_not_import_matplotlib() -> None:
+    code = (
+        "import sys, mocapkit, mocapkit.cli, mocapkit.clean, mocapkit.stitch, mocapkit.graph, "
+        "mocapkit.viz; print('matplotlib' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
