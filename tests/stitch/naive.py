@@ -1,5 +1,11 @@
 """Independent test references for mocapkit.stitch (never imported by the library).
 
+``rts_smooth_reference`` is the textbook smoother, one series at a time: an explicit forward
+Kalman filter and backward Rauch-Tung-Striebel pass. ``lscore_reference``,
+``elastic_lscores_reference`` and ``elastic_lscore_reference`` are the readable L, L_k and L*:
+for each window, k and dimension, insert k unobserved steps, smooth with
+``rts_smooth_reference`` and sum |(p̂_{n+1} - p̂_n) â_n| over all steps.
+
 ``smooth_information_form`` computes the smoothed means without any Kalman recursion: for a
 linear-Gaussian state-space model the posterior mean E[z | y] is the minimiser of the quadratic
 
@@ -13,6 +19,9 @@ paper term by term from those means.
 from __future__ import annotations
 
 import numpy as np
+
+from mocapkit.stitch.kalman import DEFAULT_MODEL
+from mocapkit.stitch.lscore import DEFAULT_K_MAX, ElasticResult
 
 
 def smooth_information_form(y, mask, model) -> np.ndarray:
@@ -59,3 +68,90 @@ def lk_direct(window, model, w: int, k: int) -> float:
             total += abs((pl[0] - pi[-1]) * ai[-1])
         total += sum(abs((pl[n + 1] - pl[n]) * al[n]) for n in range(w - 1))
     return total
+
+
+# --------------------------------------------------------------------------- RTS smoother
+
+
+def rts_smooth_reference(y, mask=None, model=DEFAULT_MODEL, *, return_cov: bool = False):
+    """Smooth one series ``y`` (T,) with the forward Kalman filter and the backward RTS pass.
+
+    Steps with ``mask[t] == False`` get no measurement update (their ``y`` is ignored). Returns the
+    smoothed means (T, 3) ``[p̂, v̂, â]``, and the smoothed covariances (T, 3, 3) if ``return_cov``.
+    """
+    y = np.asarray(y, dtype=float)
+    T = y.shape[0]
+    mask = np.ones(T, bool) if mask is None else np.asarray(mask, dtype=bool)
+    assert mask.shape == (T,) and T >= 3 and mask[:3].all(), "μ0 needs y1, y2, y3 observed"
+    A, Q, sigma = model.A, model.Q, model.sigma
+    m_pred, P_pred = np.zeros((T, 3)), np.zeros((T, 3, 3))
+    m_filt, P_filt = np.zeros((T, 3)), np.zeros((T, 3, 3))
+    for t in range(T):
+        if t == 0:
+            m, P = model.mu0_matrix @ y[:3], model.P0
+        else:
+            m, P = A @ m_filt[t - 1], A @ P_filt[t - 1] @ A.T + Q
+        m_pred[t], P_pred[t] = m, P
+        if mask[t]:  # measurement update with C = (1 0 0)
+            gain = P[:, 0] / (P[0, 0] + sigma)
+            m = m + gain * (y[t] - m[0])
+            P = P - np.outer(gain, P[0, :])
+        m_filt[t], P_filt[t] = m, P
+    m_s, P_s = m_filt.copy(), P_filt.copy()
+    for t in range(T - 2, -1, -1):
+        J = np.linalg.solve(P_pred[t + 1], A @ P_filt[t]).T  # P_filt A^T P_pred^{-1}
+        m_s[t] = m_filt[t] + J @ (m_s[t + 1] - m_pred[t + 1])
+        P_s[t] = P_filt[t] + J @ (P_s[t + 1] - P_pred[t + 1]) @ J.T
+    return (m_s, P_s) if return_cov else m_s
+
+
+# --------------------------------------------------------------------------- L-scores
+
+
+def _windows(windows, w):
+    Y = np.asarray(windows, dtype=float)
+    if Y.ndim == 2:
+        Y = Y[None]
+    return Y, Y.shape[1] // 2 if w is None else int(w)
+
+
+def _mask(w: int, k: int) -> np.ndarray:
+    return np.r_[np.ones(w, bool), np.zeros(k, bool), np.ones(w, bool)]
+
+
+def _inject(y: np.ndarray, w: int, k: int) -> np.ndarray:
+    return np.r_[y[:w], np.full(k, np.nan), y[w:]]
+
+
+def lscore_reference(windows, model=DEFAULT_MODEL, w=None):
+    """Readable L-score of each window (N, 2w, m) → (N,)."""
+    return elastic_lscores_reference(windows, model, w, 0)[:, 0]
+
+
+def elastic_lscores_reference(windows, model=DEFAULT_MODEL, w=None, k_max=DEFAULT_K_MAX):
+    """Readable L_k, k = 0..k_max, of each window (N, 2w, m) → (N, k_max + 1)."""
+    Y, w = _windows(windows, w)
+    N, _, m = Y.shape
+    out = np.zeros((N, k_max + 1))
+    for i in range(N):
+        for k in range(k_max + 1):
+            for d in range(m):
+                z = rts_smooth_reference(_inject(Y[i, :, d], w, k), _mask(w, k), model)
+                p, a = z[:, 0], z[:, 2]
+                out[i, k] += np.abs((p[1:] - p[:-1]) * a[:-1]).sum()
+    return out
+
+
+def elastic_lscore_reference(window, model=DEFAULT_MODEL, w=None, k_max=DEFAULT_K_MAX):
+    """Readable elastic L-score of one window (2w, m) → ``ElasticResult``."""
+    Y, w = _windows(window, w)
+    scores = elastic_lscores_reference(Y, model, w, k_max)[0]
+    k = int(np.argmin(scores))
+    traj = np.stack(
+        [
+            rts_smooth_reference(_inject(Y[0, :, d], w, k), _mask(w, k), model)[:, 0]
+            for d in range(Y.shape[2])
+        ],
+        axis=1,
+    )
+    return ElasticResult(float(scores[k]), k, traj, scores)

@@ -1,5 +1,5 @@
-"""Tests for mocapkit.stitch.kalman: the reference RTS smoother against pykalman and against an
-information-form solve (tests/stitch/naive.py), and the fast linear-map smoother against both."""
+"""Tests for mocapkit.stitch.kalman: the reference RTS smoother (tests/stitch/naive.py) against
+pykalman and against an information-form solve, and the fast linear-map smoother against both."""
 
 from __future__ import annotations
 
@@ -13,7 +13,6 @@ from testsupport import load_sibling
 from mocapkit.stitch.kalman import (
     DEFAULT_MODEL,
     ConstantAccelerationModel,
-    rts_smooth_reference,
     smooth,
     smoother_matrix,
 )
@@ -98,7 +97,7 @@ def test_reference_matches_pykalman(params):
     seed, T, p_missing, mi = params
     model = MODELS[mi]
     y, mask = random_case(seed, T, p_missing)
-    means, covs = rts_smooth_reference(y, mask, model, return_cov=True)
+    means, covs = naive.rts_smooth_reference(y, mask, model, return_cov=True)
     pk_means, pk_covs = pykalman_smooth(y, mask, model)
     close(means, pk_means)
     close(covs, pk_covs)
@@ -110,14 +109,16 @@ def test_reference_matches_information_form(params):
     seed, T, p_missing, mi = params
     model = MODELS[mi]
     y, mask = random_case(seed, T, p_missing)
-    close(rts_smooth_reference(y, mask, model), naive.smooth_information_form(y, mask, model))
+    close(naive.rts_smooth_reference(y, mask, model), naive.smooth_information_form(y, mask, model))
 
 
 def test_unobserved_values_are_ignored():
     y, mask = random_case(3, 20, 0.5)
     y2 = y.copy()
     y2[~mask] = np.nan
-    np.testing.assert_array_equal(rts_smooth_reference(y, mask), rts_smooth_reference(y2, mask))
+    ref = naive.rts_smooth_reference
+    np.testing.assert_array_equal(ref(y, mask), ref(y2, mask))
+    np.testing.assert_array_equal(smooth(y, mask), smooth(y2, mask))
 
 
 def test_first_three_steps_must_be_observed():
@@ -125,13 +126,13 @@ def test_first_three_steps_must_be_observed():
     mask = np.ones(10, bool)
     mask[2] = False
     with pytest.raises(ValueError, match="first three"):
-        rts_smooth_reference(y, mask)
+        smooth(y, mask)
     with pytest.raises(ValueError, match="first three"):
         smoother_matrix(DEFAULT_MODEL, mask)
     with pytest.raises(ValueError):
-        rts_smooth_reference(np.zeros(2))
+        smooth(np.zeros(2))
     with pytest.raises(ValueError):
-        rts_smooth_reference(y, np.ones(9, bool))
+        smooth(y, np.ones(9, bool))
 
 
 def test_straight_line_is_reproduced_exactly():
@@ -141,10 +142,10 @@ def test_straight_line_is_reproduced_exactly():
     y = 3.0 - 0.7 * t
     mask = np.ones(15, bool)
     mask[6:11] = False
-    z = rts_smooth_reference(y, mask)
-    np.testing.assert_allclose(z[:, 0], y, atol=1e-10)
-    np.testing.assert_allclose(z[:, 1], -0.7, atol=1e-10)
-    np.testing.assert_allclose(z[:, 2], 0.0, atol=1e-10)
+    for z in (naive.rts_smooth_reference(y, mask), smooth(y, mask)):
+        np.testing.assert_allclose(z[:, 0], y, atol=1e-10)
+        np.testing.assert_allclose(z[:, 1], -0.7, atol=1e-10)
+        np.testing.assert_allclose(z[:, 2], 0.0, atol=1e-10)
 
 
 # --------------------------------------------------------------------------- fast smoother
@@ -158,7 +159,7 @@ def test_smoother_matrix_matches_reference(params):
     y, mask = random_case(seed, T, p_missing)
     M = smoother_matrix(model, mask)
     assert M.shape == (T, 3, mask.sum())
-    close(M @ y[mask], rts_smooth_reference(y, mask, model))
+    close(M @ y[mask], naive.rts_smooth_reference(y, mask, model))
 
 
 def test_smoother_matrix_is_cached_and_read_only():
@@ -182,5 +183,5 @@ def test_smooth_batch_matches_reference(p_missing):
     assert Z.shape == (4, 6, T, 3)
     for i in range(4):
         for j in range(6):
-            close(Z[i, j], rts_smooth_reference(Y[i, j], mask, model))
+            close(Z[i, j], naive.rts_smooth_reference(Y[i, j], mask, model))
     close(smooth(Y[0, 0], mask, model), Z[0, 0])  # a single series

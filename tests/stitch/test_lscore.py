@@ -14,13 +14,10 @@ from mocapkit.stitch import (
     DEFAULT_MODEL,
     ConstantAccelerationModel,
     elastic_lscore,
-    elastic_lscore_reference,
     elastic_lscores,
-    elastic_lscores_reference,
     elastic_mask,
     elastic_operators,
     lscore,
-    lscore_reference,
     search_clips,
     search_landings,
     sliding_windows,
@@ -62,7 +59,7 @@ def rel_close(a, b, tol):
 def test_lscore_matches_reference(seed, w, m):
     Y = random_windows(seed, 3, w, m)
     for model in (DEFAULT_MODEL, OTHER_MODEL):
-        rel_close(lscore(Y, model), lscore_reference(Y, model), 1e-9)
+        rel_close(lscore(Y, model), naive.lscore_reference(Y, model), 1e-9)
 
 
 @SETTINGS
@@ -71,7 +68,7 @@ def test_elastic_lscores_match_reference(seed, w, m):
     Y = random_windows(seed, 2, w, m)
     fast = elastic_lscores(Y, DEFAULT_MODEL, w, k_max=6)
     assert fast.shape == (2, 7)
-    rel_close(fast, elastic_lscores_reference(Y, DEFAULT_MODEL, w, k_max=6), 1e-9)
+    rel_close(fast, naive.elastic_lscores_reference(Y, DEFAULT_MODEL, w, k_max=6), 1e-9)
 
 
 def test_elastic_lscores_match_eq3_written_out():
@@ -83,7 +80,7 @@ def test_elastic_lscores_match_eq3_written_out():
 
 def test_elastic_lscore_single_window_matches_reference():
     Y = random_windows(9, 1, 5, 3)[0]
-    fast, ref = elastic_lscore(Y, k_max=8), elastic_lscore_reference(Y, k_max=8)
+    fast, ref = elastic_lscore(Y, k_max=8), naive.elastic_lscore_reference(Y, k_max=8)
     assert fast.k_opt == ref.k_opt == int(np.argmin(ref.scores))
     assert fast.lstar == pytest.approx(ref.lstar, rel=1e-9)
     assert fast.trajectory.shape == (10 + fast.k_opt, 3)
@@ -226,11 +223,12 @@ def test_search_matches_elastic_lscores(dtype, tol):
     assert res.best_score == pytest.approx(expected[b, k], rel=tol)
 
 
-def test_search_other_w_and_model():
+@pytest.mark.parametrize("w", [3, 4, 7])  # one kernel per w: odd and even rows per k
+def test_search_other_w_and_model(w):
     rng = np.random.default_rng(2)
     Q, X = rng.normal(size=(20, 3)), rng.normal(size=(60, 3))
-    res = search_landings(Q, 10, X, w=3, k_max=4, model=OTHER_MODEL, dtype=np.float64)
-    expected = elastic_lscores(sliding_windows(Q, 10, X, w=3), OTHER_MODEL, 3, 4)
+    res = search_landings(Q, 10, X, w=w, k_max=4, model=OTHER_MODEL, dtype=np.float64, block=16)
+    expected = elastic_lscores(sliding_windows(Q, 10, X, w=w), OTHER_MODEL, w, 4)
     rel_close(res.lscore_by_k, expected, 1e-9)
 
 

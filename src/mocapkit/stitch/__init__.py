@@ -2,7 +2,7 @@
 Pollard, "Laziness is a virtue: Motion stitching using effort minimization".
 
 * :mod:`mocapkit.stitch.kalman` — the per-dimension constant-acceleration Kalman model and its
-  RTS smoother (readable reference, and the fast linear-map form).
+  RTS smoother (as a cached linear map; the readable references are in tests/stitch/naive.py).
 * :mod:`mocapkit.stitch.lscore` — L, L_k, L*, the windowed-Euclidean baseline, stitch windows
   and the batched landing search.
 * :mod:`mocapkit.stitch.search` — score features of motions and the transition search over a
@@ -20,7 +20,6 @@ injected (unobserved) frames, without normalisation. Details in the submodules' 
 from mocapkit.stitch.kalman import (
     DEFAULT_MODEL,
     ConstantAccelerationModel,
-    rts_smooth_reference,
     smooth,
     smoother_matrix,
 )
@@ -32,13 +31,10 @@ from mocapkit.stitch.lscore import (
     ElasticResult,
     SearchResult,
     elastic_lscore,
-    elastic_lscore_reference,
     elastic_lscores,
-    elastic_lscores_reference,
     elastic_mask,
     elastic_operators,
     lscore,
-    lscore_reference,
     search_clips,
     search_landings,
     sliding_windows,
@@ -83,19 +79,15 @@ __all__ = [
     "conform",
     "crossfade",
     "elastic_lscore",
-    "elastic_lscore_reference",
     "elastic_lscores",
-    "elastic_lscores_reference",
     "elastic_mask",
     "elastic_operators",
     "euclidean_landings",
     "find_transition",
     "interpolate_gap",
     "lscore",
-    "lscore_reference",
     "motion_features",
     "parse_takeoffs",
-    "rts_smooth_reference",
     "search_clips",
     "search_features",
     "search_landings",

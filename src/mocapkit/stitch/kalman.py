@@ -31,15 +31,13 @@ Decisions on points the paper leaves open:
   be observed; every stitch window starts with ``w >= 3`` observed frames. μ0 is linear in y, so
   the smoothed means remain a *linear* (homogeneous) function of the observed values.
 
-Two implementations, tested against each other and against pykalman:
-
-* :func:`rts_smooth_reference` — short and readable, one series at a time, explicit forward
-  Kalman filter and backward RTS pass.
-* :func:`smoother_matrix` / :func:`smooth` — the fast path. The gains and covariances do not
-  depend on the data, so the smoothed mean is ``M @ y_obs`` for a fixed matrix ``M`` of shape
-  ``(T, 3, n_obs)`` per (model, mask pattern). ``M`` is obtained by running the same recursion on
-  all unit observation vectors at once (mean *coefficients* instead of means) and is cached;
-  :func:`smooth` applies it to a batch of series with a single matmul.
+The smoother (:func:`smoother_matrix` / :func:`smooth`): the gains and covariances do not depend
+on the data, so the smoothed mean is ``M @ y_obs`` for a fixed matrix ``M`` of shape
+``(T, 3, n_obs)`` per (model, mask pattern). ``M`` is obtained by running the Kalman filter and
+RTS recursion on all unit observation vectors at once (mean *coefficients* instead of means) and
+is cached; :func:`smooth` applies it to a batch of series with a single matmul. It is tested
+against its readable twin (``rts_smooth_reference`` in tests/stitch/naive.py, one series at a
+time, explicit forward filter and backward pass) and against pykalman.
 """
 
 from __future__ import annotations
@@ -52,7 +50,6 @@ import numpy as np
 __all__ = [
     "DEFAULT_MODEL",
     "ConstantAccelerationModel",
-    "rts_smooth_reference",
     "smooth",
     "smoother_matrix",
 ]
@@ -131,46 +128,13 @@ def _check_mask(mask, T: int) -> np.ndarray:
     return mask
 
 
-def rts_smooth_reference(
-    y, mask=None, model: ConstantAccelerationModel = DEFAULT_MODEL, *, return_cov: bool = False
-):
-    """Smooth one series ``y`` (T,) with the forward Kalman filter and the backward RTS pass.
-
-    Steps with ``mask[t] == False`` get no measurement update (their ``y`` is ignored). Returns the
-    smoothed means (T, 3) ``[p̂, v̂, â]``, and the smoothed covariances (T, 3, 3) if ``return_cov``.
-    """
-    y = np.asarray(y, dtype=float)
-    T = y.shape[0]
-    mask = _check_mask(mask, T)
-    A, Q, sigma = model.A, model.Q, model.sigma
-    m_pred, P_pred = np.zeros((T, 3)), np.zeros((T, 3, 3))
-    m_filt, P_filt = np.zeros((T, 3)), np.zeros((T, 3, 3))
-    for t in range(T):
-        if t == 0:
-            m, P = model.mu0_matrix @ y[:3], model.P0
-        else:
-            m, P = A @ m_filt[t - 1], A @ P_filt[t - 1] @ A.T + Q
-        m_pred[t], P_pred[t] = m, P
-        if mask[t]:  # measurement update with C = (1 0 0)
-            gain = P[:, 0] / (P[0, 0] + sigma)
-            m = m + gain * (y[t] - m[0])
-            P = P - np.outer(gain, P[0, :])
-        m_filt[t], P_filt[t] = m, P
-    m_s, P_s = m_filt.copy(), P_filt.copy()
-    for t in range(T - 2, -1, -1):
-        J = np.linalg.solve(P_pred[t + 1], A @ P_filt[t]).T  # P_filt A^T P_pred^{-1}
-        m_s[t] = m_filt[t] + J @ (m_s[t + 1] - m_pred[t + 1])
-        P_s[t] = P_filt[t] + J @ (P_s[t + 1] - P_pred[t + 1]) @ J.T
-    return (m_s, P_s) if return_cov else m_s
-
-
 @functools.lru_cache(maxsize=512)
 def _smoother_matrix_cached(model: ConstantAccelerationModel, mask_bytes: bytes) -> np.ndarray:
     mask = np.frombuffer(mask_bytes, dtype=bool)
     T, n_obs = mask.shape[0], int(mask.sum())
     obs_index = np.cumsum(mask) - 1  # observation column of each observed step
     A, Q, sigma = model.A, model.Q, model.sigma
-    # Same recursion as rts_smooth_reference, but the "means" are (3, n_obs) coefficient matrices:
+    # The Kalman filter / RTS recursion, but the "means" are (3, n_obs) coefficient matrices:
     # row i of G[t] holds the coefficients of E[z_t[i] | ...] on the observed values.
     G_pred, P_pred = np.zeros((T, 3, n_obs)), np.zeros((T, 3, 3))
     G_filt, P_filt = np.zeros((T, 3, n_obs)), np.zeros((T, 3, 3))
@@ -201,8 +165,9 @@ def smoother_matrix(model: ConstantAccelerationModel, observed_mask) -> np.ndarr
     """The linear map from observed values to smoothed states: array (T, 3, n_obs), read-only.
 
     For a series ``y`` with observation pattern ``observed_mask`` (T,),
-    ``smoother_matrix(model, mask) @ y[mask]`` equals ``rts_smooth_reference(y, mask, model)``
-    (shape (T, 3)). μ0's dependence on y1..y3 is included. Cached per (model, mask pattern).
+    ``smoother_matrix(model, mask) @ y[mask]`` are the smoothed means (T, 3) ``[p̂, v̂, â]`` of
+    the forward Kalman filter and backward RTS pass. μ0's dependence on y1..y3 is included.
+    Cached per (model, mask pattern).
     """
     mask = np.ascontiguousarray(observed_mask, dtype=bool)
     if mask.ndim != 1:

@@ -40,7 +40,9 @@ absolute coordinates.
   query half contributes a constant per (dimension, row), the landing half is a sliding window
   of the data clip, so a numba kernel evaluates ``|(c_D + D_x x)(c_A + A_x x)|`` for every row,
   landing and dimension without materialising windows (float32 by default, float64 on request).
-* ``*_reference`` — the readable versions (one series at a time, :func:`rts_smooth_reference`).
+* Their readable twins (one series at a time through an explicit Kalman filter and RTS pass)
+  are ``lscore_reference``, ``elastic_lscores_reference`` and ``elastic_lscore_reference`` in
+  tests/stitch/naive.py; the tests compare the two.
 """
 
 from __future__ import annotations
@@ -50,27 +52,21 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
-from mocapkit.stitch.kalman import (
-    DEFAULT_MODEL,
-    ConstantAccelerationModel,
-    rts_smooth_reference,
-    smoother_matrix,
-)
+from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
 
 __all__ = [
     "BestStitch",
     "ClipSearchResult",
     "ElasticResult",
     "SearchResult",
+    "check_w",
     "elastic_lscore",
-    "elastic_lscore_reference",
     "elastic_lscores",
-    "elastic_lscores_reference",
     "elastic_mask",
     "elastic_operators",
     "lscore",
-    "lscore_reference",
     "search_clips",
     "search_landings",
     "sliding_windows",
@@ -107,10 +103,15 @@ def elastic_mask(w: int, k: int) -> np.ndarray:
     return np.r_[np.ones(w, bool), np.zeros(k, bool), np.ones(w, bool)]
 
 
-def _check_w(w: int) -> int:
+def check_w(w: int) -> int:
+    """The stitch-window half-size ``w`` as an int, or ValueError: it must be an integer >= 3
+    (the Kalman prior μ0 uses the first three frames of the window)."""
     if int(w) != w or w < 3:
         raise ValueError(f"window half-size w must be an integer >= 3 (μ0 uses 3 frames), got {w}")
     return int(w)
+
+
+_check_w = check_w  # old private name, still imported by stitch.search and stitch.transition
 
 
 @functools.lru_cache(maxsize=256)
@@ -128,7 +129,7 @@ def elastic_operators(model: ConstantAccelerationModel, w: int, k: int):
     """``(D_k, A_k)``, each (2w + k - 1, 2w): for a window series y (2w,), ``D_k @ y`` are the
     smoothed position steps p̂_{n+1} - p̂_n and ``A_k @ y`` the accelerations â_n, n = 1..T-1, of
     the elongated sequence with k injected frames, so ``L_k = Σ |(D_k y) * (A_k y)|``."""
-    return _operators_cached(model, _check_w(w), int(k))
+    return _operators_cached(model, check_w(w), int(k))
 
 
 @functools.lru_cache(maxsize=64)
@@ -152,7 +153,7 @@ def _windows_array(windows, w: int | None) -> tuple[np.ndarray, int]:
         w = Y.shape[1] // 2
     if Y.shape[1] != 2 * w:
         raise ValueError(f"windows have {Y.shape[1]} frames, expected 2w = {2 * w}")
-    return Y, _check_w(w)
+    return Y, check_w(w)
 
 
 def _series(Y: np.ndarray, w: int) -> np.ndarray:
@@ -236,51 +237,6 @@ def windowed_euclidean(windows, w: int | None = None) -> np.ndarray:
     return np.sqrt((diff * diff).sum(axis=(1, 2)))
 
 
-# --------------------------------------------------------------------------- references
-
-
-def lscore_reference(windows, model: ConstantAccelerationModel = DEFAULT_MODEL, w=None):
-    """Readable L-score: smooth every (window, dimension) series with rts_smooth_reference."""
-    return elastic_lscores_reference(windows, model, w, 0)[:, 0]
-
-
-def elastic_lscore_reference(window, model=DEFAULT_MODEL, w=None, k_max=DEFAULT_K_MAX):
-    """Readable elastic L-score of one window (2w, m) → :class:`ElasticResult`."""
-    Y, w = _windows_array(window, w)
-    scores = elastic_lscores_reference(Y, model, w, k_max)[0]
-    k = int(np.argmin(scores))
-    traj = np.stack(
-        [
-            rts_smooth_reference(_inject(Y[0, :, d], w, k), elastic_mask(w, k), model)[:, 0]
-            for d in range(Y.shape[2])
-        ],
-        axis=1,
-    )
-    return ElasticResult(float(scores[k]), k, traj, scores)
-
-
-def _inject(y: np.ndarray, w: int, k: int) -> np.ndarray:
-    return np.r_[y[:w], np.full(k, np.nan), y[w:]]
-
-
-def elastic_lscores_reference(
-    windows, model: ConstantAccelerationModel = DEFAULT_MODEL, w=None, k_max=DEFAULT_K_MAX
-):
-    """Readable L_k: for each window, k and dimension, insert k unobserved steps, smooth with
-    rts_smooth_reference and sum |(p̂_{n+1} - p̂_n) â_n| over all steps. (N, k_max + 1)."""
-    Y, w = _windows_array(windows, w)
-    N, _, m = Y.shape
-    out = np.zeros((N, k_max + 1))
-    for i in range(N):
-        for k in range(k_max + 1):
-            mask = elastic_mask(w, k)
-            for d in range(m):
-                z = rts_smooth_reference(_inject(Y[i, :, d], w, k), mask, model)
-                p, a = z[:, 0], z[:, 2]
-                out[i, k] += np.abs((p[1:] - p[:-1]) * a[:-1]).sum()
-    return out
-
-
 # --------------------------------------------------------------------------- search
 
 
@@ -307,7 +263,7 @@ def sliding_windows(query_feats, takeoff: int, data_feats, w: int = DEFAULT_W, l
     exists (the data half alone is ``sliding_window_view``); :func:`search_landings` never
     materialises windows.
     """
-    w = _check_w(w)
+    w = check_w(w)
     Q = _check_clip(query_feats, "query_feats")
     X = _check_clip(data_feats, "data_feats")
     if Q.shape[1] != X.shape[1]:
@@ -327,39 +283,13 @@ def sliding_windows(query_feats, takeoff: int, data_feats, w: int = DEFAULT_W, l
     return out
 
 
-_KERNEL_TEMPLATE = """
-def _search_kernel_w{W}(X, cD, cA, Dx, Ax, k_start, k_rows, out, block):
-    m = X.shape[0]
-    n_k = out.shape[0]
-    n_land = out.shape[1]
-    n_blocks = (n_land + block - 1) // block
-    for ib in numba.prange(n_blocks):
-        b0 = ib * block
-        b1 = min(b0 + block, n_land)
-        nb = b1 - b0
-        for d in range(m):
-            xb = X[d, b0 : b1 + {W} - 1]
-            for k in range(n_k):
-                acc = out[k, b0:b1]
-                r = k_start[k]
-                r_end = r + k_rows[k]
-                while r + 1 < r_end:  # two rows at a time: x loads and acc updates shared
-                    c_d = cD[d, r]
-                    c_a = cA[d, r]
-                    e_d = cD[d, r + 1]
-                    e_a = cA[d, r + 1]
-{LOADS}
-{LOADS2}
-                    for i in range(nb):
-                        acc[i] += abs(({DV}) * ({AV})) + abs(({DV2}) * ({AV2}))
-                    r += 2
-                if r < r_end:
-                    c_d = cD[d, r]
-                    c_a = cA[d, r]
-{LOADS}
-                    for i in range(nb):
-                        acc[i] += abs(({DV}) * ({AV}))
-"""
+@numba.njit(inline="always")
+def _affine(c, coef, x, i):  # pragma: no cover - compiled
+    """``c + Σ_j coef[j] x[i + j]`` for a tuple ``coef`` (its length is known when compiling)."""
+    s = c
+    for j in range(len(coef)):
+        s += coef[j] * x[i + j]
+    return s
 
 
 @functools.lru_cache(maxsize=16)
@@ -369,37 +299,49 @@ def _search_kernel(w: int):
     ``out[k, b] += Σ_d Σ_{rows r of k} |(cD[d,r] + Dx[r]·X[d,b:b+w]) (cA[d,r] + Ax[r]·X[d,b:b+w])|``
     with X (m, F) the centred, transposed data clip, cD, cA (m, R) the query-half constants,
     Dx, Ax (R, w) the landing-half coefficients and rows ``k_start[k] .. + k_rows[k]`` those
-    of k. The source is generated per ``w`` so that the coefficients of a row are scalars held
-    in registers and the loop over landings (0-based inside its block, so provably non-negative
-    indices) vectorises; a generic loop over j keeps them in memory and runs ~2x slower. Rows
-    go in pairs (about 10% faster than one at a time). The generated code is compiled with this
-    file's name so that numba's on-disk cache (invalidated when this file changes) applies.
+    of k. One kernel per ``w``: ``w`` is a constant of the compiled code (a closure variable),
+    so the w coefficients of a row become a tuple held in registers (``to_fixed_tuple``), the
+    sums over j unroll, and the loop over landings (0-based inside its block, so provably
+    non-negative indices) vectorises; a loop over j with ``w`` known only at run time keeps the
+    coefficients in memory and runs ~2x slower. Rows go in pairs (about 10% faster than one at
+    a time). numba caches each ``w``'s kernel on disk (keyed by the value of ``w``).
     """
-    pad = " " * 20
 
-    def loads(row: str, dn: str, an: str) -> str:
-        return "\n".join(
-            f"{pad}{dn}{j} = Dx[{row}, {j}]\n{pad}{an}{j} = Ax[{row}, {j}]" for j in range(w)
-        )
+    @numba.njit(parallel=True, nogil=True, cache=True, fastmath={"contract"}, error_model="numpy")
+    def kernel(X, cD, cA, Dx, Ax, k_start, k_rows, out, block):  # pragma: no cover - compiled
+        m = X.shape[0]
+        n_k = out.shape[0]
+        n_land = out.shape[1]
+        n_blocks = (n_land + block - 1) // block
+        for ib in numba.prange(n_blocks):
+            b0 = ib * block
+            b1 = min(b0 + block, n_land)
+            nb = b1 - b0
+            for d in range(m):
+                xb = X[d, b0 : b1 + w - 1]
+                for k in range(n_k):
+                    acc = out[k, b0:b1]
+                    r = k_start[k]
+                    r_end = r + k_rows[k]
+                    while r + 1 < r_end:  # two rows at a time: x loads and acc updates shared
+                        c_d, c_a, e_d, e_a = cD[d, r], cA[d, r], cD[d, r + 1], cA[d, r + 1]
+                        dr = to_fixed_tuple(Dx[r], w)
+                        ar = to_fixed_tuple(Ax[r], w)
+                        fr = to_fixed_tuple(Dx[r + 1], w)
+                        gr = to_fixed_tuple(Ax[r + 1], w)
+                        for i in range(nb):
+                            acc[i] += abs(_affine(c_d, dr, xb, i) * _affine(c_a, ar, xb, i)) + abs(
+                                _affine(e_d, fr, xb, i) * _affine(e_a, gr, xb, i)
+                            )
+                        r += 2
+                    if r < r_end:
+                        c_d, c_a = cD[d, r], cA[d, r]
+                        dr = to_fixed_tuple(Dx[r], w)
+                        ar = to_fixed_tuple(Ax[r], w)
+                        for i in range(nb):
+                            acc[i] += abs(_affine(c_d, dr, xb, i) * _affine(c_a, ar, xb, i))
 
-    def dot(const: str, coef: str) -> str:
-        return " + ".join([const] + [f"{coef}{j} * xb[i + {j}]" for j in range(w)])
-
-    src = _KERNEL_TEMPLATE.format(
-        W=w,
-        LOADS=loads("r", "d", "a"),
-        LOADS2=loads("r + 1", "f", "g"),
-        DV=dot("c_d", "d"),
-        AV=dot("c_a", "a"),
-        DV2=dot("e_d", "f"),
-        AV2=dot("e_a", "g"),
-    )
-    namespace = {"numba": numba, "__name__": __name__}
-    exec(compile(src, __file__, "exec"), namespace)
-    func = namespace[f"_search_kernel_w{w}"]
-    return numba.njit(
-        parallel=True, nogil=True, cache=True, fastmath={"contract"}, error_model="numpy"
-    )(func)
+    return kernel
 
 
 def search_landings(
@@ -427,7 +369,7 @@ def search_landings(
     landings × 63 dims × k = 0..30 ≈ 1.0 s in float32 (≈ 2 s on one thread), ≈ 2 s in float64.
     The kernel is compiled once per w (~1.5 s) and cached on disk by numba.
     """
-    w = _check_w(w)
+    w = check_w(w)
     k_max = int(k_max)
     if k_max < 0:
         raise ValueError(f"k_max must be >= 0, got {k_max}")
