@@ -18,6 +18,7 @@ from mocapkit.io import (
     write_bvh,
     write_motion,
 )
+from mocapkit.summary import MotionSummary, summarize
 
 __version__ = "0.1.0"
 
@@ -25,6 +26,7 @@ __all__ = [
     "BVHError",
     "MocapFileError",
     "Motion",
+    "MotionSummary",
     "RepairWarning",
     "Skeleton",
     "__version__",
@@ -32,6 +34,7 @@ __all__ = [
     "forward_kinematics",
     "read_bvh",
     "read_motion",
+    "summarize",
     "write_bvh",
     "write_motion",
 ]

@@ -51,27 +51,6 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 @contextmanager
-def progress(total: int, description: str, enabled: bool = True) -> Iterator[Callable[[], None]]:
-    """A rich progress bar on stderr; yields a function to call once per finished item."""
-    if not enabled or total <= 1:
-        yield lambda: None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
-    with Progress(
-        "[progress.description]{task.description}",
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeRemainingColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
-        task = bar.add_task(description, total=total)
-        yield lambda: bar.advance(task)
-
-
-@contextmanager
 def progress_callback(description: str, enabled: bool = True) -> Iterator[Callable[..., None]]:
     """A rich progress bar on stderr for a library function's ``progress`` callback: yields
     ``update(*labels, done, total)`` (the last two arguments are used, so it fits both
@@ -98,6 +77,24 @@ def progress_callback(description: str, enabled: bool = True) -> Iterator[Callab
             bar.update(task, completed=done, total=total, description=text)
 
         yield update
+
+
+@contextmanager
+def progress(total: int, description: str, enabled: bool = True) -> Iterator[Callable[[], None]]:
+    """A rich progress bar on stderr; yields a function to call once per finished item."""
+    if not enabled or total <= 1:
+        yield lambda: None
+        return
+    with progress_callback(description) as update:
+        done = 0
+
+        def step() -> None:
+            nonlocal done
+            done += 1
+            update(done, total)
+
+        update(0, total)
+        yield step
 
 
 def load(path: str, lenient: bool, asf: str | None = None, fps: float | None = None) -> Motion:
