@@ -48,7 +48,7 @@ import numpy as np
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion, concatenate
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
-from mocapkit.stitch.lscore import DEFAULT_W, _check_w, elastic_mask
+from mocapkit.stitch.lscore import DEFAULT_W, check_w, elastic_mask
 from mocapkit.stitch.search import (
     Transition,
     _joint_indices,
@@ -230,7 +230,7 @@ def stitch_motions(
     for the FK discrepancy (default: the body joints). Returns :class:`Stitched`."""
     from mocapkit import features
 
-    w = _check_w(window)
+    w = check_w(window)
     if int(k) != k or k < 0:
         raise ValueError(f"k must be an integer >= 0, got {k}")
     k = int(k)
