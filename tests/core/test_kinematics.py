@@ -1,4 +1,4 @@
-"""Forward kinematics: the numba kernel against readable references."""
+"""Forward kinematics: the numba kernel against the readable reference (tests/core/naive.py)."""
 
 from __future__ import annotations
 
@@ -6,31 +6,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial.transform import Rotation
+from testsupport import load_sibling
 
 from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import end_site_positions, fk_arrays, forward_kinematics
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
 
-
-def fk_reference(parents, rotations, translations):
-    """Readable reference: per frame, per joint, with rotation matrices."""
-    F, J = rotations.shape[:2]
-    translations = np.broadcast_to(translations, (F, J, 3))
-    pos = np.zeros((F, J, 3))
-    mats = np.zeros((F, J, 3, 3))
-    for f in range(F):
-        for j in range(J):
-            local = Rotation.from_quat(rotations[f, j], scalar_first=True).as_matrix()
-            p = parents[j]
-            if p < 0:
-                mats[f, j] = local
-                pos[f, j] = translations[f, j]
-            else:
-                mats[f, j] = mats[f, p] @ local
-                pos[f, j] = pos[f, p] + mats[f, p] @ translations[f, j]
-    return pos, mats
+naive = load_sibling(__file__, "naive")
 
 
 def random_tree(rng, J):
@@ -46,7 +29,7 @@ def test_fast_fk_matches_reference(J: int, F: int, seed: int) -> None:
     q = rot.quat_normalize(rng.normal(size=(F, J, 4)))
     t = rng.normal(size=(F, J, 3)) * 10
     pos, grot = fk_arrays(parents, q, t)
-    ref_pos, ref_mats = fk_reference(parents, q, t)
+    ref_pos, ref_mats = naive.fk_reference(parents, q, t)
     np.testing.assert_allclose(pos, ref_pos, atol=1e-9)
     np.testing.assert_allclose(rot.quat_to_matrix(grot), ref_mats, atol=1e-12)
 

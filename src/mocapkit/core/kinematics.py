@@ -5,7 +5,7 @@ rotation is ``G[j] = G[parent] * L[j]`` and its global position is
 ``P[j] = P[parent] + G[parent] (t[j])`` where ``t[j]`` is its local translation (the OFFSET, or the
 animated translation for joints with position channels, or the root translation for the root).
 Because parents come before children, one pass over joints per frame suffices. The fast path is
-a numba kernel; its readable reference twin is in tests/core/test_kinematics.py.
+a numba kernel; its readable reference twin is ``fk_reference`` in tests/core/naive.py.
 """
 
 from __future__ import annotations
