@@ -117,14 +117,6 @@ class ThreeCircles:
         """``(query, data)`` for the stitching experiment: query AB (N, 2), data (F, 2)."""
         return self.query.copy(), self.data(which)
 
-    @staticmethod
-    def centers() -> dict[str, tuple[float, float]]:
-        return {"large": LARGE_CENTER, "forward": FORWARD_CENTER, "backward": BACKWARD_CENTER}
-
-    @staticmethod
-    def radii() -> dict[str, float]:
-        return {"large": LARGE_RADIUS, "forward": SMALL_RADIUS, "backward": SMALL_RADIUS}
-
 
 def three_circles(
     frames_per_cycle: int = 64,

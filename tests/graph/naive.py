@@ -5,6 +5,9 @@ clouds, their per-point weights ``W_k (s_p + f_{i+k,p} + f_{j+k,p})``, finds the
 transform with :func:`mocapkit.features.align_point_clouds_2d` (Kovar & Gleicher's closed form)
 and sums the weighted squared distances. ``brute_force_theta`` does the same minimisation by a
 dense search over the angle (translation optimal in closed form for each angle).
+``local_minima`` marks the interior cells of a cost grid that are finite and <= their eight
+neighbours, with array slices (the compiled kernel behind ``tiled_local_minima`` does it cell by
+cell).
 """
 
 from __future__ import annotations
@@ -51,3 +54,14 @@ def brute_force_theta(db, i, j, steps=20000):
     tz = (w * (a[:, 2] - rz)).sum(1, keepdims=True) / W
     d = (a[:, 0] - rx - tx) ** 2 + (a[:, 1] - b[:, 1]) ** 2 + (a[:, 2] - rz - tz) ** 2
     return float((w * d).sum(1).min())
+
+
+def local_minima(t):
+    """(n-2, m-2) bool: interior cells of ``t`` (n, m) that are finite and <= their 8 neighbours."""
+    c = t[1:-1, 1:-1]
+    ok = np.isfinite(c)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if di or dj:
+                ok &= c <= t[1 + di : t.shape[0] - 1 + di, 1 + dj : t.shape[1] - 1 + dj]
+    return ok

@@ -380,62 +380,6 @@ def _side(db: CostDatabase, idx: np.ndarray, dtype: type) -> _Side:
     )  # fmt: skip
 
 
-def _tile_sums(r: _Side, c: _Side, Wk_s: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The ten sums of every (row, column) pair, as matrix products."""
-    n, m = r.x.shape[0], c.x.shape[0]
-    ux, uz = r.u * r.x, r.u * r.z
-    # row scalars
-    rw = r.u.sum(1)[:, None]
-    rx = ux.sum(1)[:, None]
-    rz = uz.sum(1)[:, None]
-    raa = (r.u * r.sq).sum(1)[:, None]
-    # column scalars: sum W_k beta g(b); the window weight is folded into c.f
-    cw = c.f.sum(1)[None, :]
-    cx = (c.f * c.xs).sum(1)[None, :]
-    cz = (c.f * c.zs).sum(1)[None, :]
-    cbb = (c.f * c.sqs).sum(1)[None, :]
-    has_s = r.f.shape[1] > 0
-    # Bx, Bz, Sbb share the row matrix u
-    cols = np.concatenate([c.x, c.z, c.sq], axis=0)  # (3m, KP)
-    prod = r.u @ cols.T
-    Bx = prod[:, :m] + cx
-    Bz = prod[:, m : 2 * m] + cz
-    Sbb = prod[:, 2 * m :] + cbb
-    # beta_j f(a): the row side carries W_k f(a) on support points, the column side beta
-    if has_s:
-        rows = np.concatenate([Wk_s * r.xs, Wk_s * r.zs, Wk_s * r.sqs], axis=0)  # (3n, KPs)
-        cbeta = c.f / Wk_s  # beta_{j+k,p} (window weight divided back out)
-        pb = rows @ cbeta.T
-        Ax = rx + pb[:n]
-        Az = rz + pb[n : 2 * n]
-        Saa = raa + pb[2 * n :]
-        Syy = (
-            np.concatenate([r.u * r.y, Wk_s * r.ys], axis=1)
-            @ np.concatenate([c.y, cbeta * c.ys], axis=1).T
-        )
-        rowd = np.concatenate([ux, uz, Wk_s * r.xs, Wk_s * r.zs], axis=1)
-        cold = np.concatenate(
-            [
-                np.concatenate([c.x, c.z, cbeta * c.xs, cbeta * c.zs], axis=1),
-                np.concatenate([c.z, -c.x, cbeta * c.zs, -cbeta * c.xs], axis=1),
-            ],
-            axis=0,
-        )
-    else:
-        Ax = np.broadcast_to(rx, (n, m))
-        Az = np.broadcast_to(rz, (n, m))
-        Saa = np.broadcast_to(raa, (n, m))
-        Syy = (r.u * r.y) @ c.y.T
-        rowd = np.concatenate([ux, uz], axis=1)
-        cold = np.concatenate(
-            [np.concatenate([c.x, c.z], axis=1), np.concatenate([c.z, -c.x], axis=1)], axis=0
-        )
-    pd = rowd @ cold.T
-    Sdot = pd[:, :m]
-    Scrs = pd[:, m:]
-    return (rw + cw, Ax, Az, Bx, Bz, Saa, Sbb, Syy, Sdot, Scrs)
-
-
 @numba.njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
 def _finish_kernel(
     prod, pb, syy, pd, rw, rx, rz, raa, cw, cx, cz, cbb, has_s, out
@@ -554,7 +498,8 @@ def _tile_cost_packed(r: _RowPack, c: _ColPack) -> np.ndarray:
 
 
 def _tile_cost(r: _Side, c: _Side, Wk_s: np.ndarray) -> np.ndarray:
-    """Costs (n, m) of every (row, column) pair (same algebra as :func:`_tile_sums`)."""
+    """Costs (n, m) of every (row, column) pair: the sums of the module docstring as four
+    matrix products (:func:`_tile_cost_packed`)."""
     return _tile_cost_packed(_row_pack(r, Wk_s), _col_pack(c, Wk_s))
 
 
@@ -641,17 +586,6 @@ def _local_minima(t: np.ndarray) -> np.ndarray:
     out = np.empty((t.shape[0] - 2, t.shape[1] - 2), dtype=np.bool_)
     _local_minima_kernel(t, out)
     return out
-
-
-def _local_minima_numpy(t: np.ndarray) -> np.ndarray:
-    """(n-2, m-2) bool: interior cells <= their 8 neighbours and finite."""
-    c = t[1:-1, 1:-1]
-    ok = np.isfinite(c)
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            if di or dj:
-                ok &= c <= t[1 + di : t.shape[0] - 1 + di, 1 + dj : t.shape[1] - 1 + dj]
-    return ok
 
 
 @dataclass(frozen=True, eq=False)
