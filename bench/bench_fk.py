@@ -130,24 +130,40 @@ def run(data: Path, repeats: int, max_files: int | None, log: Callable[[str], No
             "upc-pymotion fk (matrices)": best_of(pm_mat, pm_items, repeats),
         }
         for name, secs in timings.items():
-            rows.append({"workload": workload, "impl": name, "joint_frames": jf,
-                         "seconds": secs, "joint_frames_per_s": jf / secs})
+            rows.append(
+                {
+                    "workload": workload,
+                    "impl": name,
+                    "joint_frames": jf,
+                    "seconds": secs,
+                    "joint_frames_per_s": jf / secs,
+                }
+            )
             log(f"  {workload}: {name}: {jf / secs / 1e6:.2f} M joint-frames/s")
     summary = []
     for workload in dict.fromkeys(r["workload"] for r in rows):
         mine = next(r for r in rows if r["workload"] == workload and r["impl"] == "mocapkit")
         peers = [r for r in rows if r["workload"] == workload and r["impl"] != "mocapkit"]
         fastest = max(peers, key=lambda r: r["joint_frames_per_s"])
-        summary.append({
-            "workload": workload,
-            "mocapkit_joint_frames_per_s": mine["joint_frames_per_s"],
-            "fastest_peer": fastest["impl"],
-            "ratio_vs_fastest_peer": mine["joint_frames_per_s"] / fastest["joint_frames_per_s"],
-            "meets_target": mine["joint_frames_per_s"] >= TARGET,
-        })
-    return {"data": str(data), "takes": len(motions), "joints": J, "threads": 1,
-            "max_abs_position_difference": agree, "results": rows, "summary": summary,
-            "target_joint_frames_per_s": TARGET}
+        summary.append(
+            {
+                "workload": workload,
+                "mocapkit_joint_frames_per_s": mine["joint_frames_per_s"],
+                "fastest_peer": fastest["impl"],
+                "ratio_vs_fastest_peer": mine["joint_frames_per_s"] / fastest["joint_frames_per_s"],
+                "meets_target": mine["joint_frames_per_s"] >= TARGET,
+            }
+        )
+    return {
+        "data": str(data),
+        "takes": len(motions),
+        "joints": J,
+        "threads": 1,
+        "max_abs_position_difference": agree,
+        "results": rows,
+        "summary": summary,
+        "target_joint_frames_per_s": TARGET,
+    }
 
 
 def format_table(report: dict) -> str:
@@ -155,27 +171,44 @@ def format_table(report: dict) -> str:
     head = ("workload", "implementation", "M j-frames", "seconds", "M j-frames/s")
 
     def line(cells: tuple[str, ...]) -> str:
-        return "  ".join(c.ljust(w) if i < 2 else c.rjust(w)
-                         for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
+        return "  ".join(
+            c.ljust(w) if i < 2 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        ).rstrip()
 
     out = [line(head), line(tuple("-" * w for w in widths))]
     for r in report["results"]:
-        out.append(line((r["workload"], r["impl"], f"{r['joint_frames'] / 1e6:.2f}",
-                         f"{r['seconds']:.4f}", f"{r['joint_frames_per_s'] / 1e6:.2f}")))
+        out.append(
+            line(
+                (
+                    r["workload"],
+                    r["impl"],
+                    f"{r['joint_frames'] / 1e6:.2f}",
+                    f"{r['seconds']:.4f}",
+                    f"{r['joint_frames_per_s'] / 1e6:.2f}",
+                )
+            )
+        )
     out.append("")
     for s in report["summary"]:
         flag = "meets" if s["meets_target"] else "BELOW"
-        out.append(f"{s['workload']}: mocapkit {s['mocapkit_joint_frames_per_s'] / 1e6:.2f} M "
-                   f"joint-frames/s ({flag} the {report['target_joint_frames_per_s'] / 1e6:.0f} M "
-                   f"target); ratio vs fastest peer ({s['fastest_peer']}): "
-                   f"{s['ratio_vs_fastest_peer']:.1f}x")
+        out.append(
+            f"{s['workload']}: mocapkit {s['mocapkit_joint_frames_per_s'] / 1e6:.2f} M "
+            f"joint-frames/s ({flag} the {report['target_joint_frames_per_s'] / 1e6:.0f} M "
+            f"target); ratio vs fastest peer ({s['fastest_peer']}): "
+            f"{s['ratio_vs_fastest_peer']:.1f}x"
+        )
     return "\n".join(out)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=None,
-                    help="folder of .bvh takes with one skeleton layout (default: shared bandai1)")
+    ap.add_argument(
+        "--data",
+        type=Path,
+        default=None,
+        help="folder of .bvh takes with one skeleton layout (default: shared bandai1)",
+    )
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     ap.add_argument("--repeats", type=int, default=5, help="timed passes (best of)")
     ap.add_argument("--files", type=int, default=None, help="use only the first N takes")

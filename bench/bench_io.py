@@ -123,8 +123,9 @@ def time_budget(
     return n, min(first, time_all(fn, files[:n], repeats - 1) if repeats > 1 else first)
 
 
-def run(data: Path, repeats: int, peer_seconds: float, peer_repeats: int,
-        log: Callable[[str], None]) -> dict:
+def run(
+    data: Path, repeats: int, peer_seconds: float, peer_repeats: int, log: Callable[[str], None]
+) -> dict:
     files = sorted(data.glob("*.bvh"))
     if not files:
         raise SystemExit(f"no .bvh files in {data} (use --data DIR, or set MOCAPKIT_SHARED)")
@@ -146,8 +147,16 @@ def run(data: Path, repeats: int, peer_seconds: float, peer_repeats: int,
         try:
             n, secs = time_budget(fn, files, peer_seconds, peer_repeats)
         except Exception as e:  # a peer that cannot read some file of --data DIR: report, go on
-            rows.append({"name": name, "files": 0, "mb": 0.0, "seconds": None, "mb_per_s": None,
-                         "note": f"failed: {type(e).__name__}"})
+            rows.append(
+                {
+                    "name": name,
+                    "files": 0,
+                    "mb": 0.0,
+                    "seconds": None,
+                    "mb_per_s": None,
+                    "note": f"failed: {type(e).__name__}",
+                }
+            )
             log(f"  {name}: failed ({type(e).__name__}: {e})")
             continue
         rows.append(_row(name, n, sum(sizes[:n]), secs, f"first {n} files, best of {peer_repeats}"))
@@ -157,11 +166,21 @@ def run(data: Path, repeats: int, peer_seconds: float, peer_repeats: int,
     block_bytes = sum(len(b) for b in blocks)
 
     ref = time_all(lambda b: np.array(b.split(), dtype=np.float64), blocks, repeats)
-    rows.append(_row("numpy split (ref)", len(files), block_bytes, ref,
-                     f"motion blocks in memory, best of {repeats}"))
+    rows.append(
+        _row(
+            "numpy split (ref)",
+            len(files),
+            block_bytes,
+            ref,
+            f"motion blocks in memory, best of {repeats}",
+        )
+    )
 
-    peers = [r for r in rows if r["name"] not in ("mocapkit", "numpy split (ref)")
-             and r["mb_per_s"] is not None]
+    peers = [
+        r
+        for r in rows
+        if r["name"] not in ("mocapkit", "numpy split (ref)") and r["mb_per_s"] is not None
+    ]
     fastest = max(peers, key=lambda r: r["mb_per_s"]) if peers else None
     return {
         "data": str(data),
@@ -191,28 +210,44 @@ def format_table(report: dict) -> str:
     for r in report["results"]:
         secs = "-" if r["seconds"] is None else f"{r['seconds']:.3f}"
         speed = "-" if r["mb_per_s"] is None else f"{r['mb_per_s']:.2f}"
-        lines.append(report_line((r["name"], str(r["files"]), f"{r['mb']:.2f}", secs, speed,
-                                  r["note"])))
+        lines.append(
+            report_line((r["name"], str(r["files"]), f"{r['mb']:.2f}", secs, speed, r["note"]))
+        )
     lines.append("")
     if report["fastest_peer"] is None:
         lines.append("ratio vs fastest peer: n/a (no peer could read the files)")
     else:
-        lines.append(f"ratio vs fastest peer ({report['fastest_peer']}): "
-                     f"{report['ratio_vs_fastest_peer']:.1f}x")
+        lines.append(
+            f"ratio vs fastest peer ({report['fastest_peer']}): "
+            f"{report['ratio_vs_fastest_peer']:.1f}x"
+        )
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=None,
-                    help="folder of .bvh files (default: the shared bandai1 takes)")
+    ap.add_argument(
+        "--data",
+        type=Path,
+        default=None,
+        help="folder of .bvh files (default: the shared bandai1 takes)",
+    )
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
-    ap.add_argument("--repeats", type=int, default=5,
-                    help="passes over all files for mocapkit and the numpy reference (best of)")
-    ap.add_argument("--peer-seconds", type=float, default=2.0,
-                    help="each peer parses files until this many seconds have passed")
-    ap.add_argument("--peer-repeats", type=int, default=3,
-                    help="passes over each peer's files (best of)")
+    ap.add_argument(
+        "--repeats",
+        type=int,
+        default=5,
+        help="passes over all files for mocapkit and the numpy reference (best of)",
+    )
+    ap.add_argument(
+        "--peer-seconds",
+        type=float,
+        default=2.0,
+        help="each peer parses files until this many seconds have passed",
+    )
+    ap.add_argument(
+        "--peer-repeats", type=int, default=3, help="passes over each peer's files (best of)"
+    )
     args = ap.parse_args(argv)
     data = args.data if args.data is not None else default_data_dir()
 

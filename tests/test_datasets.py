@@ -125,9 +125,23 @@ def test_humanoid_skeleton(height, units, scale):
     sk = humanoid_skeleton(height, units)
     assert 18 <= sk.num_joints <= 24
     assert sk.parents[0] == -1 and np.all(sk.parents[1:] < np.arange(1, sk.num_joints))
-    for name in ("Hips", "Spine", "Chest", "Neck", "Head", "LeftShoulder", "LeftArm",
-                 "LeftForeArm", "LeftHand", "RightHand", "LeftUpLeg", "LeftLeg", "LeftFoot",
-                 "LeftToe", "RightToe"):
+    for name in (
+        "Hips",
+        "Spine",
+        "Chest",
+        "Neck",
+        "Head",
+        "LeftShoulder",
+        "LeftArm",
+        "LeftForeArm",
+        "LeftHand",
+        "RightHand",
+        "LeftUpLeg",
+        "LeftLeg",
+        "LeftFoot",
+        "LeftToe",
+        "RightToe",
+    ):
         sk.index(name)
     assert len(sk.channels[0]) == 6 and sk.has_position[0]
     assert all(sk.rotation_order(j) == "ZXY" for j in range(sk.num_joints))
@@ -142,7 +156,11 @@ def test_humanoid_skeleton(height, units, scale):
     assert p[sk.index("LeftToe"), 2] > p[sk.index("LeftFoot"), 2]
     assert len(sk.end_site_parents) == 5
     assert {sk.names[j] for j in sk.end_site_parents} == {
-        "Head", "LeftHand", "RightHand", "LeftToe", "RightToe"
+        "Head",
+        "LeftHand",
+        "RightHand",
+        "LeftToe",
+        "RightToe",
     }
 
 
@@ -313,9 +331,11 @@ def test_procedural_sequence_is_continuous():
     step = np.linalg.norm(np.diff(P, axis=0), axis=-1).max(axis=1)  # (F-1,)
     # bound: the fastest per-frame joint displacement seen in the pure clips of those kinds
     pure = {
-        k: np.linalg.norm(np.diff(forward_kinematics(procedural_motion(k, seed=s).motion)[0],
-                                  axis=0), axis=-1).max()
-        for k in ("walk", "run", "wave", "idle") for s in (0,)
+        k: np.linalg.norm(
+            np.diff(forward_kinematics(procedural_motion(k, seed=s).motion)[0], axis=0), axis=-1
+        ).max()
+        for k in ("walk", "run", "wave", "idle")
+        for s in (0,)
     }
     bound = 1.15 * max(pure.values())
     assert step.max() < bound
