@@ -289,3 +289,18 @@ def test_matplotlib_only_under_viz() -> None:
         if rel.startswith("viz/") or rel == "_optional.py":
             continue
         assert "matplotlib" not in f.read_text(), rel
+
+
+def test_reconstruct_writes_what_clean_reconstruct_returns(clips, tmp_path) -> None:
+    from mocapkit.clean import reconstruct
+
+    keep = ["Hips", "Neck", "LeftArm", "RightArm", "LeftUpLeg", "RightUpLeg"]
+    out = tmp_path / "full.bvh"
+    code, _, err = run(
+        "reconstruct", str(clips["walk"]), "--database", str(clips["dir"] / "[ir]*.bvh"),
+        "--out", str(out), "--joints", ",".join(keep),
+    )  # fmt: skip
+    assert code == 0, err
+    db = [read_motion(clips["dir"] / n) for n in ("idle.bvh", "run.bvh")]
+    lib = reconstruct(read_motion(clips["walk"]), db, keep)
+    assert read_motion(out).allclose(read_motion(write_motion(lib, tmp_path / "lib.bvh")))
