@@ -19,17 +19,20 @@ from mocapkit.viz.figures import figsize, pyplot, save, wrap
 __all__ = ["pick_plot_joints", "plot_paths_2d", "plot_stitch"]
 
 
-def pick_plot_joints(names: Sequence[str], n: int = 3) -> list[int]:
-    """Up to ``n`` joints worth plotting: a hand, the other hand, a foot (by name), else the
-    last joints."""
-    low = [s.lower() for s in names]
+def pick_plot_joints(skeleton, n: int = 3) -> list[int]:
+    """Up to ``n`` joints worth plotting: the right wrist, the left wrist and a foot (ankle) of
+    the body model (:func:`mocapkit.body.body_of`), else the other wrists and ankles it found,
+    else the last joints."""
+    from mocapkit.body import body_of
+
+    body = body_of(skeleton)
     picks: list[int] = []
-    for pats in (("righthand", "hand_r", "rhand", "r_hand"), ("hand",), ("foot", "ankle")):
-        for i, s in enumerate(low):
-            if i not in picks and any(p in s for p in pats):
-                picks.append(i)
-                break
-    for i in range(len(names) - 1, -1, -1):
+    wanted = [body.joint(k) for k in ("right_wrist", "left_wrist", "left_ankle", "right_ankle")]
+    for j in [*wanted, *body.both("wrist"), *body.both("ankle")]:
+        if j is not None and j not in picks:
+            picks.append(j)
+    picks = picks[: min(n, 2)] + [j for j in picks[2:] if j in body.both("ankle")][:1]
+    for i in range(skeleton.num_joints - 1, -1, -1):
         if len(picks) >= n:
             break
         if i not in picks:
@@ -60,7 +63,7 @@ def plot_stitch(
     names = m.skeleton.names
     if lscore_by_k is None and stitched.transition is not None:
         lscore_by_k = stitched.transition.lscore_by_k
-    joints = list(joints) if joints is not None else pick_plot_joints(names)
+    joints = list(joints) if joints is not None else pick_plot_joints(m.skeleton)
     up = up or getattr(stitched, "up", None) or features.detect_up_axis(m)
     cm = 100.0 * features.metres_per_unit(m, None)
     fps = m.fps
