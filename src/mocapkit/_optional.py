@@ -19,10 +19,3 @@ def require(module: str) -> ModuleType:
         extra = EXTRAS.get(top)
         hint = f"pip install 'mocapkit[{extra}]'" if extra else f"pip install {top}"
         raise ImportError(f"{module} is needed for this feature; install it with: {hint}") from e
-
-
-def pyplot() -> ModuleType:
-    """matplotlib.pyplot on the non-interactive Agg backend (figures go to PNG files)."""
-    matplotlib = require("matplotlib")
-    matplotlib.use("Agg", force=False)
-    return require("matplotlib.pyplot")
