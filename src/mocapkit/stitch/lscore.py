@@ -111,7 +111,6 @@ def check_w(w: int) -> int:
     return int(w)
 
 
-_check_w = check_w  # old private name, still imported by stitch.search; remove once it uses check_w
 
 
 @functools.lru_cache(maxsize=256)

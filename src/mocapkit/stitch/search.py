@@ -41,7 +41,7 @@ from mocapkit.core.skeleton import Skeleton
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel
 from mocapkit.stitch.lscore import (
     DEFAULT_W,
-    _check_w,
+    check_w,
     elastic_lscores,
     search_landings,
     sliding_windows,
@@ -206,7 +206,7 @@ def euclidean_landings(query_feats, takeoff: int, data_feats, w: int = DEFAULT_W
     """Windowed Euclidean distance (:func:`mocapkit.stitch.windowed_euclidean`) of one take-off
     against every landing frame b = 0..F-w of a data clip, (F-w+1,) float64, without building
     the windows: ``|q|² + Σ_j |x_{b+j}|² - 2 Σ_j q_j·x_{b+j}`` with sliding sums."""
-    w = _check_w(w)
+    w = check_w(w)
     Q = np.asarray(query_feats, dtype=float)
     X = np.asarray(data_feats, dtype=float)
     a = int(takeoff)
@@ -305,7 +305,7 @@ def search_features(
     "lscore"``) or by windowed Euclidean distance (``"euclidean"``); ties go to the first
     (clip, take-off, landing). Returns a :class:`Transition`.
     """
-    w = _check_w(w)
+    w = check_w(w)
     score = _check_score(score)
     if int(k_max) != k_max or k_max < 0:
         raise ValueError(f"k_max must be an integer >= 0, got {k_max}")
