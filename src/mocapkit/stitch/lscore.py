@@ -111,8 +111,6 @@ def check_w(w: int) -> int:
     return int(w)
 
 
-
-
 @functools.lru_cache(maxsize=256)
 def _operators_cached(model: ConstantAccelerationModel, w: int, k: int):
     M = smoother_matrix(model, elastic_mask(w, k))  # (T, 3, 2w)
