@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mocapkit.clean.inject import ERROR_KINDS, Injected, hinge_joints, inject
-from mocapkit.clean.texture import ANALYSIS_FPS, source_word_starts, word_lengths
+from mocapkit.clean.words import ANALYSIS_FPS, source_word_starts, word_lengths
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 

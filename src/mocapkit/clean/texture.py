@@ -23,8 +23,6 @@ import numpy as np
 from mocapkit import features
 from mocapkit.body import body_of
 from mocapkit.clean.words import ANALYSIS_FPS, JointGroup
-from mocapkit.clean.words import source_word_starts as source_word_starts
-from mocapkit.clean.words import word_lengths as word_lengths
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
