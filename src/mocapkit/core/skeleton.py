@@ -134,23 +134,36 @@ class Skeleton:
         order = "".join(c[0] for c in self.channels[j] if c in ROTATION_CHANNELS)
         return order or "ZXY"
 
-    @property
+    # Derived views are cached (the skeleton is immutable), so per-joint loops over them stay
+    # linear on rigs of thousands of joints.
+    @functools.cached_property
     def rotation_orders(self) -> tuple[str, ...]:
         return tuple(self.rotation_order(j) for j in range(self.num_joints))
 
-    @property
+    @functools.cached_property
     def has_rotation(self) -> np.ndarray:
-        """(J,) bool: joint j has rotation channels."""
-        return np.array([any(c in ROTATION_CHANNELS for c in ch) for ch in self.channels])
+        """(J,) bool, read-only: joint j has rotation channels."""
+        out = np.array([any(c in ROTATION_CHANNELS for c in ch) for ch in self.channels])
+        out.setflags(write=False)
+        return out
 
-    @property
+    @functools.cached_property
     def has_position(self) -> np.ndarray:
-        """(J,) bool: joint j has position channels (animated translation)."""
-        return np.array([any(c in POSITION_CHANNELS for c in ch) for ch in self.channels])
+        """(J,) bool, read-only: joint j has position channels (animated translation)."""
+        out = np.array([any(c in POSITION_CHANNELS for c in ch) for ch in self.channels])
+        out.setflags(write=False)
+        return out
+
+    @functools.cached_property
+    def _children(self) -> tuple[tuple[int, ...], ...]:
+        kids: list[list[int]] = [[] for _ in range(self.num_joints)]
+        for j in range(1, self.num_joints):
+            kids[int(self.parents[j])].append(j)
+        return tuple(tuple(k) for k in kids)
 
     def children(self, j: int) -> list[int]:
         """Direct children of joint ``j``, in joint order."""
-        return [int(c) for c in np.flatnonzero(self.parents == j)]
+        return list(self._children[j])
 
     def ancestors(self, j: int) -> list[int]:
         """The joints above ``j``: its parent first, the root last (empty for the root)."""

@@ -10,12 +10,13 @@ The readable reference it is tested against is ``numpy.array(text.split(), float
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
-OK, BAD_COUNT, BAD_NUMBER, NON_FINITE = 0, 1, 2, 3
+OK, BAD_COUNT, BAD_NUMBER, NON_FINITE, OVERFLOW = 0, 1, 2, 3, 4
 
 _POW10 = np.array([10.0**i for i in range(23)])
 _SLOW_CAPACITY = 256
@@ -213,15 +214,28 @@ def parse_rows(
     )
     values = out[: rows * ncols]
     if nslow:
+        raw = bytes(block)
         if nslow <= _SLOW_CAPACITY:
-            raw = bytes(block)
             for flat, a, b in slow[:nslow]:
                 if flat < len(values):
                     values[flat] = float(raw[a:b])
+                    if not math.isfinite(values[flat]) and not allow_nan:
+                        # a literal beyond the double range (1e309, 400 digits): float() gives
+                        # inf without a word, which must not pass for data
+                        r, c = divmod(int(flat), ncols)
+                        line = raw[:a].count(b"\n")
+                        return ParseResult(values[: r * ncols].reshape(r, ncols), OVERFLOW,
+                                           line, c, 0, int(blank), int(a))  # fmt: skip
         else:  # many long literals: let numpy convert the whole (validated) prefix exactly
-            prefix = bytes(block)[: eoff if status != OK else len(buf)]
-            exact = np.array(prefix.split(), dtype=np.float64)
-            values = exact[: rows * ncols]
+            prefix = raw[: eoff if status != OK else len(buf)]
+            values = np.array(prefix.split(), dtype=np.float64)[: rows * ncols]
+            bad = np.flatnonzero(~np.isfinite(values))
+            if len(bad) and not allow_nan:
+                r, c = divmod(int(bad[0]), ncols)
+                return ParseResult(values[: r * ncols].reshape(r, ncols), OVERFLOW, r, c, 0,
+                                   int(blank), 0)  # fmt: skip
+        if allow_nan:
+            values[~np.isfinite(values)] = np.nan
     return ParseResult(
         # a view: the buffer holds at most a row or two more than needed
         values.reshape(rows, ncols) if rows * ncols else np.zeros((rows, ncols)),

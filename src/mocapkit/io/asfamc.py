@@ -62,7 +62,7 @@ import numpy as np
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import POSITION_CHANNELS, Skeleton
-from mocapkit.io.errors import ASFAMCError
+from mocapkit.io.errors import ASFAMCError, decode_text, quote
 
 __all__ = [
     "AsfBone",
@@ -181,7 +181,7 @@ class AsfSkeleton:
         for b in self.bones:
             if b.name == name:
                 return b
-        raise KeyError(f"no bone named {name!r}")
+        raise KeyError(f"no bone named {quote(name)}")
 
     def parent_of(self) -> dict[str, str]:
         """Bone name -> parent name ("root" for the root's children)."""
@@ -254,9 +254,9 @@ def _fixed_axes_quat(angles: np.ndarray, axes: str) -> np.ndarray:
     return q
 
 
-def _decode(data: bytes | str) -> list[str]:
+def _decode(data: bytes | str, source: str = "<string>") -> list[str]:
     if isinstance(data, bytes | bytearray | memoryview):
-        data = bytes(data).decode("utf-8", errors="replace")
+        data = decode_text(bytes(data), source)
     if data.startswith("\ufeff"):
         data = data[1:]
     return data.replace("\r\n", "\n").replace("\r", "\n").split("\n")
@@ -272,9 +272,11 @@ def _number(tok: str, source: str, line: int, what: str, allow_inf: bool = False
             raise ValueError
         v = float(tok)
     except ValueError:
-        raise ASFAMCError(source, line, f"expected a number for {what}, found {tok!r}") from None
+        raise ASFAMCError(
+            source, line, f"expected a number for {what}, found {quote(tok)}"
+        ) from None
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
-        raise ASFAMCError(source, line, f"{what} is {tok!r}; only finite numbers are allowed")
+        raise ASFAMCError(source, line, f"{what} is {quote(tok)}; only finite numbers are allowed")
     return v
 
 
@@ -283,7 +285,7 @@ def _numbers(toks: list[str], n: int, source: str, line: int, what: str) -> np.n
         raise ASFAMCError(
             source,
             line,
-            f"{what} needs {n} number{'s' * (n != 1)}, found {len(toks)}: {' '.join(toks)!r}",
+            f"{what} needs {n} number{'s' * (n != 1)}, found {len(toks)}: {quote(' '.join(toks))}",
         )
     return np.array([_number(t, source, line, what) for t in toks])
 
@@ -295,7 +297,7 @@ def _axis_order(tok: str, source: str, line: int, what: str) -> str:
             source,
             line,
             f"{what}: expected a rotation order such as XYZ "
-            f"(a permutation of X, Y, Z), found {tok!r}",
+            f"(a permutation of X, Y, Z), found {quote(tok)}",
         )
     return order
 
@@ -341,7 +343,9 @@ def _split_sections(lines: list[str], source: str) -> dict[str, _Section]:
         if current is None:
             if toks:
                 raise ASFAMCError(
-                    source, ln, f"expected a ':keyword' line such as ':version', found {toks[0]!r}"
+                    source,
+                    ln,
+                    f"expected a ':keyword' line such as ':version', found {quote(toks[0])}",
                 )
             continue
         current.raw.append(text)
@@ -359,11 +363,13 @@ def _parse_units(sec: _Section | None, source: str) -> tuple[float, float, str]:
         if key in ("mass", "length"):
             if len(toks) != 2:
                 raise ASFAMCError(
-                    source, ln, f":units {key} needs one number, found {' '.join(toks[1:])!r}"
+                    source, ln, f":units {key} needs one number, found {quote(' '.join(toks[1:]))}"
                 )
             v = _number(toks[1], source, ln, f":units {key}")
             if v <= 0:
-                raise ASFAMCError(source, ln, f":units {key} must be positive, found {toks[1]!r}")
+                raise ASFAMCError(
+                    source, ln, f":units {key} must be positive, found {quote(toks[1])}"
+                )
             if key == "mass":
                 mass = v
             else:
@@ -371,7 +377,9 @@ def _parse_units(sec: _Section | None, source: str) -> tuple[float, float, str]:
         elif key == "angle":
             if len(toks) != 2 or toks[1].lower() not in _ANGLE_UNITS:
                 raise ASFAMCError(
-                    source, ln, f":units angle must be 'deg' or 'rad', found {' '.join(toks[1:])!r}"
+                    source,
+                    ln,
+                    f":units angle must be 'deg' or 'rad', found {quote(' '.join(toks[1:]))}",
                 )
             angle = _ANGLE_UNITS[toks[1].lower()]
         # other unit keys (vendor extensions) do not affect the result
@@ -382,7 +390,7 @@ def _parse_root(
     sec: _Section, source: str, to_rad: float
 ) -> tuple[tuple[str, ...], str, np.ndarray, np.ndarray]:
     if sec.args:
-        raise ASFAMCError(source, sec.line, f"unexpected text after :root: {sec.args[0]!r}")
+        raise ASFAMCError(source, sec.line, f"unexpected text after :root: {quote(sec.args[0])}")
     order: tuple[str, ...] | None = None
     axis = "XYZ"
     position = np.zeros(3)
@@ -397,7 +405,7 @@ def _parse_root(
                     source,
                     ln,
                     "root order: expected distinct tokens from TX TY "
-                    f"TZ RX RY RZ, found {' '.join(toks[1:])!r}",
+                    f"TZ RX RY RZ, found {quote(' '.join(toks[1:]))}",
                 )
         elif key == "axis":
             if len(toks) != 2:
@@ -411,7 +419,7 @@ def _parse_root(
             raise ASFAMCError(
                 source,
                 ln,
-                f"expected order, axis, position or orientation in :root, found {toks[0]!r}",
+                f"expected order, axis, position or orientation in :root, found {quote(toks[0])}",
             )
     if order is None:
         raise ASFAMCError(
@@ -448,7 +456,7 @@ def _parse_bone(
     name = "?"
 
     def label() -> str:
-        return f"bone {name!r}" if name != "?" else f"the bone starting on line {begin_line}"
+        return f"bone {quote(name)}" if name != "?" else f"the bone starting on line {begin_line}"
 
     def too_few() -> ASFAMCError:
         return ASFAMCError(
@@ -485,7 +493,10 @@ def _parse_bone(
                 raise ASFAMCError(
                     source,
                     ln,
-                    f"id of {label()}: expected one whole number, found {' '.join(toks[1:])!r}",
+                    (
+                        f"id of {label()}: expected one whole "
+                        f"number, found {quote(' '.join(toks[1:]))}"
+                    ),
                 )
             vals["id"] = int(toks[1])
         elif key == "direction":
@@ -493,7 +504,7 @@ def _parse_bone(
         elif key == "length":
             v = float(_numbers(toks[1:], 1, source, ln, f"length of {label()}")[0])
             if v < 0:
-                raise ASFAMCError(source, ln, f"length of {label()} is negative: {toks[1]!r}")
+                raise ASFAMCError(source, ln, f"length of {label()} is negative: {quote(toks[1])}")
             if "direction" in vals and not _finite_vector(vals["direction"], v):  # type: ignore[arg-type]
                 raise ASFAMCError(source, ln, f"direction * length of {label()} overflows")
             vals["length"] = v
@@ -504,7 +515,7 @@ def _parse_bone(
                     ln,
                     f"axis of {label()}: expected 3 angles and a "
                     "rotation order (e.g. 'axis 0 0 20 XYZ'), found "
-                    f"{' '.join(toks[1:])!r}",
+                    f"{quote(' '.join(toks[1:]))}",
                 )
             angles = _numbers(toks[1:4], 3, source, ln, f"axis of {label()}") * to_rad
             vals["axis"] = (angles, _axis_order(toks[4], source, ln, f"axis of {label()}"))
@@ -518,7 +529,7 @@ def _parse_bone(
                     source,
                     ln,
                     f"dof of {label()}: expected distinct tokens from "
-                    f"rx ry rz tx ty tz, found {' '.join(toks[1:])!r}",
+                    f"rx ry rz tx ty tz, found {quote(' '.join(toks[1:]))}",
                 )
             vals["dof"] = dof
         elif key == "limits":
@@ -529,7 +540,9 @@ def _parse_bone(
             expected = 2 * len(vals["dof"])  # type: ignore[arg-type]
             take_limits(toks[1:], ln)
         elif _is_limit_token(toks[0]):
-            raise ASFAMCError(source, ln, f"unexpected numbers in {label()}: {' '.join(toks)!r}")
+            raise ASFAMCError(
+                source, ln, f"unexpected numbers in {label()}: {quote(' '.join(toks))}"
+            )
         # other keys (bodymass, cofmass, ...) do not affect the result
     if len(limits) < expected:
         raise too_few()
@@ -558,7 +571,9 @@ def _parse_bone(
 
 def _parse_bonedata(sec: _Section, source: str, to_rad: float) -> list[AsfBone]:
     if sec.args:
-        raise ASFAMCError(source, sec.line, f"unexpected text after :bonedata: {sec.args[0]!r}")
+        raise ASFAMCError(
+            source, sec.line, f"unexpected text after :bonedata: {quote(sec.args[0])}"
+        )
     bones: list[AsfBone] = []
     seen: dict[str, int] = {}
     body: list[tuple[int, list[str]]] | None = None
@@ -570,7 +585,7 @@ def _parse_bonedata(sec: _Section, source: str, to_rad: float) -> list[AsfBone]:
                 raise ASFAMCError(
                     source,
                     ln,
-                    f"expected 'begin' (a new bone) in :bonedata, found {' '.join(toks)!r}",
+                    f"expected 'begin' (a new bone) in :bonedata, found {quote(' '.join(toks))}",
                 )
             body, begin_line = [], ln
         elif key == "end" and len(toks) == 1:
@@ -582,7 +597,10 @@ def _parse_bonedata(sec: _Section, source: str, to_rad: float) -> list[AsfBone]:
                 raise ASFAMCError(
                     source,
                     name_line,
-                    f"duplicate bone name {bone.name!r} (first defined on line {seen[bone.name]})",
+                    (
+                        f"duplicate bone name {quote(bone.name)} "
+                        f"(first defined on line {seen[bone.name]})"
+                    ),
                 )
             seen[bone.name] = name_line
             bones.append(bone)
@@ -615,7 +633,9 @@ def _parse_hierarchy(
             )
         return {}
     if sec.args:
-        raise ASFAMCError(source, sec.line, f"unexpected text after :hierarchy: {sec.args[0]!r}")
+        raise ASFAMCError(
+            source, sec.line, f"unexpected text after :hierarchy: {quote(sec.args[0])}"
+        )
     names = {b.name for b in bones}
     kids: dict[str, list[str]] = {}
     parent_line: dict[str, tuple[str, int]] = {}
@@ -625,13 +645,13 @@ def _parse_hierarchy(
         if state == "before":
             if key != "begin" or len(toks) != 1:
                 raise ASFAMCError(
-                    source, ln, f"expected 'begin' after :hierarchy, found {' '.join(toks)!r}"
+                    source, ln, f"expected 'begin' after :hierarchy, found {quote(' '.join(toks))}"
                 )
             state = "in"
             continue
         if state == "after":
             raise ASFAMCError(
-                source, ln, f"unexpected text after the hierarchy's 'end': {' '.join(toks)!r}"
+                source, ln, f"unexpected text after the hierarchy's 'end': {quote(' '.join(toks))}"
             )
         if key == "end" and len(toks) == 1:
             state = "after"
@@ -639,20 +659,22 @@ def _parse_hierarchy(
         parent = ROOT if toks[0].lower() == ROOT else toks[0]
         if parent != ROOT and parent not in names:
             raise ASFAMCError(
-                source, ln, f"hierarchy names unknown bone {parent!r} (not in :bonedata)"
+                source, ln, f"hierarchy names unknown bone {quote(parent)} (not in :bonedata)"
             )
         if len(toks) < 2:
-            raise ASFAMCError(source, ln, f"hierarchy line for {parent!r} lists no children")
+            raise ASFAMCError(source, ln, f"hierarchy line for {quote(parent)} lists no children")
         for c in toks[1:]:
             if c.lower() == ROOT:
                 raise ASFAMCError(source, ln, "the root cannot be a child")
             if c not in names:
                 raise ASFAMCError(
-                    source, ln, f"hierarchy names unknown bone {c!r} (not in :bonedata)"
+                    source, ln, f"hierarchy names unknown bone {quote(c)} (not in :bonedata)"
                 )
             if c in parent_line:
                 p, pl = parent_line[c]
-                raise ASFAMCError(source, ln, f"bone {c!r} already has parent {p!r} (line {pl})")
+                raise ASFAMCError(
+                    source, ln, f"bone {quote(c)} already has parent {quote(p)} (line {pl})"
+                )
             parent_line[c] = (parent, ln)
             kids.setdefault(parent, []).append(c)
     if state == "before":
@@ -676,13 +698,13 @@ def _parse_hierarchy(
                 if b.name not in parent_line
                 else "is not connected to the root (a cycle in :hierarchy)"
             )
-            raise ASFAMCError(source, where, f"bone {b.name!r} {why}")
+            raise ASFAMCError(source, where, f"bone {quote(b.name)} {why}")
     return hierarchy
 
 
 def parse_asf(data: bytes | str, source: str = "<string>") -> AsfSkeleton:
     """Parse ASF text (bytes or str); ``source`` names it in errors."""
-    lines = _decode(data)
+    lines = _decode(data, source)
     sections = _split_sections(lines, source)
     last = max(1, len(lines) - (1 if lines and lines[-1] == "" else 0))
     mass, length, angle = _parse_units(sections.get(":units"), source)
@@ -751,7 +773,7 @@ def _parse_amc_values(
             return
         for n in needed:
             if n not in seen:
-                what = "the root" if n == ROOT else f"bone {n!r}"
+                what = "the root" if n == ROOT else f"bone {quote(n)}"
                 raise ASFAMCError(
                     source,
                     frame_line,
@@ -759,7 +781,7 @@ def _parse_amc_values(
                     "(every bone with dof needs one per frame)",
                 )
 
-    for ln, text in enumerate(_decode(data), 1):
+    for ln, text in enumerate(_decode(data, source), 1):
         if "#" in text:
             text = text.split("#", 1)[0]
         if "," in text:
@@ -770,7 +792,7 @@ def _parse_amc_values(
         head = toks[0]
         if head.startswith(":"):
             if frame is not None:
-                raise ASFAMCError(source, ln, f"keyword {head!r} after the first frame")
+                raise ASFAMCError(source, ln, f"keyword {quote(head)} after the first frame")
             key = head.upper()
             if key in (":DEGREES", ":DEGREE"):
                 unit = "deg"
@@ -792,13 +814,17 @@ def _parse_amc_values(
             seen = set()
             continue
         if frame is None:
-            raise ASFAMCError(source, ln, f"expected a frame number before the line of {head!r}")
+            raise ASFAMCError(
+                source, ln, f"expected a frame number before the line of {quote(head)}"
+            )
         name = ROOT if head.lower() == ROOT else head
         n = counts.get(name)
         if n is None:
-            raise ASFAMCError(source, ln, f"unknown bone {head!r} (not in the ASF {asf.source})")
+            raise ASFAMCError(
+                source, ln, f"unknown bone {quote(head)} (not in the ASF {asf.source})"
+            )
         if name in seen:
-            raise ASFAMCError(source, ln, f"second line for {head!r} in frame {frame}")
+            raise ASFAMCError(source, ln, f"second line for {quote(head)} in frame {frame}")
         seen.add(name)
         if len(toks) - 1 != n:
             what = (
@@ -807,7 +833,7 @@ def _parse_amc_values(
                 else f"its dof {' '.join(asf.bone(name).dof) or '(none)'}"
             )
             raise ASFAMCError(
-                source, ln, f"{head!r} has {len(toks) - 1} values; expected {n} for {what}"
+                source, ln, f"{quote(head)} has {len(toks) - 1} values; expected {n} for {what}"
             )
         if not n:
             continue
@@ -818,7 +844,7 @@ def _parse_amc_values(
             ok = False
         if not ok:
             for i, t in enumerate(toks[1:], 1):
-                _number(t, source, ln, f"value {i} of {head!r}")
+                _number(t, source, ln, f"value {i} of {quote(head)}")
         rows[name].append(row)
     check_frame()
     values = {
@@ -841,10 +867,10 @@ def parse_amc(
     """
     fps = float(fps)
     if not math.isfinite(fps) or fps <= 0:
-        raise ValueError(f"fps must be a positive number, got {fps!r}")
+        raise ValueError(f"fps must be a positive number, got {quote(fps)}")
     scale = float(scale)
     if not math.isfinite(scale) or scale <= 0:
-        raise ValueError(f"scale must be a positive number, got {scale!r}")
+        raise ValueError(f"scale must be a positive number, got {quote(scale)}")
     values, F, unit = _parse_amc_values(data, asf, source)
     to_rad = math.pi / 180.0 if (unit or asf.angle) == "deg" else 1.0
     skeleton = asf.to_skeleton(scale)

@@ -15,10 +15,12 @@ truncated last row — and says so with a :class:`RepairWarning`.
 
 from __future__ import annotations
 
+import collections
 import functools
 import math
 import re
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numba
@@ -29,7 +31,7 @@ from mocapkit.core.motion import Motion, fill_missing
 from mocapkit.core.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, VALID_CHANNELS, Skeleton
 from mocapkit.io import _numparse
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.errors import BVHError, RepairWarning
+from mocapkit.io.errors import BVHError, RepairWarning, decode_text, quote
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
 _FRAMES = re.compile(r"frames\s*:\s*(\S*)\s*(.*)", re.IGNORECASE)
@@ -48,23 +50,36 @@ class _Lines:
         self.source = source
         m = _MOTION_LINE.search(data)
         end = len(data) if m is None else m.end()
-        header = data[:end].decode("utf-8", errors="replace")
+        header = decode_text(data[:end], source)
         lines = header.split("\n")
         self.header_lines = lines
-        self._tokens: list[tuple[str, int]] | None = None
-        self.i = 0
+        self._buf: collections.deque[tuple[str, int]] = collections.deque()
+        self._iter: Iterator[re.Match[str]] | None = None
+        self._iter_line = 0
+        self._next_line = 0
         self.lineno = len(lines)  # line of the last hierarchy token (the MOTION line)
         self.pos = end + 1 if data[end : end + 1] == b"\n" else end
 
-    @property
-    def tokens(self) -> list[tuple[str, int]]:
-        if self._tokens is None:  # tokenised only when the fast line parser gives up
-            self._tokens = [
-                (t, ln)
-                for ln, line in enumerate(self.header_lines, 1)
-                for t in _TOKEN.findall(line)
-            ]
-        return self._tokens
+    def _fill(self) -> bool:
+        """Tokenise lines lazily until a token is buffered (False at the end of the header):
+        the token parser runs only on broken or unusual files, and stops at the first error,
+        so a huge bad line is never split whole into Python strings."""
+        while not self._buf:
+            if self._iter is None:
+                if self._next_line >= len(self.header_lines):
+                    return False
+                self._iter_line = self._next_line + 1
+                self._iter = _TOKEN.finditer(self.header_lines[self._next_line])
+                self._next_line += 1
+            m = next(self._iter, None)
+            if m is None:
+                self._iter = None
+                continue
+            self._buf.append((m.group(), self._iter_line))
+        return True
+
+    def more_tokens(self) -> bool:
+        return self._fill()
 
     def next_line(self) -> tuple[int, str] | None:
         if self.pos >= len(self.data):
@@ -75,35 +90,36 @@ class _Lines:
         raw = self.data[self.pos : end]
         self.pos = end + 1
         self.lineno += 1
-        return self.lineno, raw.decode("utf-8", errors="replace")
+        return self.lineno, raw.decode("utf-8", errors="backslashreplace")
 
     def peek(self, expected: str) -> tuple[str, int]:
-        if self.i >= len(self.tokens):
+        if not self._fill():
             raise BVHError(self.source, self.lineno, f"unexpected end of file, expected {expected}")
-        return self.tokens[self.i]
+        return self._buf[0]
 
     def take(self, expected: str) -> tuple[str, int]:
         tok = self.peek(expected)
-        self.i += 1
+        self._buf.popleft()
         return tok
 
-    def more_tokens(self) -> bool:
-        return self.i < len(self.tokens)
-
-    def rest_of_line(self, line: int) -> list[str]:
-        """Remaining tokens on ``line`` (consumed)."""
+    def rest_of_line(self, line: int, limit: int = 64) -> list[str]:
+        """Remaining words on ``line`` up to a brace (consumed); more than ``limit`` words is an
+        error (a name, a channel list or an offset never has that many)."""
         out = []
-        toks, i = self.tokens, self.i
-        while i < len(toks) and toks[i][1] == line and toks[i][0] not in "{}":
-            out.append(toks[i][0])
-            i += 1
-        self.i = i
+        while self._fill() and self._buf[0][1] == line and self._buf[0][0] not in "{}":
+            out.append(self._buf.popleft()[0])
+            if len(out) > limit:
+                raise BVHError(
+                    self.source,
+                    line,
+                    f"more than {limit} words on one line: {quote(' '.join(out))}",
+                )
         return out
 
     def expect(self, word: str) -> int:
         tok, ln = self.take(f"'{word}'")
         if tok.upper() != word.upper():
-            raise BVHError(self.source, ln, f"expected '{word}', found {tok!r}")
+            raise BVHError(self.source, ln, f"expected '{word}', found {quote(tok)}")
         return ln
 
 
@@ -111,9 +127,9 @@ def _number(tok: str, source: str, line: int, what: str) -> float:
     try:
         v = float(tok)
     except ValueError:
-        raise BVHError(source, line, f"expected a number for {what}, found {tok!r}") from None
+        raise BVHError(source, line, f"expected a number for {what}, found {quote(tok)}") from None
     if not np.isfinite(v):
-        raise BVHError(source, line, f"{what} is {tok!r}; only finite numbers are allowed")
+        raise BVHError(source, line, f"{what} is {quote(tok)}; only finite numbers are allowed")
     return v
 
 
@@ -144,19 +160,20 @@ def _parse_offset(lx: _Lines, what: str) -> list[float]:
     return vals
 
 
-def _parse_joint(lx: _Lines, h: _Hierarchy, parent: int, name_line: int, name: str) -> None:
+def _open_joint(lx: _Lines, h: _Hierarchy, parent: int, name_line: int, name: str) -> int:
+    """Read a joint's name, '{', OFFSET and CHANNELS; returns its index."""
     src = lx.source
     if not name:
         raise BVHError(src, name_line, "joint without a name")
     if name in h.names:
-        raise BVHError(src, name_line, f"duplicate joint name {name!r}")
+        raise BVHError(src, name_line, f"duplicate joint name {quote(name)}")
     j = len(h.names)
     h.names.append(name)
     h.parents.append(parent)
     h.lines.append(name_line)
     lx.expect("{")
-    h.offsets.append(_parse_offset(lx, f"joint {name!r}"))
-    tok, ln = lx.peek(f"CHANNELS or '}}' in joint {name!r}")
+    h.offsets.append(_parse_offset(lx, f"joint {quote(name)}"))
+    tok, ln = lx.peek(f"CHANNELS or '}}' in joint {quote(name)}")
     channels: tuple[str, ...] = ()
     if tok.upper() == "CHANNELS":
         lx.take("")
@@ -164,58 +181,73 @@ def _parse_joint(lx: _Lines, h: _Hierarchy, parent: int, name_line: int, name: s
         try:
             n = int(ntok)
         except ValueError:
-            raise BVHError(src, nln, f"expected the channel count, found {ntok!r}") from None
+            raise BVHError(src, nln, f"expected the channel count, found {quote(ntok)}") from None
         names = lx.rest_of_line(ln)
         if n not in (0, 3, 6):
-            raise BVHError(src, ln, f"joint {name!r}: CHANNELS {n}; expected 0, 3 or 6")
+            raise BVHError(src, ln, f"joint {quote(name)}: CHANNELS {n}; expected 0, 3 or 6")
         if len(names) != n:
             raise BVHError(
-                src, ln, f"joint {name!r}: CHANNELS {n} lists {len(names)} channel names"
+                src, ln, f"joint {quote(name)}: CHANNELS {n} lists {len(names)} channel names"
             )
         canon = {c.lower(): c for c in VALID_CHANNELS}
         fixed = []
         for c in names:
             if c.lower() not in canon:
-                raise BVHError(src, ln, f"joint {name!r}: unknown channel {c!r}")
+                raise BVHError(src, ln, f"joint {quote(name)}: unknown channel {quote(c)}")
             fixed.append(canon[c.lower()])
         channels = tuple(fixed)
         if len(set(channels)) != n:
-            raise BVHError(src, ln, f"joint {name!r}: repeated channel in {channels}")
+            raise BVHError(src, ln, f"joint {quote(name)}: repeated channel in {channels}")
         nrot = sum(c in ROTATION_CHANNELS for c in channels)
         npos = sum(c in POSITION_CHANNELS for c in channels)
         if nrot not in (0, 3) or npos not in (0, 3):
             raise BVHError(
                 src,
                 ln,
-                f"joint {name!r}: channels {channels} need all three rotations "
+                f"joint {quote(name)}: channels {channels} need all three rotations "
                 "and/or all three positions",
             )
     h.channels.append(channels)
-    while True:
-        tok, ln = lx.take(f"JOINT, End Site or '}}' closing joint {name!r}")
+    return j
+
+
+def _parse_joints(lx: _Lines, h: _Hierarchy, name_line: int, name: str) -> None:
+    """The root joint and everything below it, with a stack of open joints (no recursion:
+    rigs nest thousands of joints)."""
+    src = lx.source
+    stack = [_open_joint(lx, h, -1, name_line, name)]
+    while stack:
+        j = stack[-1]
+        name = h.names[j]
+        tok, ln = lx.take(f"JOINT, End Site or '}}' closing joint {quote(name)}")
         key = tok.upper()
         if key == "}":
-            return
-        if key == "JOINT":
+            stack.pop()
+        elif key == "JOINT":
             child = " ".join(lx.rest_of_line(ln))
-            _parse_joint(lx, h, j, ln, child)
+            stack.append(_open_joint(lx, h, j, ln, child))
         elif key == "END":
             site = lx.rest_of_line(ln)
             if not site or not site[0].upper().startswith("SITE"):
-                raise BVHError(src, ln, f"expected 'End Site', found 'End {' '.join(site)}'")
+                raise BVHError(
+                    src, ln, f"expected 'End Site', found {quote('End ' + ' '.join(site))}"
+                )
             label = " ".join(site[1:])
             lx.expect("{")
-            off = _parse_offset(lx, f"the End Site of {name!r}")
+            off = _parse_offset(lx, f"the End Site of {quote(name)}")
             lx.expect("}")
             h.es_parents.append(j)
             h.es_offsets.append(off)
             h.es_names.append(label)
         else:
             raise BVHError(
-                src, ln, f"expected JOINT, End Site or '}}' in joint {name!r}, found {tok!r}"
+                src,
+                ln,
+                f"expected JOINT, End Site or '}}' in joint {quote(name)}, found {quote(tok)}",
             )
 
 
+_FAST_LINE_LIMIT = 10_000
 _CANON = {c.lower(): c for c in VALID_CHANNELS}
 
 
@@ -250,6 +282,8 @@ def _fast_hierarchy(lines: list[str]) -> _Hierarchy | None:
     names: set[str] = set()
     has_channels: set[int] = set()
     for line in lines:
+        if len(line) > _FAST_LINE_LIMIT:
+            return None  # no well-formed hierarchy line is this long: let the token parser say why
         parts = line.split()
         if not parts:
             continue
@@ -421,20 +455,20 @@ def _parse_hierarchy(lx: _Lines, source: str) -> _Hierarchy:
     tok, ln = lx.take("'HIERARCHY'")
     if tok.upper() != "HIERARCHY":
         raise BVHError(
-            source, ln, f"expected 'HIERARCHY' at the start of a BVH file, found {tok!r}"
+            source, ln, f"expected 'HIERARCHY' at the start of a BVH file, found {quote(tok)}"
         )
     tok, ln = lx.take("'ROOT'")
     if tok.upper() != "ROOT":
-        raise BVHError(source, ln, f"expected 'ROOT', found {tok!r}")
+        raise BVHError(source, ln, f"expected 'ROOT', found {quote(tok)}")
     h = _Hierarchy()
-    _parse_joint(lx, h, -1, ln, " ".join(lx.rest_of_line(ln)))
+    _parse_joints(lx, h, ln, " ".join(lx.rest_of_line(ln)))
     tok, ln = lx.take("'MOTION' after the hierarchy")
     if tok.upper() == "ROOT":
         raise BVHError(source, ln, "a second ROOT: files with several skeletons are not supported")
     if tok.upper() != "MOTION":
-        raise BVHError(source, ln, f"expected 'MOTION' after the hierarchy, found {tok!r}")
+        raise BVHError(source, ln, f"expected 'MOTION' after the hierarchy, found {quote(tok)}")
     if lx.more_tokens():
-        raise BVHError(source, ln, f"unexpected text after MOTION: {lx.peek('')[0]!r}")
+        raise BVHError(source, ln, f"unexpected text after MOTION: {quote(lx.peek('')[0])}")
     return h
 
 
@@ -465,9 +499,9 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
                 break
         m = pattern.fullmatch(text.strip())
         if not m or not m.group(1):
-            raise BVHError(source, n, f"expected '{what} <value>', found {text.strip()!r}")
+            raise BVHError(source, n, f"expected '{what} <value>', found {quote(text.strip())}")
         if m.group(2):
-            raise BVHError(source, n, f"unexpected text after {what}: {m.group(2)!r}")
+            raise BVHError(source, n, f"unexpected text after {what}: {quote(m.group(2))}")
         return n, m.group(1), text
 
     fl, ftok, _ = header_line(_FRAMES, "Frames:")
@@ -476,11 +510,13 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         if declared < 0:
             raise ValueError
     except ValueError:
-        raise BVHError(source, fl, f"Frames: expects a whole number >= 0, found {ftok!r}") from None
+        raise BVHError(
+            source, fl, f"Frames: expects a whole number >= 0, found {quote(ftok)}"
+        ) from None
     tl, ttok, _ = header_line(_FRAME_TIME, "Frame Time:")
     frame_time = _number(ttok, source, tl, "Frame Time")
     if frame_time <= 0:
-        raise BVHError(source, tl, f"Frame Time must be positive, found {ttok!r}")
+        raise BVHError(source, tl, f"Frame Time must be positive, found {quote(ttok)}")
 
     block = memoryview(data)[min(lx.pos, len(data)) :]
     first_data_line = lx.lineno + 1
@@ -509,6 +545,12 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
                 f"motion row {res.values.shape[0] + 1} has {res.err_count} values; "
                 f"the hierarchy declares {ncols} channels",
             )
+        elif res.status == _numparse.OVERFLOW:
+            raise BVHError(
+                source,
+                line,
+                f"value {res.err_col + 1} is beyond the range of a double (about 1.8e308)",
+            )
         elif res.status == _numparse.NON_FINITE:
             raise BVHError(
                 source,
@@ -519,7 +561,7 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         else:
             bad = bytes(block[res.err_offset :]).split(b"\n", 1)[0].split()
             tokv = bad[res.err_col].decode("utf-8", "replace") if res.err_col < len(bad) else "?"
-            raise BVHError(source, line, f"value {res.err_col + 1} is not a number: {tokv!r}")
+            raise BVHError(source, line, f"value {res.err_col + 1} is not a number: {quote(tokv)}")
     if res.first_inner_blank_line >= 0:
         line = first_data_line + res.first_inner_blank_line
         if not lenient:
@@ -637,14 +679,17 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
         sites.setdefault(int(p), []).append(e)
     off_digits = max(digits, 15)
 
-    # smallest End Site index in each joint's subtree (None if it has none)
+    # smallest End Site index in each joint's subtree (None if it has none); children come
+    # after their parents, so one backward pass carries it up
     first_site: list[int | None] = [None] * sk.num_joints
     for e, p in enumerate(sk.end_site_parents):
         j = int(p)
-        while j >= 0:
-            if first_site[j] is None or e < first_site[j]:
-                first_site[j] = e
-            j = int(sk.parents[j])
+        if first_site[j] is None or e < first_site[j]:
+            first_site[j] = e
+    for j in range(sk.num_joints - 1, 0, -1):
+        p, f = int(sk.parents[j]), first_site[j]
+        if f is not None and (first_site[p] is None or f < first_site[p]):
+            first_site[p] = f
 
     def end_site(e: int, ind: str) -> None:
         label = sk.end_site_names[e]
@@ -653,7 +698,8 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
         out.append(f"{ind}    OFFSET {_fmt_offset(sk.end_site_offsets[e], off_digits)}")
         out.append(f"{ind}  }}")
 
-    def joint(j: int, depth: int) -> None:
+    def open_joint(j: int, depth: int) -> list[tuple[str, int, int]]:
+        """Write a joint's header; return what follows it, in file order."""
         ind = "  " * depth
         out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
         out.append(f"{ind}{{")
@@ -663,17 +709,27 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
         # Merge child joints and End Sites so both keep their file order: an End Site goes
         # before a child joint whose subtree holds a later End Site (e.g. "End Site" then
         # "JOINT Toe" under an ankle, as some exporters write).
+        items: list[tuple[str, int, int]] = []
         pending = list(sites.get(j, []))
         for c in kids.get(j, []):
             first = first_site[c]
             while pending and first is not None and pending[0] < first:
-                end_site(pending.pop(0), ind)
-            joint(c, depth + 1)
-        for e in pending:
-            end_site(e, ind)
-        out.append(f"{ind}}}")
+                items.append(("site", pending.pop(0), depth))
+            items.append(("joint", c, depth + 1))
+        items += [("site", e, depth) for e in pending]
+        items.append(("close", j, depth))
+        return items
 
-    joint(0, 0)
+    # an explicit stack instead of recursion: rigs nest thousands of joints
+    stack = open_joint(0, 0)[::-1]
+    while stack:
+        kind, k, depth = stack.pop()
+        if kind == "joint":
+            stack += open_joint(k, depth)[::-1]
+        elif kind == "site":
+            end_site(k, "  " * depth)
+        else:
+            out.append(f"{'  ' * depth}}}")
     out.append("MOTION")
     out.append(f"Frames: {motion.num_frames}")
     out.append(f"Frame Time: {format_number(motion.frame_time)}")

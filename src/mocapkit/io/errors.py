@@ -2,7 +2,48 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
+
+#: Offending text is quoted up to this many characters in messages (a 50 MB line or 16 KB of NUL
+#: padding would otherwise become the message).
+QUOTE_LIMIT = 80
+
+
+def quote(text: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr`` of ``text`` cut to about ``limit`` characters, its closing quote kept."""
+    r = repr(str(text))
+    if len(r) <= limit:
+        return r
+    return r[: limit - 2] + "…" + r[0]
+
+
+class DecodingWarning(UserWarning):
+    """A file was not UTF-8: its text was decoded with a stated fallback encoding."""
+
+
+def decode_text(data: bytes, source: str) -> str:
+    """Text of a file's bytes: UTF-8; else Shift-JIS (cp932, as Japanese exporters write) when
+    that decoding holds kana or kanji; else latin-1 (which decodes any byte). A fallback is
+    announced with a :class:`DecodingWarning` naming the encoding, never silently replaced by
+    U+FFFD. (Latin-1 accents also decode as cp932, but as half-width katakana: that alone does
+    not make a file Japanese.)"""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        first_bad = e.start
+    enc = "latin-1"
+    try:
+        sjis = data.decode("cp932")
+    except UnicodeDecodeError:
+        pass
+    else:
+        if any("\u3040" <= c <= "\u9fff" for c in sjis):
+            enc = "cp932"
+    warnings.warn(
+        f"{source}: not UTF-8 (byte {first_bad}); decoded as {enc}", DecodingWarning, stacklevel=3
+    )
+    return sjis if enc == "cp932" else data.decode("latin-1")
 
 
 class MocapFileError(ValueError):
@@ -11,6 +52,8 @@ class MocapFileError(ValueError):
     def __init__(self, source: str | Path, line: int | None, message: str) -> None:
         self.source = str(source)
         self.line = line
+        if len(message) > 4 * QUOTE_LIMIT:  # a safety net; messages quote with quote()
+            message = message[: 4 * QUOTE_LIMIT] + "…"
         self.message = message
         where = f"{self.source}:{line}" if line is not None else self.source
         super().__init__(f"{where}: {message}")
