@@ -6,12 +6,13 @@ from pathlib import Path
 
 from mocapkit.core.motion import Motion
 from mocapkit.io.bvh import read_bvh, write_bvh
-from mocapkit.io.errors import ASFAMCError, BVHError, MocapFileError, RepairWarning
+from mocapkit.io.errors import ASFAMCError, BVHError, DecodingWarning, MocapFileError, RepairWarning
 from mocapkit.io.npz import read_npz, write_npz
 
 __all__ = [
     "ASFAMCError",
     "BVHError",
+    "DecodingWarning",
     "MocapFileError",
     "RepairWarning",
     "find_asf",
