@@ -156,7 +156,8 @@ def _parse_offset(lx: _Lines, what: str) -> list[float]:
         vals.append(_number(tok, lx.source, ln, f"the OFFSET of {what}"))
     extra = lx.rest_of_line(ln)
     if extra:
-        raise BVHError(lx.source, ln, f"OFFSET of {what} has more than 3 numbers: {quote(" ".join(extra))}")
+        words = quote(" ".join(extra))
+        raise BVHError(lx.source, ln, f"OFFSET of {what} has more than 3 numbers: {words}")
     return vals
 
 
