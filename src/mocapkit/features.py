@@ -65,6 +65,7 @@ __all__ = [
     "ground_coordinates",
     "ground_frame",
     "ground_plane_axes",
+    "ground_root_on_path",
     "heading_angles",
     "limb_hinges",
     "local_positions",
@@ -557,6 +558,44 @@ def apply_ground_transform(motion: Motion, transform: GroundTransform) -> Motion
         out.rotations[:, 0] = rot.quat_mul(q, motion.rotations[:, 0])
         if out.translations is not None:
             out.translations[:, 0] = out.root_positions
+    return out
+
+
+def ground_root_on_path(motion: Motion, up: str | None = None) -> Motion:
+    """On a ground-root rig (:attr:`mocapkit.body.Body.ground_root`, Bandai's ``joint_Root``),
+    the same world pose with the ground root moved onto the body's ground path: at every frame
+    it stands at the pelvis' ground projection (at its own height) and turns to the body's
+    heading (:func:`heading_angles`), and the joint below it is re-expressed relative to it.
+
+    This is the root motion a game engine reads: it is continuous wherever the body's path and
+    facing are, whatever the source did with the root (Bandai's sits at the origin, so a stitch
+    or a graph walk that moves the clips moves it in jumps). Rigs without a ground root, and
+    rigs whose joint below the root cannot store a translation, are returned unchanged.
+    """
+    body = body_of(motion)
+    sk = motion.skeleton
+    if body.ground_root is None or motion.num_frames == 0:
+        return motion
+    kids = sk.children(0)
+    if len(kids) != 1 or not sk.has_position[kids[0]] or not sk.has_rotation[0]:
+        return motion
+    c = kids[0]
+    up = _norm_up(up) if up else detect_up_axis(motion)
+    _, u, _ = ground_frame(up)
+    pos, grot = forward_kinematics(motion)
+    pelvis = pos[:, body.pelvis]
+    root_h = (pos[:, 0] @ u)[:, None] * u
+    new_root = _flatten(pelvis, up) + root_h
+    new_rot = _up_quat(_heading_of(_facing_from_fk(sk, pos, grot, up), up), up)
+    inv = rot.quat_inv(new_rot)
+    out = motion.copy()
+    tr = out.local_translations()
+    out.root_positions = new_root
+    out.rotations[:, 0] = new_rot
+    out.rotations[:, c] = rot.quat_normalize(rot.quat_mul(inv, grot[:, c]))
+    tr[:, 0] = new_root
+    tr[:, c] = rot.quat_apply(inv, pos[:, c] - new_root)
+    out.translations = tr
     return out
 
 

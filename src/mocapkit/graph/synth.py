@@ -31,6 +31,7 @@ from mocapkit.features import (
     align_point_clouds_2d,
     apply_ground_transform,
     detect_up_axis,
+    ground_root_on_path,
     heading_angles,
     root_trajectory,
 )
@@ -322,7 +323,8 @@ class Synthesizer:
         translations = (
             Tr if needs.any() or any(m.translations is not None for m in self.motions) else None
         )
-        return Motion(sk, R, Tr[:, 0].copy(), first.frame_time, translations)
+        # a ground root (Bandai's joint_Root) follows the walk's ground path and heading
+        return ground_root_on_path(Motion(sk, R, Tr[:, 0].copy(), first.frame_time, translations))
 
 
 def _to_rep(lrot: np.ndarray, ltrans: np.ndarray, chain: list[int]):

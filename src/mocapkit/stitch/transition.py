@@ -237,6 +237,7 @@ def stitch_motions(
     data = conform(data, query)
     a, b = _check_frames(query, takeoff, data, landing, w, w)
     up = up or features.detect_up_axis(query)
+    query, data = _roots_on_path(query, data, up)
     transform = None
     if align:
         data, transform = align_data(query, a, data, b, k, up)
@@ -287,6 +288,15 @@ def stitch_motions(
         err_max,
         up,
     )
+
+
+def _roots_on_path(query: Motion, data: Motion, up: str) -> tuple[Motion, Motion]:
+    """Both clips with a ground root on the body's path (:func:`features.ground_root_on_path`),
+    so that the root motion of the result is continuous and the transition smooths the root
+    path and heading, not a static root and a pelvis travelling under it."""
+    from mocapkit import features
+
+    return features.ground_root_on_path(query, up), features.ground_root_on_path(data, up)
 
 
 def _join(*parts: Motion) -> Motion:
@@ -424,6 +434,7 @@ def crossfade(
     n = max(1, query.seconds_to_frames(window_seconds))
     a, b = _check_frames(query, takeoff, data, landing, n, n)
     up = up or features.detect_up_axis(query)
+    query, data = _roots_on_path(query, data, up)
     transform = None
     c = (n - 1) // 2
     if align:
@@ -466,6 +477,7 @@ def interpolate_gap(
     data = conform(data, query)
     a, b = _check_frames(query, takeoff, data, landing, 1, 1)
     up = up or features.detect_up_axis(query)
+    query, data = _roots_on_path(query, data, up)
     transform = None
     if align:
         data, transform = align_data(query, a, data, b, g, up)
