@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mocapkit.body import body_of
 from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.core.motion import Motion
@@ -114,8 +115,13 @@ class Synthesizer:
 
     # ---- pieces --------------------------------------------------------------------------
     def _positions(self, c: int) -> np.ndarray:
+        """(F, B, 3) world positions of the body's joints (the pelvis and below) of clip ``c``:
+        a ground root above the pelvis (Bandai's joint_Root, fixed at the origin while the
+        body travels) would pull the alignment towards turning the clip around it."""
         if c not in self._pos:
-            self._pos[c] = forward_kinematics(self.motions[c])[0]
+            m = self.motions[c]
+            body = np.flatnonzero(m.skeleton.subtree_mask(body_of(m.skeleton).pelvis))
+            self._pos[c] = forward_kinematics(m)[0][:, body]
         return self._pos[c]
 
     def alignment(self, t: int) -> GroundTransform:
@@ -138,8 +144,6 @@ class Synthesizer:
     def _chain(self) -> list[int]:
         """Joints from joint 0 down to the pelvis: blended as global transforms (a static
         ground root such as Bandai-Namco's ``joint_Root`` must not swing the pelvis)."""
-        from mocapkit.body import body_of
-
         sk = self.motions[0].skeleton
         pelvis = body_of(sk).pelvis
         return [*reversed(sk.ancestors(pelvis)), pelvis]
