@@ -48,6 +48,13 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
     help="Largest number k of injected frames to try (default: 1 s of frames).",
 )
 @click.option(
+    "--inject",
+    type=click.IntRange(min=0),
+    default=None,
+    metavar="K",
+    help="Force exactly K injected frames (candidates ranked by their L-score at that k).",
+)
+@click.option(
     "--score",
     type=click.Choice(SCORES),
     default="lscore",
@@ -83,6 +90,7 @@ def stitch_cmd(
     landing: int | None,
     window: int,
     max_inject: int | None,
+    inject: int | None,
     score: str,
     method: str,
     blend_seconds: float,
@@ -109,6 +117,7 @@ def stitch_cmd(
       mocapkit stitch walk.bvh run.bvh --takeoff 60 --out walk_run.bvh
       mocapkit stitch walk.bvh lib/*.bvh --takeoff 40:80 --json best.json --plot best.png
       mocapkit stitch a.bvh b.bvh --takeoff 50 --landing 12 --max-inject 20
+      mocapkit stitch walk.bvh lib/ --takeoff 40:80 --inject 12 --out walk_12.bvh
       mocapkit stitch a.bvh b.bvh --takeoff 50 --landing 12 --method crossfade --out cf.bvh
     """
     from mocapkit.stitch import stitch
@@ -127,6 +136,7 @@ def stitch_cmd(
         method=method,
         window=window,
         k_max=max_inject,
+        inject=inject,
         score=score,
         blend_seconds=blend_seconds,
         align=not no_align,

@@ -233,7 +233,12 @@ def _check_score(score: str) -> str:
     return score
 
 
-def _best_at_landing(Q, takeoffs, clips, b, w, k_max, model, score):
+def _rank_k(scores: np.ndarray, inject: int | None) -> np.ndarray:
+    """Per candidate, L* (the best k) or, with a forced k, the L-score at that k."""
+    return scores.min(axis=1) if inject is None else scores[:, inject]
+
+
+def _best_at_landing(Q, takeoffs, clips, b, w, k_max, model, score, inject=None):
     """((value, clip, take-off, landing), candidates) over one landing frame of every clip."""
     ok = [i for i, c in enumerate(clips) if 0 <= b <= c.shape[0] - w]
     if not ok:
@@ -245,7 +250,7 @@ def _best_at_landing(Q, takeoffs, clips, b, w, k_max, model, score):
     for a in takeoffs:
         wins = np.stack([sliding_windows(Q, a, clips[i], w, landings=[b])[0] for i in ok])
         vals = (
-            elastic_lscores(wins, model, w, k_max).min(axis=1)
+            _rank_k(elastic_lscores(wins, model, w, k_max), inject)
             if score == "lscore"
             else windowed_euclidean(wins, w)
         )
@@ -255,7 +260,7 @@ def _best_at_landing(Q, takeoffs, clips, b, w, k_max, model, score):
     return best, len(ok) * len(takeoffs)
 
 
-def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype):
+def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype, inject=None):
     """((value, clip, take-off, landing), candidates) over every landing frame of every clip:
     one batched search over the concatenated clips per take-off, windows that would cross a
     clip boundary discarded."""
@@ -273,7 +278,7 @@ def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype):
     for a in takeoffs:
         if score == "lscore":
             res = search_landings(Q, a, X, w, k_max, model, dtype=dtype)
-            vals = res.lscore_by_k.min(axis=1).astype(float)
+            vals = _rank_k(res.lscore_by_k, inject).astype(float)
         else:
             vals = euclidean_landings(Q, a, X, w)
         vals[~valid] = np.inf
@@ -294,6 +299,7 @@ def search_features(
     *,
     score: str = "lscore",
     dtype=np.float32,
+    inject: int | None = None,
 ) -> Transition:
     """The best stitch of ``query_feats`` (Fq, m) at one of ``takeoffs`` (a frame, an iterable or
     ``"A:B"``) onto one of ``clips`` (an (F, m) array or a list of them).
@@ -303,8 +309,14 @@ def search_features(
     landings whose window would cross a clip boundary being discarded. With ``landing``: only
     that frame of each clip (clips too short for it are skipped). Ranked by L* (``score=
     "lscore"``) or by windowed Euclidean distance (``"euclidean"``); ties go to the first
-    (clip, take-off, landing). Returns a :class:`Transition`.
+    (clip, take-off, landing). ``inject`` forces k (the number of injected frames): candidates
+    are ranked by their L-score at that k, and ``k_max`` becomes ``inject``. Returns a
+    :class:`Transition`.
     """
+    if inject is not None:
+        if int(inject) != inject or inject < 0:
+            raise ValueError(f"inject must be an integer >= 0, got {inject}")
+        k_max = inject = int(inject)
     w = check_w(w)
     score = _check_score(score)
     if int(k_max) != k_max or k_max < 0:
@@ -335,11 +347,13 @@ def search_features(
             Q, takeoffs, clips, int(landing), w, k_max, model, score
         )
     else:
-        best, candidates = _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype)
+        best, candidates = _best_over_library(
+            Q, takeoffs, clips, w, k_max, model, score, dtype, inject
+        )
     _, ci, a, b = best
     window = sliding_windows(Q, a, clips[ci], w, landings=[b]).astype(float)
     scores = elastic_lscores(window, model, w, k_max)[0]
-    k = int(np.argmin(scores))
+    k = int(np.argmin(scores)) if inject is None else inject
     eu = float(windowed_euclidean(window, w)[0])
     return Transition(ci, a, b, k, float(scores[k]), scores, eu, w, score, candidates)
 
@@ -356,15 +370,16 @@ def find_transition(
     model: ConstantAccelerationModel = DEFAULT_MODEL,
     up: str | None = None,
     joints: Sequence[str] | None = None,
+    inject: int | None = None,
 ) -> Transition:
     """The best stitch of ``query`` at ``takeoff`` (frame, iterable or ``"A:B"``) onto one of the
     ``data`` motions, at ``landing`` or searched over every landing frame.
 
     k is searched from 0 to ``round(max_inject_seconds / query.frame_time)`` frames (1 s = 30
-    frames at 30 fps). Data clips must have the query's joint names (:func:`conform`; clips
-    at another frame rate are resampled). ``up`` is detected on the query when None. Features:
-    :func:`motion_features`. Returns a :class:`Transition` (frames are 0-based indices of the
-    given motions; ``clip`` indexes ``data``).
+    frames at 30 fps), or fixed at ``inject`` frames. Data clips must have the query's joint
+    names (:func:`conform`; clips at another frame rate are resampled). ``up`` is detected on
+    the query when None. Features: :func:`motion_features`. Returns a :class:`Transition`
+    (frames are 0-based indices of the given motions; ``clip`` indexes ``data``).
     """
     from mocapkit.features import detect_up_axis
 
@@ -381,4 +396,6 @@ def find_transition(
     clips = [
         motion_features(conform(d, query, f"data clip {i}"), up, names) for i, d in enumerate(data)
     ]
-    return search_features(qf, takeoff, clips, landing, window, k_max, model, score=score)
+    return search_features(
+        qf, takeoff, clips, landing, window, k_max, model, score=score, inject=inject
+    )

@@ -319,6 +319,7 @@ def stitch(
     window: int = DEFAULT_W,
     max_inject_seconds: float = 1.0,
     k_max: int | None = None,
+    inject: int | None = None,
     score: str = "lscore",
     blend_seconds: float = DEFAULT_BLEND_SECONDS,
     model: ConstantAccelerationModel = DEFAULT_MODEL,
@@ -335,8 +336,9 @@ def stitch(
     ``method`` (:data:`METHODS`): "kalman" (:func:`stitch_motions`, k generated frames),
     "crossfade" (:func:`crossfade` over ``blend_seconds``), "slerp" or "linear"
     (:func:`interpolate_gap` over k frames). k is searched up to ``max_inject_seconds``, or up
-    to ``k_max`` frames when given. ``query_name``, ``data_names`` (default "data0", ...) and
-    ``output`` label the result's :meth:`Stitched.to_json`.
+    to ``k_max`` frames when given; ``inject`` forces k (that many generated frames, for a user
+    who knows how long the transition should be). ``query_name``, ``data_names`` (default
+    "data0", ...) and ``output`` label the result's :meth:`Stitched.to_json`.
     """
     from mocapkit.features import detect_up_axis
 
@@ -363,6 +365,7 @@ def stitch(
         model=model,
         up=up,
         joints=joints,
+        inject=inject,
     )
     search_seconds = time.perf_counter() - t0
     chosen = clips[tr.clip]

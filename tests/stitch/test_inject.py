@@ -1,0 +1,69 @@
+"""--inject K: exactly K generated frames, for every method, at k = 0 too."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from mocapkit import datasets
+from mocapkit.cli import main
+from mocapkit.io import read_motion, write_bvh
+from mocapkit.stitch import METHODS, stitch
+
+
+@pytest.fixture(scope="module")
+def clips():
+    walk = datasets.procedural_motion("walk", seconds=4.0, seed=1).motion
+    run = datasets.procedural_motion("run", seconds=4.0, seed=2).motion
+    return walk, run
+
+
+@pytest.mark.parametrize("method", ["kalman", "slerp", "linear"])
+@pytest.mark.parametrize("k", [0, 7])
+def test_inject_gives_exactly_k_frames(clips, method, k) -> None:
+    walk, run = clips
+    res = stitch(walk, "40:60", [run], method=method, inject=k)
+    assert res.transition.k == k
+    assert res.k == k
+    assert res.generated.stop - res.generated.start == k
+    a, b = res.transition.takeoff, res.transition.landing
+    assert res.motion.num_frames == (a + 1) + k + (run.num_frames - b)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_every_method_survives_k_zero(clips, method) -> None:
+    walk, run = clips
+    res = stitch(walk, 50, [run], landing=10, method=method, inject=0)
+    assert res.motion.num_frames > 0
+
+
+def test_cli_inject(clips, tmp_path) -> None:
+    walk, run = clips
+    q, d = write_bvh(walk, tmp_path / "walk.bvh"), write_bvh(run, tmp_path / "run.bvh")
+    out = tmp_path / "out.bvh"
+    r = CliRunner().invoke(
+        main,
+        [
+            "stitch",
+            str(q),
+            str(tmp_path),
+            "--takeoff",
+            "40:60",
+            "--inject",
+            "9",
+            "--out",
+            str(out),
+            "--json",
+            str(tmp_path / "r.json"),
+        ],
+    )
+    assert r.exit_code == 0, r.output
+    assert d.exists() and out.exists()
+    import json
+
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert rep["k"] == 9
+    m = read_motion(out)
+    assert m.num_frames == rep["frames"]
+    bad = CliRunner().invoke(main, ["stitch", str(q), str(d), "--takeoff", "40", "--inject", "-1"])
+    assert bad.exit_code == 2
