@@ -194,12 +194,15 @@ def test_stitch_and_graph_overlays(browser, tmp_path):
     clip = random_motion(120, 5)
     synth = concatenate([clip[0:50], clip[80:120]])
     write_motion(clip, tmp_path / "clip.bvh")
-    graph = {
-        "clips": [{"path": "clip.bvh", "frames": 120, "fps": 30.0}],
-        "transitions": [
-            {"src_clip": 0, "src_frame": 50, "dst_clip": 0, "dst_frame": 80, "cost": 0.25}
-        ],
-    }
+    from mocapkit.provenance import Provenance, Segment, TransitionTaken
+
+    plan = Provenance(
+        "graph synth", "synth.bvh", 30.0, 90, ["clip.bvh"], {},
+        [Segment(0, 50, "clip", "clip.bvh", 0, 50),
+         Segment(50, 55, "transition", "clip.bvh", 80, 85),
+         Segment(55, 90, "clip", "clip.bvh", 85, 120)],
+        [TransitionTaken(50, "clip.bvh", 50, "clip.bvh", 80, 0.25)],
+    )  # fmt: skip
     stitch = {
         "takeoff": 20,
         "k": 5,
@@ -211,10 +214,8 @@ def test_stitch_and_graph_overlays(browser, tmp_path):
     }
     page = write_page(
         tmp_path / "overlays.html",
-        [ViewMotion(synth, "synth.bvh")],
+        [ViewMotion(synth, "synth.bvh", provenance=plan)],
         stitch=stitch,
-        graph=graph,
-        graph_dir=tmp_path,
     )
     _open(b, page)
     _assert_no_errors(b)

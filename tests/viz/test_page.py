@@ -16,8 +16,9 @@ from mocapkit.cli.view_commands import view_demo_step
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.core.motion import concatenate
 from mocapkit.io import write_motion
+from mocapkit.provenance import Provenance, Segment, TransitionTaken
 from mocapkit.viz import ViewMotion, build_page, page_data
-from mocapkit.viz.viewer import match_graph_transitions, to_y_up
+from mocapkit.viz.viewer import graph_overlay, to_y_up, view_files
 
 from .helpers import random_motion
 
@@ -87,19 +88,28 @@ def test_overlays_are_attached_to_the_right_motion():
     assert st["generated"] == [10, 14] and st["lscoreByK"][2] == 1.0
 
 
-def test_graph_transitions_found_in_a_concatenation():
+def test_graph_overlay_reads_the_synth_plan(tmp_path):
     clip = random_motion(120, 5)
     synth = concatenate([clip[0:50], clip[80:120]])
-    graph = {
-        "clips": [{"path": "clip.bvh", "frames": 120, "fps": 30.0}],
-        "transitions": [
-            {"src_clip": 0, "src_frame": 20, "dst_clip": 0, "dst_frame": 90, "cost": 0.9},
-            {"src_clip": 0, "src_frame": 50, "dst_clip": 0, "dst_frame": 80, "cost": 0.25},
-        ],
-    }
-    tr = match_graph_transitions(synth, graph, [clip])
-    assert len(tr) == 1
-    assert tr[0]["frame"] == 50 and tr[0]["cost"] == 0.25 and tr[0]["index"] == 1
+    plan = Provenance(
+        "graph synth", "synth.bvh", 30.0, 90, ["lib/clip.bvh"], {},
+        [Segment(0, 50, "clip", "lib/clip.bvh", 0, 50),
+         Segment(50, 55, "transition", "lib/clip.bvh", 80, 85),
+         Segment(55, 90, "clip", "lib/clip.bvh", 85, 120)],
+        [TransitionTaken(50, "lib/clip.bvh", 50, "lib/clip.bvh", 80, 0.25)],
+    )  # fmt: skip
+    graph = {"transitions": [{}, {}, {}]}
+    ov = graph_overlay([ViewMotion(clip, "clip.bvh"), ViewMotion(synth, "s.bvh", provenance=plan)],
+                       graph)  # fmt: skip
+    assert ov["motion"] == 1 and ov["numTransitions"] == 3
+    (t,) = ov["transitions"]
+    assert (t["frame"], t["end"], t["src_frame"], t["dst_frame"]) == (50, 55, 50, 80)
+    assert t["cost"] == 0.25 and t["src_name"] == "clip.bvh"
+    # view finds the plan beside the file by itself
+    out = write_motion(synth, tmp_path / "s.bvh")
+    plan.write(out)
+    d = page_json(view_files([out], tmp_path / "v.html").read_text())
+    assert d["graph"]["transitions"][0]["frame"] == 50
 
 
 def test_view_cli_writes_a_page_and_reports_bad_input(tmp_path):

@@ -20,6 +20,7 @@ from mocapkit.cli.common import (
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
+from mocapkit.io.atomic import refuse_overwrite
 
 
 @main.group()
@@ -191,17 +192,26 @@ def synth(graph_file, seconds, path_csv, out, seed, blend):
     """
     from mocapkit.graph.graph import load_graph, load_path_csv, synthesize
     from mocapkit.io import write_motion
+    from mocapkit.provenance import sidecar_path
 
     if (seconds is None) == (path_csv is None):
         raise CLIError("give exactly one of --seconds or --path")
     g = load_graph(graph_file)
-    motions = load_all(g.clip_paths(Path(graph_file).parent), False)
+    clip_paths = g.clip_paths(Path(graph_file).parent)
+    refuse_overwrite(out, [graph_file, *clip_paths])
+    refuse_overwrite(sidecar_path(out), [graph_file, *clip_paths])
+    motions = load_all(clip_paths, False)
     pts = load_path_csv(path_csv) if path_csv is not None else None
     res = synthesize(g, motions, seconds=seconds, path=pts, seed=seed, blend=blend)
+    params = {"graph": str(graph_file), "seconds": seconds, "path": path_csv, "seed": seed,
+              "blend": blend}  # fmt: skip
+    plan = res.provenance(g, str(out), params, [str(p) for p in clip_paths])
     write_motion(res.motion, out)
+    side = plan.write(out)
     m = res.motion
     click.echo(
         f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {res.transitions} transitions)"
+        f" and its plan {side}"
     )
 
 
@@ -268,8 +278,12 @@ def graph_step(out: Path) -> None:
         f"{r.transitions_in_scc} in the strongly connected component; wrote {gp}"
     )
     walk = synthesize(g, motions, seconds=10.0, seed=0)
+    wp = write_motion(walk.motion, out / "graph_random_walk.bvh")
+    walk.provenance(g, str(wp), {"seconds": 10.0, "seed": 0}, [str(out / p) for p in paths]).write(
+        wp
+    )
     click.echo(
-        f"  random walk: wrote {write_motion(walk.motion, out / 'graph_random_walk.bvh')} "
+        f"  random walk: wrote {wp} and its plan "
         f"({walk.motion.num_frames} frames, {walk.transitions} transitions)"
     )
     fs = r.foot_skate

@@ -41,7 +41,8 @@ from mocapkit.viz.viewer import view_files
     "--graph",
     "graph_json",
     type=click.Path(dir_okay=False),
-    help="Motion graph GRAPH.json: the transitions a synthesised FILE took, with their costs.",
+    help="Motion graph GRAPH.json (optional): its transition count beside the transitions a "
+    "synthesised FILE took, which view reads from FILE's plan (FILE.provenance.json).",
 )
 @click.option(
     "--out",

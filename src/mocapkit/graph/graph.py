@@ -28,6 +28,7 @@ from mocapkit.graph.distance import (
     tiled_local_minima,
 )
 from mocapkit.graph.select import Candidates, select_transitions
+from mocapkit.provenance import Provenance, Segment, TransitionTaken
 
 __all__ = [
     "FORMAT",
@@ -497,6 +498,47 @@ class Synthesis:
             "seconds": self.motion.duration,
             "transitions": self.transitions,
         }
+
+    def provenance(
+        self,
+        graph: MotionGraph,
+        output: str,
+        parameters: dict[str, Any] | None = None,
+        clip_paths: Sequence[str] | None = None,
+    ) -> Provenance:
+        """The walk as a provenance sidecar (:mod:`mocapkit.provenance`): every output frame's
+        clip and frame, and each transition taken (source clip and frame, target clip and
+        frame, cost, the output frame where its blend starts). ``clip_paths``: the files the
+        clips were read from (default: the paths stored in the graph)."""
+        names = [c.path for c in graph.clips] if clip_paths is None else list(clip_paths)
+        total = self.motion.num_frames
+        segments: list[Segment] = []
+        taken: list[TransitionTaken] = []
+        at = 0
+        for s in self.steps:
+            if at >= total:
+                break
+            n = min(s.frames, total - at)
+            if s.kind == "transition":
+                t = s.index
+                taken.append(TransitionTaken(
+                    at, names[int(graph.src_clip[t])], int(graph.src_frame[t]),
+                    names[int(graph.dst_clip[t])], int(graph.dst_frame[t]), float(graph.cost[t]),
+                ))  # fmt: skip
+            segments.append(
+                Segment(at, at + n, s.kind, names[s.clip], int(s.start), int(s.start) + n)
+            )
+            at += n
+        return Provenance(
+            "graph synth",
+            str(output),
+            float(self.motion.fps),
+            total,
+            names,
+            dict(parameters or {}),
+            segments,
+            taken,
+        )
 
 
 def synthesize(

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import base64
 import json
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -24,13 +23,13 @@ import numpy as np
 
 from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.core.motion import Motion
+from mocapkit.provenance import Provenance
 
 __all__ = [
     "PALETTE",
     "ViewMotion",
     "build_page",
     "graph_overlay",
-    "match_graph_transitions",
     "page_data",
     "to_y_up",
     "view_files",
@@ -51,6 +50,7 @@ class ViewMotion:
     name: str
     color: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    provenance: Provenance | None = None  # the sidecar of a generated motion, if any
 
 
 def _static(name: str) -> str:
@@ -223,127 +223,43 @@ def stitch_overlay(motions: Sequence[ViewMotion], result: dict[str, Any] | None)
     }
 
 
-def _nonroot_rotations(m: Motion) -> np.ndarray:
-    r = np.asarray(m.rotations[:, 1:], dtype=np.float64)
-    r = r * np.where(r[..., :1] < 0, -1.0, 1.0)  # q and -q are the same rotation
-    return r.reshape(m.num_frames, -1)
-
-
-def match_graph_transitions(
-    synth: Motion, graph: dict[str, Any], clips: Sequence[Motion | None], tol: float = 1e-4
-) -> list[dict[str, Any]]:
-    """Where a synthesised motion took the graph's transitions.
-
-    The synthesiser copies clip frames verbatim (up to a ground transform of the root) and blends
-    across transitions, so each output frame is matched to the clip frame with the same non-root
-    joint rotations; a jump in the matched (clip, frame) sequence, or a run of unmatched (blended)
-    frames between two matched ones, is a transition, identified in the graph by its clips and
-    nearest frames. Returns ``[{frame, end, src_clip, src_frame, dst_clip, dst_frame, cost,
-    index}]`` in output-frame order (``cost`` None when no graph transition fits).
-    """
-    x = _nonroot_rotations(synth)
-    thr = tol * x.shape[1]
-    best_c = np.full(synth.num_frames, -1)
-    best_f = np.full(synth.num_frames, -1)
-    best_d = np.full(synth.num_frames, np.inf)
-    for c, m in enumerate(clips):
-        if m is None or m.num_joints != synth.num_joints or m.num_frames == 0:
-            continue
-        y = _nonroot_rotations(m)
-        yy = (y * y).sum(1)
-        for a in range(0, len(x), 2048):  # chunks keep the distance matrix small
-            xa = x[a : a + 2048]
-            d2 = (xa * xa).sum(1)[:, None] + yy[None, :] - 2.0 * xa @ y.T
-            f = np.argmin(d2, axis=1)
-            d = d2[np.arange(len(f)), f]
-            better = d < best_d[a : a + 2048]
-            best_c[a : a + 2048][better] = c
-            best_f[a : a + 2048][better] = f[better]
-            best_d[a : a + 2048][better] = d[better]
-    match_c = np.where(best_d < thr, best_c, -1)
-    match_f = best_f.copy()
-    trs = graph.get("transitions") or []
-    out: list[dict[str, Any]] = []
-    prev = None  # (output frame, clip, clip frame) of the last matched frame
-    for i in range(synth.num_frames):
-        c, f = int(match_c[i]), int(match_f[i])
-        if c < 0:
-            continue
-        if prev is not None:
-            pi, pc, pf = prev
-            if not (c == pc and f == pf + (i - pi)):
-                best, best_d = None, math.inf
-                for t, tr in enumerate(trs):
-                    if int(tr["src_clip"]) != pc or int(tr["dst_clip"]) != c:
-                        continue
-                    d = abs(int(tr["src_frame"]) - (pf + 1)) + abs(
-                        int(tr["dst_frame"]) + (i - pi - 1) - f
-                    )
-                    if d < best_d:
-                        best, best_d = t, d
-                rec: dict[str, Any] = {
-                    "frame": pi + 1 if i - pi > 1 else i,
-                    "end": i,
-                    "src_clip": pc,
-                    "src_frame": pf + 1,
-                    "dst_clip": c,
-                    "dst_frame": f,
-                    "cost": None,
-                    "index": None,
-                }
-                if best is not None:
-                    tr = trs[best]
-                    rec.update(
-                        src_frame=int(tr["src_frame"]),
-                        dst_frame=int(tr["dst_frame"]),
-                        cost=float(tr["cost"]),
-                        index=best,
-                    )
-                    # the blend starts where the destination clip's frame dst_frame would be
-                    back = f - int(tr["dst_frame"])
-                    if 0 <= back <= i - pi + 2 * max(1, int(graph.get("blend_frames") or 0)):
-                        rec["frame"] = max(pi + 1 - int(graph.get("blend_frames") or 0), i - back)
-                out.append(rec)
-        prev = (i, c, f)
-    out.sort(key=lambda r: r["frame"])
-    return out
-
-
 def graph_overlay(
-    motions: Sequence[ViewMotion], graph: dict[str, Any] | None, graph_dir: Path | None = None
+    motions: Sequence[ViewMotion], graph: dict[str, Any] | None = None
 ) -> dict[str, Any] | None:
-    """The motion-graph overlay for the synthesised motion(s) among ``motions``: the transitions
-    it took (see :func:`match_graph_transitions`), with their costs and source clips."""
-    if graph is None:
+    """The motion-graph overlay: the transitions a synthesised motion took, read from its plan
+    (the provenance sidecar ``graph synth`` writes, :mod:`mocapkit.provenance`): the output frame
+    where each blend starts and ends, the source and target clips and frames, and the cost.
+    ``graph`` (the graph JSON, optional) only adds how many transitions the graph has."""
+    idx = next(
+        (
+            i
+            for i, vm in enumerate(motions)
+            if vm.provenance and vm.provenance.tool == "graph synth"
+        ),
+        None,
+    )
+    if idx is None:
         return None
-    from mocapkit.io import read_motion
-
-    clip_info = graph.get("clips") or []
-    base = graph_dir or Path(".")
-    clip_paths = [Path(c.get("path", "")) for c in clip_info]
-    clip_paths = [p if p.is_absolute() else base / p for p in clip_paths]
-    loaded: list[Motion | None] = []
-    for p in clip_paths:
-        try:
-            loaded.append(read_motion(p))
-        except Exception:  # a missing clip only loses its transitions
-            loaded.append(None)
-    clip_names = [p.name for p in clip_paths]
-    # the synthesised motion: the first one that is not one of the graph's clips
-    idx = 0
-    for i, vm in enumerate(motions):
-        if Path(vm.name).name not in clip_names:
-            idx = i
-            break
-    trans = match_graph_transitions(motions[idx].motion, graph, loaded)
-    for t in trans:
-        t["src_name"] = clip_names[t["src_clip"]] if t["src_clip"] < len(clip_names) else "?"
-        t["dst_name"] = clip_names[t["dst_clip"]] if t["dst_clip"] < len(clip_names) else "?"
+    plan = motions[idx].provenance
+    assert plan is not None
+    names = [Path(p).name for p in plan.inputs]
+    ends = {s.output_start: s.output_stop for s in plan.segments if s.kind == "transition"}
+    trans = []
+    for t in plan.transitions:
+        src = plan.inputs.index(t.source) if t.source in plan.inputs else -1
+        dst = plan.inputs.index(t.target) if t.target in plan.inputs else -1
+        trans.append({
+            "frame": t.output_frame, "end": ends.get(t.output_frame, t.output_frame),
+            "src_clip": src, "src_frame": t.source_frame, "dst_clip": dst,
+            "dst_frame": t.target_frame, "cost": t.cost,
+            "src_name": Path(t.source).name, "dst_name": Path(t.target).name,
+        })  # fmt: skip
+    total = len(graph.get("transitions") or []) if graph else None
     return {
         "motion": idx,
-        "clips": clip_names,
-        "missingClips": [n for n, m in zip(clip_names, loaded, strict=True) if m is None],
-        "numTransitions": len(graph.get("transitions") or []),
+        "clips": names,
+        "missingClips": [],
+        "numTransitions": total if total is not None else len(plan.transitions),
         "transitions": trans,
     }
 
@@ -356,7 +272,6 @@ def page_data(
     mdm: np.ndarray | None = None,
     stitch: dict[str, Any] | None = None,
     graph: dict[str, Any] | None = None,
-    graph_dir: Path | None = None,
     title: str | None = None,
 ) -> dict[str, Any]:
     """Everything the page shows, JSON-ready."""
@@ -384,7 +299,7 @@ def page_data(
         "motions": recs,
         "clean": clean_overlay(motions, clean_report, mdm),
         "stitch": stitch_overlay(motions, stitch),
-        "graph": graph_overlay(motions, graph, graph_dir),
+        "graph": graph_overlay(motions, graph),
     }
 
 
@@ -475,8 +390,12 @@ def view_files(
     """Read the motion files and the overlay files and write the viewer page (what ``mocapkit
     view`` does); returns its path."""
     from mocapkit.io import read_motion
+    from mocapkit.provenance import find_provenance
 
-    motions = [ViewMotion(read_motion(f, lenient=lenient), str(f)) for f in files]
+    motions = [
+        ViewMotion(read_motion(f, lenient=lenient), str(f), provenance=find_provenance(f))
+        for f in files
+    ]
     return write_page(
         out,
         motions,
@@ -486,5 +405,4 @@ def view_files(
         mdm=read_mdm(mdm) if mdm else None,
         stitch=read_overlay_json(stitch, "stitch result") if stitch else None,
         graph=read_overlay_json(graph, "motion graph") if graph else None,
-        graph_dir=Path(graph).parent if graph else None,
     )

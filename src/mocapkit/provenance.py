@@ -1,0 +1,144 @@
+"""Provenance sidecars: what made a generated motion, frame by frame.
+
+One format for every output mocapkit generates (stitch, graph synth, and later clean and
+in-betweening). ``walk.bvh`` gets ``walk.provenance.json`` beside it::
+
+    {
+      "format": "mocapkit-provenance-1",
+      "tool": "graph synth",                # the subcommand that wrote the output
+      "mocapkit_version": "0.1.0",
+      "output": "walk.bvh", "fps": 30.0, "frames": 600,
+      "inputs": ["clips/a.bvh", ...],       # every file read, in the tool's order
+      "parameters": {"seed": 1, ...},       # the options that shaped the result
+      "segments": [                         # the output's frames, in order, without gaps
+        {"output_start": 0, "output_stop": 41, "kind": "clip",
+         "source": "clips/a.bvh", "source_start": 12, "source_stop": 53},
+        {"output_start": 41, "output_stop": 46, "kind": "transition", ...}, ...
+      ],
+      "transitions": [                      # graph synth and stitch: each transition taken
+        {"output_frame": 41, "source": "clips/a.bvh", "source_frame": 53,
+         "target": "clips/b.bvh", "target_frame": 7, "cost": 0.021}, ...
+      ]
+    }
+
+Frames are 0-based, ``*_stop`` excluded. Segment kinds: ``"clip"`` (frames copied from
+``source``), ``"transition"`` (``source``'s frames blended with the clip the walk came from, which
+the matching ``transitions`` entry names), ``"generated"`` (frames made by mocapkit, e.g. a
+stitch's injected frames). Readers ignore keys they do not
+know, so later tools may add some.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from mocapkit.io.atomic import atomic_write_text
+
+FORMAT = "mocapkit-provenance-1"
+SUFFIX = ".provenance.json"
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A run of output frames and where they came from."""
+
+    output_start: int
+    output_stop: int
+    kind: str
+    source: str | None = None
+    source_start: int | None = None
+    source_stop: int | None = None
+
+
+@dataclass(frozen=True)
+class TransitionTaken:
+    """One transition of a generated motion: from ``source_frame`` of ``source`` to
+    ``target_frame`` of ``target``, entered at ``output_frame``."""
+
+    output_frame: int
+    source: str
+    source_frame: int
+    target: str
+    target_frame: int
+    cost: float | None = None
+
+
+@dataclass
+class Provenance:
+    """The sidecar's content (see the module notes)."""
+
+    tool: str
+    output: str
+    fps: float
+    frames: int
+    inputs: list[str]
+    parameters: dict[str, Any] = field(default_factory=dict)
+    segments: list[Segment] = field(default_factory=list)
+    transitions: list[TransitionTaken] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "format": FORMAT,
+            "tool": self.tool,
+            "mocapkit_version": _version(),
+            "output": self.output,
+            "fps": self.fps,
+            "frames": self.frames,
+            "inputs": list(self.inputs),
+            "parameters": dict(self.parameters),
+            "segments": [asdict(s) for s in self.segments],
+            "transitions": [asdict(t) for t in self.transitions],
+        }
+
+    def write(self, output: str | Path) -> Path:
+        """Write the sidecar of ``output`` (:func:`sidecar_path`) atomically; returns its path."""
+        from mocapkit.jsonio import to_json_text
+
+        return atomic_write_text(sidecar_path(output), to_json_text(self.to_json()) + "\n")
+
+
+def sidecar_path(output: str | Path) -> Path:
+    """``walk.bvh`` -> ``walk.provenance.json`` (beside it)."""
+    p = Path(output)
+    return p.with_name(p.stem + SUFFIX)
+
+
+def read_provenance(path: str | Path) -> Provenance:
+    """Read a sidecar (ValueError naming the file when it is not one)."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"{path}: not a readable provenance file ({e})") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise ValueError(f"{path}: not a mocapkit provenance file (expected format {FORMAT})")
+    try:
+        return Provenance(
+            tool=str(data["tool"]),
+            output=str(data["output"]),
+            fps=float(data["fps"]),
+            frames=int(data["frames"]),
+            inputs=[str(x) for x in data.get("inputs", [])],
+            parameters=dict(data.get("parameters", {})),
+            segments=[Segment(**s) for s in data.get("segments", [])],
+            transitions=[TransitionTaken(**t) for t in data.get("transitions", [])],
+        )
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{path}: malformed provenance file ({e})") from None
+
+
+def find_provenance(output: str | Path) -> Provenance | None:
+    """The sidecar of ``output`` if one lies beside it, else None."""
+    p = sidecar_path(output)
+    return read_provenance(p) if p.exists() else None
+
+
+def _version() -> str:
+    try:
+        return metadata.version("mocapkit")
+    except metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
