@@ -65,5 +65,12 @@ def test_cli_inject(clips, tmp_path) -> None:
     assert rep["k"] == 9
     m = read_motion(out)
     assert m.num_frames == rep["frames"]
+    from mocapkit.provenance import find_provenance
+
+    plan = find_provenance(out)
+    assert plan is not None and plan.tool == "stitch" and plan.frames == m.num_frames
+    gen = [s for s in plan.segments if s.kind == "generated"]
+    assert len(gen) == 1 and gen[0].output_stop - gen[0].output_start == 9
+    assert plan.segments[-1].output_stop == m.num_frames
     bad = CliRunner().invoke(main, ["stitch", str(q), str(d), "--takeoff", "40", "--inject", "-1"])
     assert bad.exit_code == 2

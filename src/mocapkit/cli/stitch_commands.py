@@ -123,7 +123,10 @@ def stitch_cmd(
     from mocapkit.stitch import stitch
 
     data_paths = expand_inputs(data, MOTION_SUFFIXES)
-    for p in (out_path, json_path, plot_path):
+    from mocapkit.provenance import sidecar_path
+
+    sidecar = sidecar_path(out_path) if out_path else None
+    for p in (out_path, json_path, plot_path, sidecar):
         if p is not None:
             refuse_overwrite(p, [query, *data_paths])
     q = load(query, lenient)
@@ -158,7 +161,8 @@ def stitch_cmd(
         )
     if out_path:
         write_motion(res.motion, out_path)
-        click.echo(f"wrote {out_path} ({res.motion.num_frames} frames, {method})")
+        side = res.provenance(out_path, {"takeoff": takeoff, "window": window}).write(out_path)
+        click.echo(f"wrote {out_path} ({res.motion.num_frames} frames, {method}) and {side}")
     if json_path:
         write_json(json_path, res.to_json())
         click.echo(f"wrote {json_path}")

@@ -72,7 +72,7 @@ def body_joints(skeleton: Skeleton) -> list[int]:
     return [i for i in range(skeleton.num_joints) if i not in above]
 
 
-def _joint_indices(skeleton: Skeleton, joints: Sequence[str] | None) -> list[int]:
+def feature_joint_indices(skeleton: Skeleton, joints: Sequence[str] | None) -> list[int]:
     if joints is None:
         return body_joints(skeleton)
     try:
@@ -91,7 +91,7 @@ def motion_features(
     """
     from mocapkit.features import local_positions
 
-    idx = _joint_indices(motion.skeleton, joints)
+    idx = feature_joint_indices(motion.skeleton, joints)
     lp = local_positions(motion, up=up)
     return np.ascontiguousarray(lp[:, idx, :].reshape(motion.num_frames, 3 * len(idx)))
 
@@ -391,7 +391,7 @@ def find_transition(
         raise ValueError(f"max_inject_seconds must be >= 0, got {max_inject_seconds}")
     k_max = query.seconds_to_frames(max_inject_seconds)
     up = up or detect_up_axis(query)
-    names = [query.skeleton.names[j] for j in _joint_indices(query.skeleton, joints)]
+    names = [query.skeleton.names[j] for j in feature_joint_indices(query.skeleton, joints)]
     qf = motion_features(query, up, names)
     clips = [
         motion_features(conform(d, query, f"data clip {i}"), up, names) for i, d in enumerate(data)

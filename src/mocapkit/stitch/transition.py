@@ -47,12 +47,13 @@ import numpy as np
 
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion, concatenate
+from mocapkit.provenance import Provenance, Segment, TransitionTaken
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
 from mocapkit.stitch.lscore import DEFAULT_W, check_w, elastic_mask
 from mocapkit.stitch.search import (
     Transition,
-    _joint_indices,
     conform,
+    feature_joint_indices,
     find_transition,
     motion_features,
     parse_takeoffs,
@@ -117,6 +118,32 @@ class Stitched:
     takeoff_spec: Any = None
     search_seconds: float | None = None
     output: str | None = None
+
+    def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
+        """The stitch as a provenance sidecar (:mod:`mocapkit.provenance`): the query's frames,
+        the generated (or blended) frames, the data clip's frames from its landing frame, and
+        the one transition taken."""
+        clip = self.transition.clip if self.transition is not None else 0
+        data = self.data_names[clip] if self.data_names else "data"
+        g0, g1 = self.generated.start, self.generated.stop
+        F = self.motion.num_frames
+        tail = self.landing + (g1 - self.landing_index)
+        segs = [
+            Segment(0, g0, "clip", self.query_name, 0, g0),
+            Segment(g0, g1, "generated", None, None, None),
+            Segment(g1, F, "clip", data, tail, tail + F - g1),
+        ]
+        lscore = self.transition.lscore if self.transition is not None else None
+        return Provenance(
+            "stitch",
+            str(output),
+            float(self.motion.fps),
+            F,
+            [self.query_name, *self.data_names],
+            {"method": self.method, "k": self.k, **(parameters or {})},
+            [sg for sg in segs if sg.output_stop > sg.output_start],
+            [TransitionTaken(g0, self.query_name, self.takeoff, data, self.landing, lscore)],
+        )
 
     def to_json(self) -> dict[str, Any]:
         """The JSON-ready summary of the stitch (``mocapkit stitch --json``): the search's
@@ -261,7 +288,7 @@ def stitch_motions(
     gen = Motion(query.skeleton, gen_rots, gen_trans[:, 0], query.frame_time, gen_trans_out)
     motion = _join(query[: a + 1], gen, data[b:])
 
-    idx = _joint_indices(query.skeleton, joints)
+    idx = feature_joint_indices(query.skeleton, joints)
     names = [query.skeleton.names[j] for j in idx]
     kal = fk = None
     err_mean = err_max = 0.0
