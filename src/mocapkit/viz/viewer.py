@@ -84,11 +84,47 @@ def _b64(a: np.ndarray) -> str:
     return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
 
 
+def _body_parts(m: Motion) -> tuple[int, int | None, float | None]:
+    """``(pelvis, ground_root, stature in file units)`` of :func:`mocapkit.body.body_of`, or
+    ``(0, None, None)`` for a skeleton it cannot read (the page then frames joint 0)."""
+    from mocapkit.body import body_of
+
+    try:
+        b = body_of(m)
+    except (ValueError, IndexError, ZeroDivisionError, FloatingPointError):
+        return 0, None, None
+    stature = float(b.stature) if np.isfinite(b.stature) and b.stature > 0 else None
+    return int(b.pelvis), b.ground_root, stature
+
+
+def _root_heading(m: Motion, gr: int, grot: np.ndarray, up: str) -> np.ndarray:
+    """Per-frame heading of the ground root on the page's floor (radians about +Y, 0 = +Z):
+    the root's own rotation applied to the root-local axis that best matches the body's facing
+    (so the marker turns with the root and points where the body faces when they agree)."""
+    from mocapkit.core.rotations import quat_apply, quat_inv
+    from mocapkit.features import facing_directions
+
+    q = grot[:, gr]
+    try:
+        face = facing_directions(m, up)
+    except (ValueError, IndexError):
+        face = np.zeros((m.num_frames, 3))
+    a = quat_apply(quat_inv(q), face).mean(axis=0)
+    if np.linalg.norm(a) > 1e-6:
+        fwd = quat_apply(q, np.broadcast_to(a / np.linalg.norm(a), (*q.shape[:-1], 3)))
+    else:
+        fwd = face
+    d = to_y_up(fwd, up)
+    h = np.arctan2(d[:, 0], d[:, 2])
+    return np.where(np.isfinite(h), h, 0.0)
+
+
 def _motion_record(vm: ViewMotion, color: str, up: str, mpu: float) -> dict[str, Any]:
     m = vm.motion
     sk = m.skeleton
     if m.num_frames == 0:
         raise ValueError(f"{vm.name}: the motion has no frames")
+    pelvis, gr, stature = _body_parts(m)
     gpos, grot = forward_kinematics(m)
     ends = end_site_positions(sk, gpos, grot)
     pos = np.concatenate([gpos, ends], axis=1) if ends.shape[1] else gpos
@@ -106,9 +142,13 @@ def _motion_record(vm: ViewMotion, color: str, up: str, mpu: float) -> dict[str,
         label = sk.end_site_names[e] if e < len(sk.end_site_names) else ""
         names.append(f"{names[int(p)]} End" + (f" ({label})" if label else ""))
         parents.append(int(p))
-    ground = pos[..., 1].min(axis=1)
-    heights = pos[..., 1].max(axis=1) - ground
-    horiz = np.ptp(pos[..., [0, 2]], axis=1).max(axis=1)
+    body = pos if gr is None else np.delete(pos, gr, axis=1)  # the ground root is no body part
+    ground = body[..., 1].min(axis=1)
+    heights = body[..., 1].max(axis=1) - ground
+    horiz = np.ptp(body[..., [0, 2]], axis=1).max(axis=1)
+    extra: dict[str, Any] = {}
+    if gr is not None:
+        extra["rootHeading"] = _b64(_root_heading(m, gr, grot, up).astype("<f4"))
     return {
         "name": vm.name,
         "color": color,
@@ -123,6 +163,10 @@ def _motion_record(vm: ViewMotion, color: str, up: str, mpu: float) -> dict[str,
         "ground": float(np.percentile(ground, 2)),
         "height": float(np.median(heights)),
         "width": float(np.median(horiz)),
+        "stature": float(np.median(heights)) if stature is None else stature * mpu,
+        "pelvis": pelvis,
+        "groundRoot": gr,
+        **extra,
         **vm.extra,
     }
 
