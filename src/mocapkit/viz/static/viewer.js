@@ -1,6 +1,10 @@
 /* mocapkit viewer: three.js skeleton player with cleaning / stitch / motion-graph overlays.
  * Data: the JSON in <script id="mocapkit-data"> (see mocapkit/viz/viewer.py).
- * Test hook: window.mocapkitViewer (frame, play(), pause(), seek(f), jointColor(m, j), ...). */
+ * Bones are solid (instanced cylinders + joint spheres, Lambert-shaded); a ground root (the
+ * body's projection on the floor, e.g. Bandai's joint_Root) is a ring + arrow on the floor; the
+ * camera targets the (smoothed) pelvis path and follows it while the user orbits.
+ * Test hook: window.mocapkitViewer (frame, play(), pause(), seek(f), jointColor(m, j),
+ * boneColor(m, k), screenPoint(j, m), bones(m), groundMarker(m), ...). */
 (function () {
   'use strict';
   var D = JSON.parse(document.getElementById('mocapkit-data').textContent);
@@ -31,9 +35,34 @@
       P[i + 1] = m.lo[1] + q[i + 1] * m.step[1];
       P[i + 2] = m.lo[2] + q[i + 2] * m.step[2];
     }
-    var bones = [];
-    for (var j = 0; j < n; j++) if (m.parents[j] >= 0) bones.push([m.parents[j], j]);
-    return { meta: m, P: P, n: n, bones: bones, rgb: hexRgb(m.color), frame: 0 };
+    var gr = (m.groundRoot === null || m.groundRoot === undefined) ? -1 : m.groundRoot;
+    var bones = [], joints = [];
+    for (var j = 0; j < n; j++) {
+      if (j !== gr) joints.push(j);
+      // no bone from the ground root: it is drawn as a marker on the floor
+      if (m.parents[j] >= 0 && m.parents[j] !== gr && j !== gr) bones.push([m.parents[j], j]);
+    }
+    var F = m.frames, pv = Math.min(n - 1, m.pelvis || 0);
+    // the pelvis path, horizontally smoothed over ~0.5 s (the camera follows it without the
+    // side-to-side sway of a walk), at the take's median pelvis height
+    var S = new Float32Array(F * 2), half = Math.max(0, Math.round(0.25 * m.fps));
+    var cx = new Float64Array(F + 1), cz = new Float64Array(F + 1), ys = [];
+    for (var f = 0; f < F; f++) {
+      var o = (f * n + pv) * 3;
+      cx[f + 1] = cx[f] + P[o]; cz[f + 1] = cz[f] + P[o + 2];
+      if (f % Math.max(1, Math.floor(F / 512)) === 0) ys.push(P[o + 1]);
+    }
+    for (var f2 = 0; f2 < F; f2++) {
+      var a = Math.max(0, f2 - half), b = Math.min(F, f2 + half + 1);
+      S[2 * f2] = (cx[b] - cx[a]) / (b - a); S[2 * f2 + 1] = (cz[b] - cz[a]) / (b - a);
+    }
+    ys.sort(function (u, v) { return u - v; });
+    var heading = null;
+    if (gr >= 0 && m.rootHeading) heading = new Float32Array(b64bytes(m.rootHeading).buffer);
+    return {
+      meta: m, P: P, n: n, bones: bones, joints: joints, gr: gr, pelvis: pv, path: S,
+      pathY: ys[Math.floor(ys.length / 2)], heading: heading, rgb: hexRgb(m.color), frame: 0
+    };
   });
   var fps = motions[0].meta.fps;
   var duration = Math.max.apply(null, motions.map(function (m) { return m.meta.frames / m.meta.fps; }));
@@ -65,7 +94,7 @@
   controls.enableDamping = false;
 
   var groundY = Math.min.apply(null, motions.map(function (m) { return m.meta.ground; }));
-  var charH = Math.max(0.1, Math.max.apply(null, motions.map(function (m) { return m.meta.height; })));
+  var charH = Math.max(0.1, Math.max.apply(null, motions.map(function (m) { return m.meta.stature || m.meta.height; })));
   var width = Math.max(0.3, Math.max.apply(null, motions.map(function (m) { return m.meta.width; })));
   // grid in metres: 1 m cells (0.1 m for small characters), big enough for the whole take
   var ext = 0;
@@ -101,29 +130,60 @@
   axes.position.y = groundY + 0.001;
   scene.add(axes);
 
+  // lights: a soft ambient term and a head light (a child of the camera, from above its right
+  // shoulder), so that the side of a bone facing the viewer keeps the motion's colour
+  scene.add(camera);
+  scene.add(new THREE.AmbientLight(0xffffff, 0.42));
+  var headLight = new THREE.DirectionalLight(0xffffff, 0.66);
+  headLight.position.set(0.35, 0.6, 0.2);
+  headLight.target.position.set(0, 0, -1);
+  camera.add(headLight); camera.add(headLight.target);
+
+  // unit bone: a cylinder from y = 0 to y = 1 (scaled to radius x length per bone)
+  var boneGeo = new THREE.CylinderGeometry(1, 1, 1, 10, 1, true);
+  boneGeo.translate(0, 0.5, 0);
+  var jointGeo = new THREE.SphereGeometry(1, 12, 8);
+  var solidMat = new THREE.MeshLambertMaterial({ color: 0xffffff });
+  var tmpM = new THREE.Matrix4(), tmpQ = new THREE.Quaternion(), tmpS = new THREE.Vector3();
+  var tmpP = new THREE.Vector3(), tmpD = new THREE.Vector3(), UPV = new THREE.Vector3(0, 1, 0);
+
+  function groundMarker(m) { // a ring with an arrow (the heading), flat on the floor
+    var H = m.meta.stature || charH, mk = new THREE.Group();
+    var mat = new THREE.MeshBasicMaterial({ color: m.meta.color, side: THREE.DoubleSide, transparent: true, opacity: 0.85, depthWrite: false });
+    var ring = new THREE.Mesh(new THREE.RingGeometry(0.15 * H, 0.18 * H, 48), mat);
+    ring.rotation.x = -Math.PI / 2;
+    var tri = new THREE.Shape();
+    tri.moveTo(-0.07 * H, 0.19 * H); tri.lineTo(0.07 * H, 0.19 * H); tri.lineTo(0, 0.32 * H); tri.lineTo(-0.07 * H, 0.19 * H);
+    var arrow = new THREE.Mesh(new THREE.ShapeGeometry(tri), mat);
+    arrow.rotation.x = -Math.PI / 2; arrow.scale.y = -1; // shape +y -> world +z
+    var dot = new THREE.Mesh(new THREE.CircleGeometry(0.025 * H, 16), mat);
+    dot.rotation.x = -Math.PI / 2;
+    mk.add(ring); mk.add(arrow); mk.add(dot);
+    mk.renderOrder = 1;
+    return mk;
+  }
+
   var sideBySide = motions.length > 2;
   $('side').checked = sideBySide;
   motions.forEach(function (m, i) {
-    var g = new THREE.Group();
-    var lineBuf = new Float32Array(m.bones.length * 6);
-    var lg = new THREE.BufferGeometry();
-    lg.setAttribute('position', new THREE.BufferAttribute(lineBuf, 3));
-    var lmat = new THREE.LineBasicMaterial({ color: m.meta.color });
-    var lines = new THREE.LineSegments(lg, lmat);
-    lines.frustumCulled = false;
-    var ptBuf = new Float32Array(m.n * 3), colBuf = new Float32Array(m.n * 3);
+    var g = new THREE.Group(), H = m.meta.stature || charH;
+    m.rBone = 0.017 * H; m.rJoint = 0.024 * H;
+    var nb = Math.max(1, m.bones.length), nj = Math.max(1, m.joints.length);
+    var bm = new THREE.InstancedMesh(boneGeo, solidMat, nb);
+    var jm = new THREE.InstancedMesh(jointGeo, solidMat, nj);
+    bm.count = m.bones.length; jm.count = m.joints.length;
+    bm.instanceMatrix.setUsage(THREE.DynamicDrawUsage); jm.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
+    m.boneCol = new Float32Array(nb * 3); m.jointCol = new Float32Array(nj * 3);
+    bm.instanceColor = new THREE.InstancedBufferAttribute(m.boneCol, 3);
+    jm.instanceColor = new THREE.InstancedBufferAttribute(m.jointCol, 3);
+    bm.instanceColor.setUsage(THREE.DynamicDrawUsage); jm.instanceColor.setUsage(THREE.DynamicDrawUsage);
+    bm.frustumCulled = false; jm.frustumCulled = false; // bounds are the unit geometry's
+    var colBuf = new Float32Array(m.n * 3);
     for (var j = 0; j < m.n; j++) colBuf.set(m.rgb, 3 * j);
-    var pg = new THREE.BufferGeometry();
-    pg.setAttribute('position', new THREE.BufferAttribute(ptBuf, 3));
-    pg.setAttribute('color', new THREE.BufferAttribute(colBuf, 3));
-    var pmat = new THREE.PointsMaterial({ size: 7, sizeAttenuation: false, vertexColors: true });
-    var pts = new THREE.Points(pg, pmat);
-    pts.frustumCulled = false;
-    // the first motion (the analysed one, with MDM colours) is drawn last, i.e. on top
-    lines.renderOrder = 2 * (motions.length - i); pts.renderOrder = 2 * (motions.length - i) + 1;
-    g.add(lines); g.add(pts);
+    g.add(bm); g.add(jm);
+    if (m.gr >= 0) { m.marker = groundMarker(m); g.add(m.marker); }
     scene.add(g);
-    m.group = g; m.lineBuf = lineBuf; m.lg = lg; m.lmat = lmat; m.ptBuf = ptBuf; m.colBuf = colBuf; m.pg = pg;
+    m.group = g; m.bm = bm; m.jm = jm; m.colBuf = colBuf; m.boneRgb = null;
     m.index = i;
   });
   var selJoint = null; // {m, j}
@@ -154,32 +214,61 @@
     f = Math.max(0, Math.min(clean.frames - 1, f));
     return mdm[f * clean.joints + j] / 255;
   }
-  function centre() {
-    var m = motions[0], f = m.frame, P = m.P, o = f * m.n * 3;
-    return new THREE.Vector3(P[o] + m.group.position.x, P[o + 1], P[o + 2]);
+  function centre() { // the camera target: the motions' smoothed pelvis paths, averaged
+    var c = new THREE.Vector3();
+    motions.forEach(function (m) {
+      c.x += m.path[2 * m.frame] + m.group.position.x; c.y += m.pathY; c.z += m.path[2 * m.frame + 1];
+    });
+    return c.multiplyScalar(1 / motions.length);
+  }
+  function drawMotion(m, f, injected) {
+    var P = m.P, o = f * m.n * 3, k, j, b;
+    for (k = 0; k < m.bones.length; k++) {
+      var p = o + 3 * m.bones[k][0], c = o + 3 * m.bones[k][1];
+      tmpP.set(P[p], P[p + 1], P[p + 2]);
+      tmpD.set(P[c] - P[p], P[c + 1] - P[p + 1], P[c + 2] - P[p + 2]);
+      var len = tmpD.length();
+      if (len > 1e-9) tmpQ.setFromUnitVectors(UPV, tmpD.multiplyScalar(1 / len)); else tmpQ.identity();
+      tmpS.set(m.rBone, len, m.rBone);
+      m.bm.setMatrixAt(k, tmpM.compose(tmpP, tmpQ, tmpS));
+    }
+    m.bm.instanceMatrix.needsUpdate = true;
+    tmpQ.identity(); tmpS.set(m.rJoint, m.rJoint, m.rJoint);
+    for (k = 0; k < m.joints.length; k++) {
+      j = o + 3 * m.joints[k];
+      tmpP.set(P[j], P[j + 1], P[j + 2]);
+      m.jm.setMatrixAt(k, tmpM.compose(tmpP, tmpQ, tmpS));
+    }
+    m.jm.instanceMatrix.needsUpdate = true;
+    var rgb = injected ? GEN_RGB : m.rgb, B = m.boneCol;
+    if (rgb !== m.boneRgb) {
+      for (k = 0; k < m.bones.length; k++) B.set(rgb, 3 * k);
+      m.boneRgb = rgb; m.bm.instanceColor.needsUpdate = true;
+    }
+    var C = m.colBuf, JC = m.jointCol;
+    for (k = 0; k < m.joints.length; k++) {
+      b = 3 * m.joints[k];
+      JC[3 * k] = C[b]; JC[3 * k + 1] = C[b + 1]; JC[3 * k + 2] = C[b + 2];
+    }
+    m.jm.instanceColor.needsUpdate = true;
+    if (m.marker) {
+      var r = o + 3 * m.gr;
+      m.marker.position.set(P[r], P[r + 1] + 0.002 * charH, P[r + 2]);
+      m.marker.rotation.y = m.heading ? m.heading[f] : 0;
+    }
   }
 
   function updatePose() {
     motions.forEach(function (m) {
       var f = motionFrame(m, frame); m.frame = f;
-      var P = m.P, o = f * m.n * 3, L = m.lineBuf, b;
-      for (var k = 0; k < m.bones.length; k++) {
-        var p = o + 3 * m.bones[k][0], c = o + 3 * m.bones[k][1]; b = 6 * k;
-        L[b] = P[p]; L[b + 1] = P[p + 1]; L[b + 2] = P[p + 2];
-        L[b + 3] = P[c]; L[b + 4] = P[c + 1]; L[b + 5] = P[c + 2];
-      }
-      m.lg.attributes.position.needsUpdate = true;
-      m.ptBuf.set(P.subarray(o, o + m.n * 3));
-      m.pg.attributes.position.needsUpdate = true;
-      var injected = stitch && stitch.motion === m.index && f >= stitch.generated[0] && f < stitch.generated[1];
-      m.lmat.color.setRGB.apply(m.lmat.color, injected ? GEN_RGB : m.rgb);
+      var injected = !!(stitch && stitch.motion === m.index && f >= stitch.generated[0] && f < stitch.generated[1]);
       var C = m.colBuf;
       if (mdm && clean.motion === m.index) {
         for (var j = 0; j < m.n; j++) C.set(j < m.meta.numJoints ? ramp(mdmAt(f, j)) : m.rgb, 3 * j);
       } else {
         for (var j2 = 0; j2 < m.n; j2++) C.set(injected ? GEN_RGB : m.rgb, 3 * j2);
       }
-      m.pg.attributes.color.needsUpdate = true;
+      drawMotion(m, f, injected);
     });
     if (selJoint) {
       var sm = motions[selJoint.m], so = (sm.frame * sm.n + selJoint.j) * 3;
@@ -221,21 +310,18 @@
 
   // ---------------------------------------------------------------- camera
   function fitCamera() {
-    var box = new THREE.Box3();
-    motions.forEach(function (m) {
-      var o = m.frame * m.n * 3;
-      for (var j = 0; j < m.n; j++) {
-        box.expandByPoint(new THREE.Vector3(m.P[o + 3 * j] + m.group.position.x, m.P[o + 3 * j + 1], m.P[o + 3 * j + 2]));
-      }
-    });
-    var c = box.getCenter(new THREE.Vector3()), s = box.getSize(new THREE.Vector3());
-    var r = Math.max(s.x, s.y, s.z, 0.5);
+    // target the pelvis path; the distance makes the character ~55% of the stage's height (and
+    // the row of motions, side by side, fit its width)
+    var c = centre(), tanH = Math.tan(camera.fov * Math.PI / 360);
+    var span = sideBySide ? (motions.length - 1) * (width + 0.6 * charH) + width : width;
+    var d = Math.max(charH / (0.55 * 2 * tanH), span / (0.8 * 2 * tanH * Math.max(0.3, camera.aspect)));
+    var dir = new THREE.Vector3(0.9, 0.5, 1.9).normalize();
     controls.target.copy(c);
-    camera.position.set(c.x + 0.9 * r, c.y + 0.5 * r, c.z + 1.9 * r);
-    camera.near = r / 100; camera.far = Math.max(100, half * 8);
+    camera.position.copy(c).addScaledVector(dir, d);
+    camera.near = Math.max(0.001, d / 100); camera.far = Math.max(100, half * 8, d * 20);
     camera.updateProjectionMatrix();
     controls.update();
-    lastCentre = centre();
+    lastCentre = c;
   }
   function resize() {
     var w = stage.clientWidth || 800, h = stage.clientHeight || 450;
@@ -494,7 +580,24 @@
     selectJoint: selectJoint,
     groupX: function (mi) { return motions[mi].group.position.x; },
     jointColor: function (mi, j) { var C = motions[mi].colBuf; return [C[3 * j], C[3 * j + 1], C[3 * j + 2]]; },
-    boneColor: function (mi) { var c = motions[mi].lmat.color; return [c.r, c.g, c.b]; },
+    boneColor: function (mi, k) { var B = motions[mi].boneCol, b = 3 * (k || 0); return [B[b], B[b + 1], B[b + 2]]; },
+    bones: function (mi) { return motions[mi || 0].bones.map(function (b) { return b.slice(); }); },
+    groundMarker: function (mi) {
+      var m = motions[mi || 0];
+      if (!m.marker) return null;
+      return { visible: m.marker.visible, x: m.marker.position.x + m.group.position.x, y: m.marker.position.y, z: m.marker.position.z, heading: m.marker.rotation.y };
+    },
+    screenPoint: function (j, mi) { // client coordinates (CSS px) of joint j of motion mi now
+      var m = motions[mi || 0], o = (m.frame * m.n + j) * 3;
+      controls.update(); camera.updateMatrixWorld();
+      var v = new THREE.Vector3(m.P[o] + m.group.position.x, m.P[o + 1], m.P[o + 2]).project(camera);
+      var r = renderer.domElement.getBoundingClientRect();
+      return { x: r.left + (v.x + 1) / 2 * r.width, y: r.top + (1 - v.y) / 2 * r.height, depth: v.z };
+    },
+    stageRect: function () {
+      var r = renderer.domElement.getBoundingClientRect();
+      return { x: r.left, y: r.top, width: r.width, height: r.height };
+    },
     timelinePoint: function (f, j) { // client coordinates of (frame, joint) on the timeline
       var r = tl.getBoundingClientRect();
       return { x: r.left + fx(f, r.width), y: r.top + (j === null || j === undefined ? BAND / 2 : BAND + (j + 0.5) * rowH) };
