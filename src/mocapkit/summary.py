@@ -15,7 +15,32 @@ from typing import Any
 
 from mocapkit.core.motion import Motion
 
-__all__ = ["ContactSummary", "MotionSummary", "summarize", "summarize_file"]
+__all__ = ["ContactSummary", "MotionSummary", "nominal_fps", "summarize", "summarize_file"]
+
+
+def nominal_fps(frame_time: float) -> float:
+    """The frame rate of ``frame_time``: the integer ``n`` when the frame time is ``1/n``
+    as written with its digits (``0.0333333`` -> 30, ``0.008333`` -> 120, ``0.04`` -> 25,
+    rounded or truncated to within one unit of its last digit, at least 4 significant digits
+    unless exact), else ``1 / frame_time``."""
+    import math
+
+    if not (math.isfinite(frame_time) and frame_time > 0):
+        return float("nan") if frame_time != 0 else float("inf")
+    exact = 1.0 / frame_time
+    n = round(exact)
+    if n < 1:
+        return exact
+    if abs(frame_time * n - 1.0) <= 1e-12:
+        return float(n)
+    digits = repr(frame_time)
+    if "e" in digits or "E" in digits:
+        return exact
+    significant = digits.replace("-", "").replace(".", "").lstrip("0")
+    if len(significant) < 4:
+        return exact
+    unit = 10.0 ** (math.floor(math.log10(frame_time)) - len(significant) + 1)
+    return float(n) if abs(frame_time - 1.0 / n) <= unit * (1 + 1e-9) else exact
 
 
 @dataclass(frozen=True)
@@ -54,6 +79,7 @@ class MotionSummary:
     contacts: dict[str, ContactSummary] | None = None
     contacts_error: str | None = None
     parents: tuple[int, ...] = ()
+    offsets: tuple[tuple[float, float, float], ...] = ()
     body: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -86,6 +112,7 @@ class MotionSummary:
                 for name, c in self.contacts.items()
             }
         out["parents"] = list(self.parents)
+        out["offsets"] = [list(o) for o in self.offsets]
         out["body"] = self.body
         out.update(self.extra)
         return out
@@ -142,7 +169,7 @@ def summarize(
         end_sites=len(sk.end_site_parents),
         frames=motion.num_frames,
         frame_time=motion.frame_time,
-        fps=motion.fps,
+        fps=nominal_fps(motion.frame_time),
         duration_s=motion.duration,
         up_axis=up,
         units_guess=units,
@@ -151,6 +178,7 @@ def summarize(
         contacts=contacts,
         contacts_error=error,
         parents=tuple(int(p) for p in sk.parents),
+        offsets=tuple((float(x), float(y), float(z)) for x, y, z in sk.offsets),
         body=body.to_json(),
     )
 

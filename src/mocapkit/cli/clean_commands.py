@@ -13,18 +13,20 @@ from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
     CLIError,
+    check_input_file,
     expand_inputs,
     friendly_errors,
     load,
     load_all,
     main,
+    naming,
     progress_callback,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.motion import Motion
-from mocapkit.io import write_motion
-from mocapkit.io.atomic import refuse_overwrite
+from mocapkit.io import WRITABLE, write_motion
+from mocapkit.io.atomic import all_or_nothing, check_outputs
 
 
 def parse_contact(spec: str, motion: Motion) -> Any:
@@ -56,7 +58,7 @@ def parse_contact(spec: str, motion: Motion) -> Any:
 
 
 @main.command("clean")
-@click.argument("input_path", metavar="IN", type=click.Path(dir_okay=False, exists=True))
+@click.argument("input_path", metavar="IN")
 @click.option(
     "--context",
     "contexts",
@@ -144,16 +146,20 @@ def clean_command(
       mocapkit clean take.bvh --context takes/ --out fixed.bvh --mdm mdm.npy
       mocapkit clean take.bvh --context takes/ --two-stage --threshold 0.6 --out fixed.bvh
     """
-    outputs = [p for p in (out_path, report_path, mdm_path, plot_path) if p]
-    for o in outputs:
-        refuse_overwrite(o, [input_path])
-    motion = load(input_path, lenient)
+    check_input_file(input_path)
     ctx_paths = expand_inputs(contexts, MOTION_SUFFIXES, exclude=[input_path])
-    for o in outputs:
-        refuse_overwrite(o, [str(p) for p in ctx_paths])
+    check_outputs(
+        [(out_path, WRITABLE) if out_path else None, report_path, mdm_path, plot_path],
+        [input_path, *ctx_paths],
+    )
+    motion = load(input_path, lenient)
     context = load_all(ctx_paths, lenient, "loading context", show=not quiet)
     contacts = [parse_contact(c, motion) for c in contact_specs]
-    with progress_callback("analysing", enabled=not quiet) as step:
+    with (
+        naming(input_path, *ctx_paths),
+        all_or_nothing(),
+        progress_callback("analysing", enabled=not quiet) as step,
+    ):
         report = clean.run(
             motion,
             context,
@@ -166,16 +172,16 @@ def clean_command(
             output=out_path,
             progress=step,
         )
-    if out_path:
-        write_motion(report.motion, out_path)
-    if mdm_path:
-        report.save_mdm(mdm_path)
-    if plot_path:
-        from mocapkit.viz.figures.clean import plot_clean_report
+        if out_path:
+            write_motion(report.motion, out_path)
+        if mdm_path:
+            report.save_mdm(mdm_path)
+        if plot_path:
+            from mocapkit.viz.figures.clean import plot_clean_report
 
-        plot_clean_report(report, plot_path)
-    if report_path:
-        write_json(report_path, report.to_json())
+            plot_clean_report(report, plot_path)
+        if report_path:
+            write_json(report_path, report.to_json())
     if quiet:
         return
     click.echo(
@@ -200,7 +206,7 @@ def clean_command(
 
 
 @main.command("reconstruct")
-@click.argument("sparse_path", metavar="SPARSE", type=click.Path(dir_okay=False, exists=True))
+@click.argument("sparse_path", metavar="SPARSE")
 @click.option(
     "--database",
     "databases",
@@ -233,15 +239,17 @@ def reconstruct_command(
     """
     from mocapkit.clean import reconstruct
 
-    refuse_overwrite(out_path, [sparse_path])
-    sparse = load(sparse_path, lenient)
+    check_input_file(sparse_path)
     db_paths = expand_inputs(databases, MOTION_SUFFIXES, exclude=[sparse_path])
     if not db_paths:
         raise CLIError("the database is empty")
+    check_outputs([(out_path, WRITABLE)], [sparse_path, *db_paths])
+    sparse = load(sparse_path, lenient)
     db = load_all(db_paths, lenient, "loading database")
     known = [j.strip() for j in joints.split(",") if j.strip()] if joints else None
-    full = reconstruct(sparse, db, known)
-    write_motion(full, out_path)
+    with naming(sparse_path, *db_paths), all_or_nothing():
+        full = reconstruct(sparse, db, known)
+        write_motion(full, out_path)
     click.echo(
         f"{sparse_path}: {sparse.num_joints} joints -> {full.num_joints} joints from "
         f"{len(db_paths)} database take(s); wrote {out_path}"

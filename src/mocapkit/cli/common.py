@@ -4,6 +4,7 @@ bars, finding and loading input files, strict JSON output."""
 from __future__ import annotations
 
 import functools
+import re
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -14,8 +15,8 @@ import click
 
 from mocapkit.core.motion import Motion
 from mocapkit.io import MocapFileError, RepairWarning, read_motion
-from mocapkit.io.atomic import atomic_write_text
-from mocapkit.jsonio import NonFiniteWarning, to_json_text
+from mocapkit.io.atomic import OutputPathError, atomic_write_text
+from mocapkit.jsonio import to_json_text
 
 
 class CLIError(click.ClickException):
@@ -27,27 +28,88 @@ class CLIError(click.ClickException):
         click.echo(f"mocapkit: error: {self.message}", err=True)
 
 
+_OS_REASONS: tuple[tuple[type[OSError], str], ...] = (
+    (FileNotFoundError, "no such file or folder"),
+    (IsADirectoryError, "is a folder, expected a file"),
+    (NotADirectoryError, "a part of this path is a file, expected a folder"),
+    (FileExistsError, "is a file, expected a folder"),
+    (PermissionError, "permission denied"),
+)
+
+
+def os_error_line(e: OSError) -> str:
+    """One line for an OSError about a path: the path and what was expected there."""
+    if isinstance(e, OutputPathError):
+        return str(e)
+    reason = next((r for cls, r in _OS_REASONS if isinstance(e, cls)), None)
+    reason = reason or e.strerror or str(e) or type(e).__name__
+    if e.filename is None:
+        return reason if e.strerror else str(e) or reason
+    where = str(e.filename) + (f" -> {e.filename2}" if e.filename2 else "")
+    return f"{where}: {reason}"
+
+
+_NUMPY_NOISE = ("overflow encountered", "invalid value encountered", "divide by zero")
+"""numpy RuntimeWarnings about intermediate values: not shown (what they cause is reported
+where it matters, e.g. non-finite JSON values become null with a warning)."""
+
+
+def _warning_lines(caught: Sequence[warnings.WarningMessage]) -> list[str]:
+    lines: list[str] = []
+    for w in caught:
+        text = " ".join(str(w.message).split())
+        if issubclass(w.category, RuntimeWarning) and text.startswith(_NUMPY_NOISE):
+            continue
+        if issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning)):
+            continue
+        kind = "repaired" if issubclass(w.category, RepairWarning) else "warning"
+        line = f"mocapkit: {kind}: {text}"
+        if line not in lines:
+            lines.append(line)
+    return lines
+
+
+def one_line(message: object) -> str:
+    """``message`` on one line (newlines and runs of blanks become one space)."""
+    return " ".join(str(message).split())
+
+
 def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn library exceptions about bad input into one-line CLI errors (no traceback)."""
+    """Turn library exceptions about bad input (and OSErrors about paths) into one-line CLI
+    errors with exit status 2 (no traceback).
+
+    Warnings raised meanwhile are printed once each when the command ends: a
+    :class:`~mocapkit.io.RepairWarning` as ``mocapkit: repaired: ...``, others as
+    ``mocapkit: warning: ...``; numpy's overflow/invalid-value RuntimeWarnings are dropped. When
+    the command fails only the error line is printed.
+    """
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", RepairWarning)
-                warnings.simplefilter("always", NonFiniteWarning)
-                try:
-                    return fn(*args, **kwargs)
-                finally:
-                    for w in caught:
-                        kind = "repaired" if issubclass(w.category, RepairWarning) else "warning"
-                        click.echo(f"mocapkit: {kind}: {w.message}", err=True)
-        except MocapFileError as e:
-            raise CLIError(str(e)) from None
-        except (ValueError, KeyError, FileNotFoundError, ImportError) as e:
-            raise CLIError(str(e).strip("'\"")) from None
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                result = fn(*args, **kwargs)
+            except click.exceptions.Exit:
+                _flush_warnings(caught)
+                raise
+            except click.ClickException:
+                raise
+            except MocapFileError as e:
+                raise CLIError(one_line(e)) from None
+            except OSError as e:
+                raise CLIError(one_line(os_error_line(e))) from None
+            except (ValueError, KeyError, ImportError) as e:
+                raise CLIError(one_line(str(e).strip("'\""))) from None
+            _flush_warnings(caught)
+            return result
 
     return wrapper
+
+
+def _flush_warnings(caught: Sequence[warnings.WarningMessage]) -> None:
+    for line in _warning_lines(caught):
+        click.echo(line, err=True)
 
 
 @contextmanager
@@ -59,10 +121,16 @@ def progress_callback(description: str, enabled: bool = True) -> Iterator[Callab
         yield lambda *args: None
         return
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeRemainingColumn,
+    )
 
     with Progress(
-        "[progress.description]{task.description}",
+        TextColumn("{task.description}", markup=False, style="progress.description"),
         BarColumn(),
         MofNCompleteColumn(),
         TimeRemainingColumn(),
@@ -114,7 +182,45 @@ LENIENT = click.option(
 )
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class OneLineUsageError(click.UsageError):
+    """A usage error (unknown option, missing argument, bad value) as one line on stderr:
+    ``mocapkit: error: MESSAGE (see 'mocapkit CMD --help')``."""
+
+    def show(self, file: Any = None) -> None:
+        hint = f" (see '{self.ctx.command_path} --help')" if self.ctx is not None else ""
+        click.echo(f"mocapkit: error: {one_line(self.format_message())}{hint}", err=True)
+
+
+class OneLineErrorGroup(click.Group):
+    """The command group: usage errors of it and of every subcommand are one line."""
+
+    group_class = type  # subgroups (``graph``) are of this class too
+
+    @staticmethod
+    def _one_line(e: click.UsageError) -> click.UsageError:
+        if isinstance(e, (OneLineUsageError, click.exceptions.NoArgsIsHelpError)):
+            return e
+        out = OneLineUsageError(e.format_message(), e.ctx)
+        out.exit_code = e.exit_code
+        return out
+
+    def make_context(self, *args: Any, **kwargs: Any) -> click.Context:
+        try:
+            return super().make_context(*args, **kwargs)
+        except click.UsageError as e:
+            raise self._one_line(e) from None
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except click.UsageError as e:
+            raise self._one_line(e) from None
+
+
+@click.group(
+    cls=OneLineErrorGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
 @click.version_option(package_name="mocapkit")
 def main() -> None:
     """mocapkit: motion-capture data tools (BVH, ASF/AMC).
@@ -133,13 +239,65 @@ MOTION_SUFFIXES = (".bvh", ".npz", ".amc")
 _GLOB_CHARS = frozenset("*?[")
 
 
-def _check_amc(f: Path) -> None:
+def check_amc(f: Path) -> None:
     from mocapkit.io import find_asf
 
     try:
         find_asf(f)
     except MocapFileError as e:
-        raise CLIError(str(e)) from None
+        raise CLIError(one_line(e)) from None
+
+
+def file_key(p: Path) -> tuple[Any, ...]:
+    """What makes two paths the same file: device and inode (hard links, symlinks, other
+    spellings), or the resolved path when it cannot be stat'ed."""
+    try:
+        st = p.stat()
+        return (st.st_dev, st.st_ino)
+    except OSError:
+        return (str(p.resolve()),)
+
+
+def expand_item(item: str | Path, suffixes: Sequence[str] = MOTION_SUFFIXES) -> list[Path]:
+    """The files one command-line item names (see :func:`expand_inputs`); a one-line
+    :class:`CLIError` naming it when it names none."""
+    import glob
+
+    want = tuple(s.lower() for s in suffixes)
+    kinds = "/".join(want)
+    p = Path(item)
+    if p.is_dir():
+        try:
+            found = sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in want)
+        except OSError as e:
+            raise CLIError(
+                f"{p}: cannot list this folder: {os_error_line(e).split(': ')[-1]}"
+            ) from None
+        if not found:
+            raise CLIError(f"{p}: no {kinds} files in this folder")
+        return found
+    if p.exists():
+        return [p]
+    if _GLOB_CHARS & set(str(item)):
+        found = sorted(
+            Path(f)
+            for f in glob.glob(str(item), recursive=True)
+            if Path(f).is_file() and Path(f).suffix.lower() in want
+        )
+        if found:
+            return found
+        if not any(c in str(item) for c in "*?"):  # "[take 1].bvh": a name, not a pattern
+            raise CLIError(f"{p}: cannot read file: no such file or folder")
+        raise CLIError(f"{item}: no {kinds} files match this pattern")
+    if p.is_symlink():
+        raise CLIError(f"{p}: broken symbolic link (its target does not exist)")
+    raise CLIError(f"{p}: cannot read file: no such file or folder")
+
+
+def is_single_file(items: Sequence[str | Path]) -> bool:
+    """Whether ``items`` is exactly one existing file (not a folder, not a glob pattern): then
+    a command prints one result, else a list."""
+    return len(items) == 1 and Path(items[0]).is_file()
 
 
 def expand_inputs(
@@ -151,50 +309,81 @@ def expand_inputs(
     """The motion files named by ``items``: files as given, the files of folders and the matches
     of glob patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
     extension is one of ``suffixes`` (folders and patterns skip the rest, e.g. Bandai's
-    ``.json`` labels), sorted; duplicates (unless ``unique=False``: ``view a.bvh a.bvh``
-    overlays a file on itself) and ``exclude`` removed, order kept.
+    ``.json`` labels), sorted; duplicates (the same file under any spelling, unless
+    ``unique=False``: ``view a.bvh a.bvh`` overlays a file on itself) and ``exclude`` removed,
+    order kept.
 
     An ``.amc`` needs its subject's skeleton beside it (``NN.asf`` for ``NN_MM.amc``, or the only
     ``.asf`` of its folder; :func:`mocapkit.io.find_asf`). A missing path, an empty folder or a
     pattern that matches nothing is a one-line :class:`CLIError`.
     """
-    import glob
-
-    want = tuple(s.lower() for s in suffixes)
-    kinds = "/".join(want)
-    skip = {Path(e).resolve() for e in exclude}
     out: list[Path] = []
     for item in items:
-        p = Path(item)
-        if p.is_dir():
-            found = sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in want)
-            if not found:
-                raise CLIError(f"{p}: no {kinds} files in this folder")
-            out += found
-        elif p.exists():
-            out.append(p)
-        elif _GLOB_CHARS & set(str(item)):
-            found = sorted(
-                Path(f)
-                for f in glob.glob(str(item), recursive=True)
-                if Path(f).is_file() and Path(f).suffix.lower() in want
-            )
-            if not found:
-                raise CLIError(f"{item}: no {kinds} files match this pattern")
-            out += found
-        else:
-            raise CLIError(f"{p}: cannot read file: no such file or folder")
-    seen: set[Path] = set()
+        out += expand_item(item, suffixes)
+    skip = {file_key(Path(e)) for e in exclude}
+    seen: set[tuple[Any, ...]] = set()
     result = []
     for f in out:
-        r = f.resolve()
-        if r in skip or (unique and r in seen):
+        key = file_key(f)
+        if key in skip or (unique and key in seen):
             continue
-        seen.add(r)
+        seen.add(key)
         if f.suffix.lower() == ".amc":
-            _check_amc(f)
+            check_amc(f)
         result.append(f)
     return result
+
+
+def check_input_file(path: str | Path, what: str = "motion file") -> Path:
+    """``path`` as a Path if it is an existing file, else a one-line :class:`CLIError`."""
+    p = Path(path)
+    if p.is_dir():
+        raise CLIError(f"{p}: is a folder, expected a {what}")
+    if not p.exists():
+        if p.is_symlink():
+            raise CLIError(f"{p}: broken symbolic link (its target does not exist)")
+        raise CLIError(f"{p}: cannot read file: no such file or folder")
+    return p
+
+
+@contextmanager
+def naming(*paths: str | Path | None) -> Iterator[None]:
+    """Errors about the data that do not name a file name the first of ``paths``: a ValueError
+    raised inside (not a :class:`~mocapkit.io.MocapFileError`, which names its file) becomes a
+    one-line :class:`CLIError` ``"PATH: message"`` unless its message already names one of
+    ``paths``."""
+    try:
+        yield
+    except (click.ClickException, MocapFileError, OSError):
+        raise
+    except (ValueError, KeyError) as e:
+        msg = one_line(str(e).strip("'\""))
+        names = [str(p) for p in paths if p is not None]
+        if names and not any(n in msg for n in names):
+            msg = f"{names[0]}: {msg}"
+        raise CLIError(msg) from None
+
+
+_UP = re.compile(r"[+-]?[XYZ]")
+
+
+def parse_up(value: str | None) -> str | None:
+    """``--up``: X, Y or Z with an optional sign (case-insensitive), or None."""
+    if value is None:
+        return None
+    v = value.strip().upper()
+    if not _UP.fullmatch(v):
+        raise click.BadParameter(
+            f"{value!r}: expected X, Y or Z with an optional sign (Y, Z, -Y, +X, ...)"
+        )
+    return v
+
+
+def up_option(help: str = "Up axis (Y, Z, -Y, ...) instead of the guess.") -> Callable[..., Any]:
+    """The ``--up`` option, refused unless X, Y or Z with an optional sign."""
+    return click.option(
+        "--up", default=None, help=help, callback=lambda ctx, param, value: parse_up(value)
+    )
 
 
 def load_all(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+from pathlib import Path
 from typing import Any
 
 import click
@@ -10,13 +12,23 @@ from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
     CLIError,
+    check_amc,
+    check_input_file,
     echo_json,
-    expand_inputs,
+    expand_item,
+    file_key,
     friendly_errors,
+    is_single_file,
     main,
+    naming,
+    one_line,
+    os_error_line,
     progress,
+    up_option,
 )
 from mocapkit.convert import convert_file
+from mocapkit.io.atomic import all_or_nothing, check_outputs
+from mocapkit.jsonio import NonFiniteWarning
 from mocapkit.summary import summarize_file
 
 
@@ -39,46 +51,79 @@ def tree_lines(names: list[str], parents: list[int], labels: list[str]) -> list[
 
 
 def print_info(info: dict[str, Any]) -> None:
+    """The ``info`` table. Every string from the file or the command line (the path, joint
+    names) is shown as text, never read as rich markup."""
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
-    t = Table(title=info["path"], show_header=False, title_justify="left")
+    t = Table(title=Text(str(info["path"])), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
-    t.add_row("joints", f"{info['joints']} ({info['end_sites']} End Sites)")
-    t.add_row("channels", f"{info['channels']} ({', '.join(info['rotation_orders']) or 'none'})")
-    t.add_row("frames", str(info["frames"]))
-    t.add_row("frame time", f"{info['frame_time']!r} s ({info['fps']:.6g} fps)")
-    t.add_row("duration", f"{info['duration_s']:.3f} s")
-    t.add_row("up axis", info["up_axis"])
+
+    def row(key: str, value: str) -> None:
+        t.add_row(Text(key), Text(value))
+
+    def num(v: Any, fmt: str) -> str:
+        return "undefined" if v is None else format(v, fmt)
+
+    row("joints", f"{info['joints']} ({info['end_sites']} End Sites)")
+    row("channels", f"{info['channels']} ({', '.join(info['rotation_orders']) or 'none'})")
+    row("frames", str(info["frames"]))
+    row("frame time", f"{info['frame_time']!r} s ({num(info['fps'], '.6g')} fps)")
+    row("duration", f"{num(info['duration_s'], '.3f')} s")
+    row("up axis", str(info["up_axis"]))
     body = info.get("body", {})
     how = "from the file" if body.get("units_source") == "file" else "guess"
-    t.add_row(f"units ({how})", f"{info['units_guess']} ({info['metres_per_unit']:g} m per unit)")
+    row(f"units ({how})", f"{info['units_guess']} ({num(info['metres_per_unit'], 'g')} m per unit)")
     if body:
-        t.add_row("height", f"{body['height_m']:.2f} m")
+        row("height", f"{num(body.get('height_m'), '.2f')} m")
         if body.get("ground_root"):
-            t.add_row("ground root", body["ground_root"])
+            row("ground root", str(body["ground_root"]))
     if "bounding_box" in info:
         bb = info["bounding_box"]
-        t.add_row("bounding box", f"min {bb['min']}  max {bb['max']}")
+        lo, hi = ([num(v, "g") for v in bb[k]] for k in ("min", "max"))
+        row("bounding box", f"min [{', '.join(lo)}]  max [{', '.join(hi)}]")
         c = info["contacts"]
         if "error" in c:
-            t.add_row("contacts", c["error"])
+            row("contacts", str(c["error"]))
         else:
-            t.add_row(
+            row(
                 "contacts",
                 ", ".join(
                     f"{k}: {v['fraction'] * 100:.0f}% in {v['segments']} steps"
                     for k, v in c.items()
                 ),
             )
-    Console().print(t)
+    Console(soft_wrap=False).print(t)
+
+
+def _info_one(path: Path, up: str | None, units: str | None, lenient: bool) -> dict[str, Any]:
+    """``summarize_file(path).to_json()`` as strict JSON values (non-finite -> None, with a
+    warning naming the file), or a one-line CLIError naming the file."""
+    from mocapkit.jsonio import to_jsonable
+
+    with naming(path), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = to_jsonable(summarize_file(path, up=up, units=units, lenient=lenient).to_json())
+    for w in caught:  # to the command's own catcher, naming the file where they do not
+        msg = str(w.message)
+        if str(path) not in msg and issubclass(w.category, NonFiniteWarning):
+            msg = f"{path}: {msg}"
+        warnings.warn_explicit(msg, w.category, w.filename, w.lineno)
+    return out
 
 
 @main.command()
 @click.argument("files", nargs=-1, required=True, metavar="FILE_DIR_OR_GLOB...")
-@click.option("--json", "as_json", is_flag=True, help="Print JSON (a list when several files).")
-@click.option("--up", default=None, help="Up axis (Y, Z, -Y, ...) instead of the guess.")
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="Print JSON: an object for exactly one FILE, a list for several files, a folder or a "
+    'glob pattern (a file that cannot be read is {"path": ..., "error": ...} there).',
+)
+@up_option()
 @click.option(
     "--units",
     default=None,
@@ -99,7 +144,12 @@ def info(
     """Summarise motion files: joints, channels, frames, fps, units, bounding box, contacts.
 
     Takes files, folders (their .bvh, .npz and .amc files) and quoted glob patterns; an .amc
-    needs its subject's .asf beside it. The JSON is mocapkit.summary.summarize(...).to_json().
+    needs its subject's .asf beside it. Every file that can be read is reported; each one that
+    cannot is one error line on stderr, and the exit status is then 2. With --json: one object
+    for exactly one FILE argument, else a list (also for one folder or pattern) in which a file
+    that cannot be read is {"path": ..., "error": ...}; the objects are
+    mocapkit.summary.summarize(...).to_json() (fps is the integer n when the frame time is a
+    rounded 1/n; frame_time is kept exactly as read).
 
     \b
     Example:
@@ -109,25 +159,63 @@ def info(
       mocapkit info --up Z --units cm zup_clip.bvh
       mocapkit info --tree take.bvh              (hierarchy: Hips (pelvis), LeftUpLeg (left_hip)...)
     """
-    paths = expand_inputs(files, MOTION_SUFFIXES)
-    infos = []
-    with progress(len(paths), "reading") as step:
-        for f in paths:
-            infos.append(summarize_file(f, up=up, units=units, lenient=lenient).to_json())
+    single = is_single_file(files)
+    entries: list[tuple[str, Path | None]] = []  # (name, path) or (error message, None)
+    seen: set[tuple[Any, ...]] = set()
+    for item in files:
+        try:
+            found = expand_item(item, MOTION_SUFFIXES)
+        except CLIError as e:
+            entries.append((e.message, None))
+            continue
+        for f in found:
+            key = file_key(f)
+            if key not in seen:
+                seen.add(key)
+                entries.append((str(f), f))
+    results: list[dict[str, Any]] = []
+    failed = 0
+    with progress(len(entries), "reading") as step:
+        for name, f in entries:
+            try:
+                if f is None:
+                    raise CLIError(name)
+                if f.suffix.lower() == ".amc":
+                    check_amc(f)
+                with naming(f):
+                    results.append(_info_one(f, up, units, lenient))
+            except CLIError as e:
+                failed += 1
+                click.echo(f"mocapkit: error: {e.message}", err=True)
+                path = name if f is not None else e.message.split(": ", 1)[0]
+                results.append({"path": path, "error": e.message})
+            except OSError as e:
+                failed += 1
+                msg = one_line(os_error_line(e))
+                click.echo(f"mocapkit: error: {msg}", err=True)
+                results.append({"path": name, "error": msg})
             step()
     if as_json:
-        echo_json(infos[0] if len(infos) == 1 else infos)
+        if single:
+            if failed == 0:
+                echo_json(results[0])
+        else:
+            echo_json(results)
     else:
-        for i in infos:
+        for i in results:
+            if "error" in i:
+                continue
             print_info(i)
             if tree:
                 for line in tree_lines(i["joint_names"], i["parents"], i["body"]["labels"]):
                     click.echo(line)
+    if failed:
+        raise click.exceptions.Exit(2)
 
 
 # ------------------------------------------------------------------------------------ convert
 @main.command()
-@click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("inputs", nargs=-1, required=True, metavar="IN... OUT")
 @click.option("--fps", type=float, default=None, help="Resample to this frame rate.")
 @click.option("--order", default=None, help="Rewrite every joint's rotation order (e.g. ZYX).")
 @click.option("--scale", type=float, default=None, help="Multiply lengths (e.g. 0.01 for cm->m).")
@@ -151,7 +239,9 @@ def convert(
     """Convert IN to OUT: BVH <-> BVH/.npz, ASF+AMC -> BVH/.npz.
 
     The last argument is the output. For ASF/AMC give the ASF, the AMC and the output (or only
-    the AMC if its subject's ASF lies beside it). Never overwrites an input; writes atomically.
+    the AMC if its subject's ASF lies beside it). Never overwrites an input (under any
+    spelling, link included); checks the output before reading and writes it atomically, so a
+    failed run leaves nothing behind.
 
     \b
     Examples:
@@ -159,6 +249,8 @@ def convert(
       mocapkit convert walk.bvh walk_60.npz --fps 60
       mocapkit convert 01.asf 01_01.amc 01_01.bvh --scale 2.54
     """
+    from mocapkit.io import WRITABLE
+
     if len(inputs) < 2:
         raise CLIError("convert needs an input and an output path")
     *srcs, out = inputs
@@ -169,7 +261,12 @@ def convert(
         src = srcs[0]
     else:
         raise CLIError("convert takes IN OUT, or ASF AMC OUT")
-    res = convert_file(
-        src, out, asf=asf, fps=fps, scale=scale, order=order, amc_fps=amc_fps, lenient=lenient
-    )
+    for p in (asf, src):
+        if p is not None:
+            check_input_file(p, "ASF file" if p is asf else "motion file")
+    check_outputs([(out, WRITABLE)], [p for p in (src, asf) if p is not None])
+    with naming(src, asf), all_or_nothing():
+        res = convert_file(
+            src, out, asf=asf, fps=fps, scale=scale, order=order, amc_fps=amc_fps, lenient=lenient
+        )
     click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {res.motion.fps:.6g} fps)")

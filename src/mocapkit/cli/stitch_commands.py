@@ -9,23 +9,26 @@ import click
 from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
+    check_input_file,
     expand_inputs,
     friendly_errors,
     load,
     load_all,
     main,
+    naming,
+    up_option,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
-from mocapkit.io import write_motion
-from mocapkit.io.atomic import refuse_overwrite
+from mocapkit.io import WRITABLE, write_motion
+from mocapkit.io.atomic import all_or_nothing, check_outputs
 from mocapkit.stitch.lscore import DEFAULT_W
 from mocapkit.stitch.search import SCORES
 from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
 
 
 @main.command("stitch")
-@click.argument("query", type=click.Path(dir_okay=False))
+@click.argument("query")
 @click.argument("data", nargs=-1, required=True, metavar="DATA...")
 @click.option(
     "--takeoff",
@@ -77,7 +80,7 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
     help="Cross-fade window (--method crossfade).",
 )
 @click.option("--no-align", is_flag=True, help="Do not move the data clip over the ground.")
-@click.option("--up", default=None, help="Up axis (Y, Z, -Y, ...) instead of the guess.")
+@up_option()
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Stitched motion (BVH).")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the result.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), help="Write a PNG figure.")
@@ -122,32 +125,35 @@ def stitch_cmd(
     """
     from mocapkit.stitch import stitch
 
+    check_input_file(query)
     data_paths = expand_inputs(data, MOTION_SUFFIXES)
     from mocapkit.provenance import sidecar_path
 
     sidecar = sidecar_path(out_path) if out_path else None
-    for p in (out_path, json_path, plot_path, sidecar):
-        if p is not None:
-            refuse_overwrite(p, [query, *data_paths])
+    check_outputs(
+        [(out_path, WRITABLE) if out_path else None, sidecar, json_path, plot_path],
+        [query, *data_paths],
+    )
     q = load(query, lenient)
     clips = load_all(data_paths, lenient)
-    res = stitch(
-        q,
-        takeoff,
-        clips,
-        landing,
-        method=method,
-        window=window,
-        k_max=max_inject,
-        inject=inject,
-        score=score,
-        blend_seconds=blend_seconds,
-        align=not no_align,
-        up=up,
-        query_name=query,
-        data_names=[str(p) for p in data_paths],
-        output=out_path,
-    )
+    with naming(query, *data_paths):
+        res = stitch(
+            q,
+            takeoff,
+            clips,
+            landing,
+            method=method,
+            window=window,
+            k_max=max_inject,
+            inject=inject,
+            score=score,
+            blend_seconds=blend_seconds,
+            align=not no_align,
+            up=up,
+            query_name=query,
+            data_names=[str(p) for p in data_paths],
+            output=out_path,
+        )
     tr = res.transition
     click.echo(
         f"best: {data_paths[tr.clip]} landing {tr.landing}, take-off {tr.takeoff}, k = {tr.k} "
@@ -159,18 +165,22 @@ def stitch_cmd(
             f"generated frames: FK vs Kalman feature trajectory {res.fk_error_mean:.4g} mean, "
             f"{res.fk_error_max:.4g} max (clip units)"
         )
-    if out_path:
-        write_motion(res.motion, out_path)
-        side = res.provenance(out_path, {"takeoff": takeoff, "window": window}).write(out_path)
-        click.echo(f"wrote {out_path} ({res.motion.num_frames} frames, {method}) and {side}")
-    if json_path:
-        write_json(json_path, res.to_json())
-        click.echo(f"wrote {json_path}")
-    if plot_path:
-        from mocapkit.viz.figures.stitch import plot_stitch
+    wrote = []
+    with naming(query, *data_paths), all_or_nothing():  # all outputs or none
+        if out_path:
+            write_motion(res.motion, out_path)
+            side = res.provenance(out_path, {"takeoff": takeoff, "window": window}).write(out_path)
+            wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames, {method}) and {side}")
+        if json_path:
+            write_json(json_path, res.to_json())
+            wrote.append(f"wrote {json_path}")
+        if plot_path:
+            from mocapkit.viz.figures.stitch import plot_stitch
 
-        plot_stitch(res, plot_path)
-        click.echo(f"wrote {plot_path}")
+            plot_stitch(res, plot_path)
+            wrote.append(f"wrote {plot_path}")
+    for line in wrote:
+        click.echo(line)
 
 
 # ------------------------------------------------------------------------------------ demo
