@@ -147,7 +147,9 @@ def _motion_record(vm: ViewMotion, color: str, up: str, mpu: float) -> dict[str,
     heights = body[..., 1].max(axis=1) - ground
     horiz = np.ptp(body[..., [0, 2]], axis=1).max(axis=1)
     extra: dict[str, Any] = {}
-    if gr is not None:
+    floor = float(np.percentile(ground, 2))
+    if gr is not None:  # the ground root is on the floor by definition
+        floor = min(floor, float(np.percentile(pos[:, gr, 1], 2)))
         extra["rootHeading"] = _b64(_root_heading(m, gr, grot, up).astype("<f4"))
     return {
         "name": vm.name,
@@ -160,7 +162,7 @@ def _motion_record(vm: ViewMotion, color: str, up: str, mpu: float) -> dict[str,
         "lo": [float(v) for v in lo],
         "step": [float(v) for v in step],
         "pos": _b64(q),
-        "ground": float(np.percentile(ground, 2)),
+        "ground": floor,
         "height": float(np.median(heights)),
         "width": float(np.median(horiz)),
         "stature": float(np.median(heights)) if stature is None else stature * mpu,
@@ -347,6 +349,23 @@ def page_data(
     }
 
 
+_SCRIPT_JSON_ESCAPES = {
+    ord("<"): "\\u003c",
+    ord(">"): "\\u003e",
+    ord("&"): "\\u0026",
+    0x2028: "\\u2028",
+    0x2029: "\\u2029",
+}
+
+
+def script_json(text: str) -> str:
+    """JSON text safe to inline in a ``<script>`` element: ``<``, ``>``, ``&``, U+2028 and
+    U+2029 as ``\\u`` escapes (they can only occur inside JSON strings, so the value is the
+    same), so that no data (a joint named ``<!--<script>``, a path with ``</script>``) can end
+    the element or change how the HTML parser reads it."""
+    return text.translate(_SCRIPT_JSON_ESCAPES)
+
+
 def _script(text: str) -> str:
     return text.replace("</script", "<\\/script")
 
@@ -355,7 +374,7 @@ def build_page(data: dict[str, Any]) -> str:
     """The HTML text of the page for :func:`page_data`'s result."""
     from mocapkit.jsonio import to_json_text
 
-    blob = to_json_text(data, indent=None, separators=(",", ":")).replace("</", "<\\/")
+    blob = script_json(to_json_text(data, indent=None, separators=(",", ":")))
     html = _static("template.html")
     parts = {
         "{{TITLE}}": _html_escape(f"mocapkit view: {data['title']}"),

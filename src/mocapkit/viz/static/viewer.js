@@ -1,6 +1,6 @@
 /* mocapkit viewer: three.js skeleton player with cleaning / stitch / motion-graph overlays.
  * Data: the JSON in <script id="mocapkit-data"> (see mocapkit/viz/viewer.py).
- * Bones are solid (instanced cylinders + joint spheres, Lambert-shaded); a ground root (the
+ * Bones are solid (Lambert-shaded tubes + sphere sprites at the joints); a ground root (the
  * body's projection on the floor, e.g. Bandai's joint_Root) is a ring + arrow on the floor; the
  * camera targets the (smoothed) pelvis path and follows it while the user orbits.
  * Test hook: window.mocapkitViewer (frame, play(), pause(), seek(f), jointColor(m, j),
@@ -139,13 +139,39 @@
   headLight.target.position.set(0, 0, -1);
   camera.add(headLight); camera.add(headLight.target);
 
-  // unit bone: a cylinder from y = 0 to y = 1 (scaled to radius x length per bone)
-  var boneGeo = new THREE.CylinderGeometry(1, 1, 1, 10, 1, true);
-  boneGeo.translate(0, 0.5, 0);
-  var jointGeo = new THREE.SphereGeometry(1, 12, 8);
-  var solidMat = new THREE.MeshLambertMaterial({ color: 0xffffff });
-  var tmpM = new THREE.Matrix4(), tmpQ = new THREE.Quaternion(), tmpS = new THREE.Vector3();
-  var tmpP = new THREE.Vector3(), tmpD = new THREE.Vector3(), UPV = new THREE.Vector3(0, 1, 0);
+  // bones: one mesh per motion of open tubes (SEG sides), its vertices written each frame (as
+  // cheap in software WebGL as the old lines; instanced cylinders cost several ms a frame)
+  var SEG = 8, COS = [], SIN = [];
+  for (var sg = 0; sg < SEG; sg++) { COS.push(Math.cos(2 * Math.PI * sg / SEG)); SIN.push(Math.sin(2 * Math.PI * sg / SEG)); }
+  function tubeMesh(nb, mat) {
+    var nv = nb * 2 * SEG, idx = new (nv > 65535 ? Uint32Array : Uint16Array)(nb * SEG * 6);
+    for (var k = 0, t = 0; k < nb; k++) {
+      var v0 = k * 2 * SEG;
+      for (var q = 0; q < SEG; q++) {
+        var a = v0 + q, b = v0 + (q + 1) % SEG, c = a + SEG, d = b + SEG;
+        idx[t++] = a; idx[t++] = b; idx[t++] = c; idx[t++] = b; idx[t++] = d; idx[t++] = c;
+      }
+    }
+    var geo = new THREE.BufferGeometry();
+    geo.setIndex(new THREE.BufferAttribute(idx, 1));
+    ['position', 'normal', 'color'].forEach(function (name) {
+      geo.setAttribute(name, new THREE.BufferAttribute(new Float32Array(nv * 3), 3).setUsage(THREE.DynamicDrawUsage));
+    });
+    var mesh = new THREE.Mesh(geo, mat);
+    mesh.frustumCulled = false;
+    return mesh;
+  }
+  // joints: point sprites of a shaded sphere (60 instanced sphere meshes cost software WebGL
+  // ~10 ms a frame; a sprite per joint costs next to nothing), sized in world units
+  var sphereTex = (function () {
+    var c = document.createElement('canvas'); c.width = c.height = 64;
+    var x = c.getContext('2d'), gr = x.createRadialGradient(38, 24, 2, 32, 32, 31);
+    gr.addColorStop(0, '#ffffff'); gr.addColorStop(0.45, '#f4f4f4'); gr.addColorStop(1, '#6a6a6a');
+    x.fillStyle = gr; x.beginPath(); x.arc(32, 32, 31, 0, 2 * Math.PI); x.fill();
+    var t = new THREE.CanvasTexture(c);
+    return t;
+  })();
+  var solidMat = new THREE.MeshLambertMaterial({ color: 0xffffff, vertexColors: true });
 
   function groundMarker(m) { // a ring with an arrow (the heading), flat on the floor
     var H = m.meta.stature || charH, mk = new THREE.Group();
@@ -167,19 +193,29 @@
   $('side').checked = sideBySide;
   motions.forEach(function (m, i) {
     var g = new THREE.Group(), H = m.meta.stature || charH;
-    m.rBone = 0.017 * H; m.rJoint = 0.024 * H;
+    m.rBone = 0.017 * H; m.rJoint = 0.026 * H;
     var nb = Math.max(1, m.bones.length), nj = Math.max(1, m.joints.length);
-    var bm = new THREE.InstancedMesh(boneGeo, solidMat, nb);
-    var jm = new THREE.InstancedMesh(jointGeo, solidMat, nj);
-    bm.count = m.bones.length; jm.count = m.joints.length;
-    bm.instanceMatrix.setUsage(THREE.DynamicDrawUsage); jm.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
+    var bm = tubeMesh(nb, solidMat);
+    bm.geometry.setDrawRange(0, m.bones.length * SEG * 6);
     m.boneCol = new Float32Array(nb * 3); m.jointCol = new Float32Array(nj * 3);
-    bm.instanceColor = new THREE.InstancedBufferAttribute(m.boneCol, 3);
-    jm.instanceColor = new THREE.InstancedBufferAttribute(m.jointCol, 3);
-    bm.instanceColor.setUsage(THREE.DynamicDrawUsage); jm.instanceColor.setUsage(THREE.DynamicDrawUsage);
-    bm.frustumCulled = false; jm.frustumCulled = false; // bounds are the unit geometry's
+    m.jointPos = new Float32Array(nj * 3);
+    var jg = new THREE.BufferGeometry();
+    jg.setAttribute('position', new THREE.BufferAttribute(m.jointPos, 3).setUsage(THREE.DynamicDrawUsage));
+    jg.setAttribute('color', new THREE.BufferAttribute(m.jointCol, 3).setUsage(THREE.DynamicDrawUsage));
+    jg.setDrawRange(0, m.joints.length);
+    // three's attenuated point size is size * (canvas height / 2) / depth: a world diameter D
+    // needs size = D / tan(fov / 2)
+    var jmat = new THREE.PointsMaterial({
+      size: 2 * m.rJoint / Math.tan(camera.fov * Math.PI / 360), sizeAttenuation: true,
+      vertexColors: true, map: sphereTex, alphaTest: 0.5
+    });
+    var jm = new THREE.Points(jg, jmat);
+    jm.frustumCulled = false;
     var colBuf = new Float32Array(m.n * 3);
     for (var j = 0; j < m.n; j++) colBuf.set(m.rgb, 3 * j);
+    // the first motion (the analysed one, with MDM colours) is drawn last: on top where the
+    // motions coincide (equal depths pass the LessEqual depth test)
+    bm.renderOrder = 2 * (motions.length - i); jm.renderOrder = 2 * (motions.length - i) + 1;
     g.add(bm); g.add(jm);
     if (m.gr >= 0) { m.marker = groundMarker(m); g.add(m.marker); }
     scene.add(g);
@@ -223,34 +259,46 @@
   }
   function drawMotion(m, f, injected) {
     var P = m.P, o = f * m.n * 3, k, j, b;
+    var ga = m.bm.geometry.attributes, V = ga.position.array, N = ga.normal.array, r = m.rBone;
     for (k = 0; k < m.bones.length; k++) {
       var p = o + 3 * m.bones[k][0], c = o + 3 * m.bones[k][1];
-      tmpP.set(P[p], P[p + 1], P[p + 2]);
-      tmpD.set(P[c] - P[p], P[c + 1] - P[p + 1], P[c + 2] - P[p + 2]);
-      var len = tmpD.length();
-      if (len > 1e-9) tmpQ.setFromUnitVectors(UPV, tmpD.multiplyScalar(1 / len)); else tmpQ.identity();
-      tmpS.set(m.rBone, len, m.rBone);
-      m.bm.setMatrixAt(k, tmpM.compose(tmpP, tmpQ, tmpS));
+      var px = P[p], py = P[p + 1], pz = P[p + 2], qx = P[c], qy = P[c + 1], qz = P[c + 2];
+      var dx = qx - px, dy = qy - py, dz = qz - pz, dl = Math.sqrt(dx * dx + dy * dy + dz * dz);
+      if (dl > 1e-9) { dx /= dl; dy /= dl; dz /= dl; } else { dx = 0; dy = 1; dz = 0; }
+      // u: perpendicular to the bone (crossed with the axis it is least aligned with), w = d x u
+      var ux, uy, uz;
+      if (Math.abs(dx) < 0.9) { ux = 0; uy = dz; uz = -dy; } else { ux = -dz; uy = 0; uz = dx; }
+      var ul = Math.sqrt(ux * ux + uy * uy + uz * uz); ux /= ul; uy /= ul; uz /= ul;
+      var wx = dy * uz - dz * uy, wy = dz * ux - dx * uz, wz = dx * uy - dy * ux;
+      var v = k * 2 * SEG * 3;
+      for (var q = 0; q < SEG; q++) {
+        var nx = COS[q] * ux + SIN[q] * wx, ny = COS[q] * uy + SIN[q] * wy, nz = COS[q] * uz + SIN[q] * wz;
+        var a = v + 3 * q, e = a + 3 * SEG;
+        N[a] = N[e] = nx; N[a + 1] = N[e + 1] = ny; N[a + 2] = N[e + 2] = nz;
+        V[a] = px + r * nx; V[a + 1] = py + r * ny; V[a + 2] = pz + r * nz;
+        V[e] = qx + r * nx; V[e + 1] = qy + r * ny; V[e + 2] = qz + r * nz;
+      }
     }
-    m.bm.instanceMatrix.needsUpdate = true;
-    tmpQ.identity(); tmpS.set(m.rJoint, m.rJoint, m.rJoint);
+    ga.position.needsUpdate = true; ga.normal.needsUpdate = true;
+    var JP = m.jointPos;
     for (k = 0; k < m.joints.length; k++) {
       j = o + 3 * m.joints[k];
-      tmpP.set(P[j], P[j + 1], P[j + 2]);
-      m.jm.setMatrixAt(k, tmpM.compose(tmpP, tmpQ, tmpS));
+      JP[3 * k] = P[j]; JP[3 * k + 1] = P[j + 1]; JP[3 * k + 2] = P[j + 2];
     }
-    m.jm.instanceMatrix.needsUpdate = true;
+    m.jm.geometry.attributes.position.needsUpdate = true;
     var rgb = injected ? GEN_RGB : m.rgb, B = m.boneCol;
     if (rgb !== m.boneRgb) {
+      var BC = ga.color.array;
       for (k = 0; k < m.bones.length; k++) B.set(rgb, 3 * k);
-      m.boneRgb = rgb; m.bm.instanceColor.needsUpdate = true;
+      for (k = 0; k < m.bones.length * 2 * SEG; k++) BC.set(rgb, 3 * k);
+      m.boneRgb = rgb; ga.color.needsUpdate = true;
     }
     var C = m.colBuf, JC = m.jointCol;
     for (k = 0; k < m.joints.length; k++) {
       b = 3 * m.joints[k];
       JC[3 * k] = C[b]; JC[3 * k + 1] = C[b + 1]; JC[3 * k + 2] = C[b + 2];
     }
-    m.jm.instanceColor.needsUpdate = true;
+    m.jm.geometry.attributes.color.needsUpdate = true;
     if (m.marker) {
       var r = o + 3 * m.gr;
       m.marker.position.set(P[r], P[r + 1] + 0.002 * charH, P[r + 2]);
@@ -310,11 +358,11 @@
 
   // ---------------------------------------------------------------- camera
   function fitCamera() {
-    // target the pelvis path; the distance makes the character ~55% of the stage's height (and
+    // target the pelvis path; the distance makes the character ~60% of the stage's height (and
     // the row of motions, side by side, fit its width)
     var c = centre(), tanH = Math.tan(camera.fov * Math.PI / 360);
     var span = sideBySide ? (motions.length - 1) * (width + 0.6 * charH) + width : width;
-    var d = Math.max(charH / (0.55 * 2 * tanH), span / (0.8 * 2 * tanH * Math.max(0.3, camera.aspect)));
+    var d = Math.max(charH / (0.6 * 2 * tanH), span / (0.8 * 2 * tanH * Math.max(0.3, camera.aspect)));
     var dir = new THREE.Vector3(0.9, 0.5, 1.9).normalize();
     controls.target.copy(c);
     camera.position.copy(c).addScaledVector(dir, d);
@@ -608,7 +656,7 @@
     },
     resetStats: function () { stats = { t0: null, n: 0, last: null, worst: 0 }; },
     errors: window.__mkErrors,
-    three: { scene: scene, camera: camera, renderer: renderer, grid: grid },
+    three: { scene: scene, camera: camera, renderer: renderer, grid: grid, motions: motions },
     ready: true
   };
   document.body.setAttribute('data-ready', '1');
