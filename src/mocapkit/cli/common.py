@@ -116,11 +116,14 @@ def _flush_warnings(caught: Sequence[warnings.WarningMessage]) -> None:
 def progress_callback(description: str, enabled: bool = True) -> Iterator[Callable[..., None]]:
     """A rich progress bar on stderr for a library function's ``progress`` callback: yields
     ``update(*labels, done, total)`` (the last two arguments are used, so it fits both
-    ``progress(done, total)`` and ``progress(stage, done, total)``)."""
-    if not enabled:
+    ``progress(done, total)`` and ``progress(stage, done, total)``). Shown only when stderr
+    is a terminal (logs and pipes get no bar)."""
+    from rich.console import Console
+
+    console = Console(stderr=True)
+    if not enabled or not console.is_terminal:
         yield lambda *args: None
         return
-    from rich.console import Console
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -134,7 +137,7 @@ def progress_callback(description: str, enabled: bool = True) -> Iterator[Callab
         BarColumn(),
         MofNCompleteColumn(),
         TimeRemainingColumn(),
-        console=Console(stderr=True),
+        console=console,
         transient=True,
     ) as bar:
         task = bar.add_task(description, total=None)

@@ -16,11 +16,13 @@ from mocapkit.cli.common import (
     friendly_errors,
     load_all,
     main,
+    naming,
     progress_callback,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
-from mocapkit.io.atomic import refuse_overwrite
+from mocapkit.io import WRITABLE
+from mocapkit.io.atomic import all_or_nothing, check_outputs
 
 
 @main.group()
@@ -34,6 +36,28 @@ def graph() -> None:
       mocapkit graph synth graph.json --seconds 30 --out walk.bvh --seed 1
       mocapkit graph report graph.json
     """
+
+
+def check_clips(files: list[Path], motions: list) -> None:
+    """What a motion graph needs of its clips, as one-line errors naming the file: frames,
+    finite values, one skeleton and one frame rate."""
+    import math
+
+    first = motions[0]
+    for f, m in zip(files, motions, strict=True):
+        if m.num_frames == 0:
+            raise CLIError(f"{f}: the motion has no frames (a motion graph needs frames)")
+        m.check_finite(str(f))
+        if m.skeleton.names != first.skeleton.names:
+            raise CLIError(
+                f"{f}: a different skeleton from {files[0]} (all clips of a motion graph must "
+                "have the same joints)"
+            )
+        if not math.isclose(m.frame_time, first.frame_time, rel_tol=1e-6):
+            raise CLIError(
+                f"{f}: {m.fps:g} fps, but {files[0]} is {first.fps:g} fps (all clips must share "
+                "one frame rate; resample them first: mocapkit convert --fps)"
+            )
 
 
 def _rel(path: Path, base: Path) -> str:
@@ -124,15 +148,34 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
     if T is not None and threshold is not None:
         raise CLIError("give --transitions or --threshold, not both")
     files = expand_inputs(inputs, MOTION_SUFFIXES)
+    check_outputs([out, graphml, plot], [*files, *([masses] if masses else [])])
     motions = load_all(files, False, show=not quiet)
+    check_clips(files, motions)
     overrides = load_masses(masses) if masses else None
     outp = Path(out)
-    with progress_callback("comparing frames", enabled=not quiet) as step:
+    with (
+        naming(*files),
+        all_or_nothing(),  # the graph, its GraphML and the plot: all of them or none
+        progress_callback("comparing frames", enabled=not quiet) as step,
+    ):
         g, db, _minima = build_graph(
             motions, metric, paths=[_rel(f, outp.parent) for f in files], transitions=T,
             threshold=threshold, window=window, stride=stride, masses=overrides, progress=step,
         )  # fmt: skip
-    g.save(outp)
+        g.save(outp)
+        wrote = [outp]
+        if graphml:
+            wrote.append(g.save_graphml(graphml))
+        if plot:
+            from mocapkit.graph.graph import compare_metrics
+            from mocapkit.viz.figures.graph import plot_cost_comparison
+
+            cmp = compare_metrics(motions, g, db, masses=overrides)
+            wrote.append(
+                plot_cost_comparison(
+                    cmp, plot, title=f"{outp.name}: {' vs '.join(cmp.metrics)} metric, T = {g.T}"
+                )
+            )
     st = g.stats
     click.echo(
         f"{len(files)} clips, {db.num_frames} frames at {db.fps:g} fps; window "
@@ -144,17 +187,7 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
         f"{g.num_transitions} transitions, {int(g.in_scc.sum())} in the largest strongly "
         f"connected component ({g.scc_frames()} frames)"
     )
-    click.echo(f"wrote {outp}")
-    if graphml:
-        click.echo(f"wrote {g.save_graphml(graphml)}")
-    if plot:
-        from mocapkit.graph.graph import compare_metrics
-        from mocapkit.viz.figures.graph import plot_cost_comparison
-
-        cmp = compare_metrics(motions, g, db, masses=overrides)
-        p = plot_cost_comparison(
-            cmp, plot, title=f"{outp.name}: {' vs '.join(cmp.metrics)} metric, T = {g.T}"
-        )
+    for p in wrote:
         click.echo(f"wrote {p}")
 
 
@@ -196,18 +229,21 @@ def synth(graph_file, seconds, path_csv, out, seed, blend):
 
     if (seconds is None) == (path_csv is None):
         raise CLIError("give exactly one of --seconds or --path")
-    g = load_graph(graph_file)
+    with naming(graph_file):
+        g = load_graph(graph_file)
     clip_paths = g.clip_paths(Path(graph_file).parent)
-    refuse_overwrite(out, [graph_file, *clip_paths])
-    refuse_overwrite(sidecar_path(out), [graph_file, *clip_paths])
+    inputs = [graph_file, *clip_paths, *([path_csv] if path_csv else [])]
+    check_outputs([(out, WRITABLE), sidecar_path(out)], inputs)
     motions = load_all(clip_paths, False)
-    pts = load_path_csv(path_csv) if path_csv is not None else None
-    res = synthesize(g, motions, seconds=seconds, path=pts, seed=seed, blend=blend)
-    params = {"graph": str(graph_file), "seconds": seconds, "path": path_csv, "seed": seed,
-              "blend": blend}  # fmt: skip
-    plan = res.provenance(g, str(out), params, [str(p) for p in clip_paths])
-    write_motion(res.motion, out)
-    side = plan.write(out)
+    with naming(path_csv or graph_file):
+        pts = load_path_csv(path_csv) if path_csv is not None else None
+    with naming(graph_file, *clip_paths), all_or_nothing():  # the motion and its plan, or none
+        res = synthesize(g, motions, seconds=seconds, path=pts, seed=seed, blend=blend)
+        params = {"graph": str(graph_file), "seconds": seconds, "path": path_csv, "seed": seed,
+                  "blend": blend}  # fmt: skip
+        plan = res.provenance(g, str(out), params, [str(p) for p in clip_paths])
+        write_motion(res.motion, out)
+        side = plan.write(out)
     m = res.motion
     click.echo(
         f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {res.transitions} transitions)"
@@ -229,7 +265,8 @@ def report(graph_file, as_json):
     """
     from mocapkit.graph.graph import load_graph
 
-    r = load_graph(graph_file).report(Path(graph_file).parent).to_json()
+    with naming(graph_file):
+        r = load_graph(graph_file).report(Path(graph_file).parent).to_json()
     if as_json:
         echo_json(r)
         return

@@ -14,8 +14,11 @@ from mocapkit.cli.common import (
     expand_inputs,
     friendly_errors,
     main,
+    naming,
+    up_option,
 )
 from mocapkit.cli.demo import DEMO_STEPS
+from mocapkit.io.atomic import all_or_nothing, check_outputs
 from mocapkit.viz.viewer import view_files
 
 
@@ -48,10 +51,11 @@ from mocapkit.viz.viewer import view_files
     "--out",
     "out_path",
     type=click.Path(dir_okay=False),
-    help="The HTML page to write (default: FILE's name with .html, beside it).",
+    help="The HTML page to write (default: the first FILE's name with .html, in the current "
+    "folder, never beside the input).",
 )
 @click.option("--open", "open_page", is_flag=True, help="Open the page in the web browser.")
-@click.option("--up", help="Up axis (Y, Z, -Y, ...; default: detected from the first FILE).")
+@up_option("Up axis (Y, Z, -Y, ...; default: detected from the first FILE).")
 @click.option(
     "--units",
     type=click.Choice(["m", "cm", "mm", "inch"]),
@@ -85,11 +89,18 @@ def view_cmd(
       mocapkit view stitched.bvh --stitch best.json --open
       mocapkit view synth.bvh --graph graph.json
     """
+    from mocapkit.provenance import sidecar_path
+
     paths = expand_inputs(files, MOTION_SUFFIXES, unique=False)
-    out = Path(out_path) if out_path else paths[0].with_suffix(".html")
-    if out.suffix.lower() not in (".html", ".htm"):
-        raise CLIError(f"--out must end in .html, got {out}")
-    page = view_files(paths, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units)
+    # data folders are often shared or read-only: the default page goes into the current folder
+    out = Path(out_path) if out_path else Path(paths[0].with_suffix(".html").name)
+    overlays = [p for p in (clean_report, mdm, stitch_json, graph_json) if p]
+    plans = [sidecar_path(p) for p in paths if sidecar_path(p).exists()]
+    check_outputs([(out, (".html", ".htm"))], [*paths, *overlays, *plans])
+    with naming(*paths), all_or_nothing():
+        page = view_files(
+            paths, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units
+        )
     click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
     if open_page:
         webbrowser.open(page.resolve().as_uri())
