@@ -656,7 +656,7 @@
     },
     resetStats: function () { stats = { t0: null, n: 0, last: null, worst: 0 }; },
     errors: window.__mkErrors,
-    three: { scene: scene, camera: camera, renderer: renderer, grid: grid, motions: motions },
+    three: { scene: scene, camera: camera, controls: controls, renderer: renderer, grid: grid, motions: motions },
     ready: true
   };
   document.body.setAttribute('data-ready', '1');
