@@ -528,6 +528,11 @@
     $('legend').appendChild(document.createTextNode(base(m.meta.name) + ' (' + m.meta.frames + ' frames, ' + m.meta.fps.toFixed(3).replace(/\.?0+$/, '') + ' fps, ' + m.meta.numJoints + ' joints)'));
   });
   info('up axis ' + D.up + ' \u00b7 units ' + D.units + ' (grid ' + (cell === 1 ? '1 m' : '10 cm') + ' cells)');
+  motions.forEach(function (m) {
+    var t = base(m.meta.name) + ': ' + (m.meta.stature || m.meta.height).toFixed(2) + ' m tall';
+    if (m.gr >= 0) t += '; ground root ' + m.meta.names[m.gr] + ' drawn as the ring and arrow on the floor';
+    info(t);
+  });
   info('', 'info-sel');
   if (clean) {
     info('cleaning: ' + clean.segments.length + ' flagged segment(s)' + (clean.threshold != null ? ', threshold ' + clean.threshold : '') +
