@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -201,3 +202,163 @@ def test_convert_asf_amc_to_bvh(tmp_path: Path) -> None:
     bad.write_text(AMC.replace("lfemur 10 0 0", "lfemur 10 0"))
     code, _, err = run("convert", str(tmp_path / "07.asf"), str(bad), str(tmp_path / "x.bvh"))
     assert code == 2 and f"{bad}:8:" in err
+
+
+# ----------------------------------------------------- bad input, bad paths, many files (#14)
+def _listing(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+def test_output_path_faults_are_one_line_and_leave_nothing(walk_bvh: Path) -> None:
+    folder = walk_bvh.parent
+    before = _listing(folder)
+    (folder / "d").mkdir()
+    for out, expected in (
+        (walk_bvh / "c.bvh", f"{walk_bvh / 'c.bvh'}: cannot write here: {walk_bvh} is a file"),
+        (folder / "d", f"{folder / 'd'}: is a folder, expected a file name"),
+        (folder / "x.txt", "cannot write this file type (.txt); expected .bvh or .npz"),
+    ):
+        code, _, err = run("convert", str(walk_bvh), str(out))
+        assert code == 2 and err.count("\n") == 1 and err.startswith("mocapkit: error: "), err
+        assert expected in err, err
+    assert _listing(folder) == sorted([*before, "d"])
+
+
+def test_graph_build_never_overwrites_its_inputs(tmp_path: Path) -> None:
+    clips = tmp_path / "clips"
+    for i, kind in enumerate(("walk", "idle")):
+        write_motion(datasets.procedural_motion(kind, seconds=1.0, seed=i).motion,
+                     clips / f"{kind}.bvh")  # fmt: skip
+    before = {p.name: p.read_bytes() for p in clips.iterdir()}
+    for extra in (
+        ["--out", str(clips / "walk.bvh")],
+        ["--out", str(tmp_path / "g.json"), "--graphml", str(clips / ".." / "clips/idle.bvh")],
+        ["--out", str(tmp_path / "g.json"), "--plot", str(clips / "x.bvh")],
+        ["--out", str(tmp_path / "g.json"), "--plot", str(tmp_path / "g.json")],
+    ):
+        code, _, err = run("graph", "build", str(clips), "--quiet", *extra)
+        assert code == 2 and err.count("\n") == 1, err
+    assert {p.name: p.read_bytes() for p in clips.iterdir()} == before
+    assert _listing(tmp_path) == ["clips", "clips/idle.bvh", "clips/walk.bvh"]
+
+
+def test_info_reports_every_file_and_each_failure(walk_bvh: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT a\n{\n  OFFSET 0 0\n}\n")
+    other = write_motion(datasets.procedural_motion("wave", seconds=1).motion, tmp_path / "c.bvh")
+    code, out, err = run("info", str(walk_bvh), str(bad), str(other))
+    assert code == 2
+    assert out.count("joints") == 2
+    assert err.splitlines() == [err.splitlines()[0]] and err.startswith(f"mocapkit: error: {bad}:")
+    code, out, err = run("info", "--json", str(walk_bvh), str(bad), str(tmp_path / "nope.bvh"))
+    assert code == 2 and len(err.splitlines()) == 2
+    items = json.loads(out)
+    assert [i["path"] for i in items] == [str(walk_bvh), str(bad), str(tmp_path / "nope.bvh")]
+    assert "frames" in items[0] and set(items[1]) == {"path", "error"}
+    assert items[1]["error"].startswith(f"{bad}:4: ")
+    assert "no such file" in items[2]["error"]
+    # an object for exactly one file; a list for a folder, even of one file, or a pattern
+    one = tmp_path / "one"
+    one.mkdir()
+    write_motion(read_motion(walk_bvh), one / "w.bvh")
+    assert isinstance(json.loads(run("info", "--json", str(one / "w.bvh"))[1]), dict)
+    assert isinstance(json.loads(run("info", "--json", str(one))[1]), list)
+    assert isinstance(json.loads(run("info", "--json", str(one / "*.bvh"))[1]), list)
+    code, out, err = run("info", "--json", str(bad))  # one bad file: no JSON, one error line
+    assert code == 2 and out == "" and err.count("\n") == 1
+
+
+def test_info_json_fps_offsets_and_extreme_values(walk_bvh: Path, tmp_path: Path) -> None:
+    text = walk_bvh.read_text()
+    ft = text.split("Frame Time:")[1].split()[0]
+    rounded = tmp_path / "rounded.bvh"
+    rounded.write_text(text.replace(f"Frame Time: {ft}", "Frame Time: 0.0333333"))
+    info = json.loads(run("info", "--json", str(rounded))[1])
+    assert info["fps"] == 30 and info["frame_time"] == 0.0333333
+    m = read_motion(rounded)
+    assert info["offsets"] == m.skeleton.offsets.tolist() and len(info["parents"]) == m.num_joints
+    # extreme but finite offsets: the bounding box overflows; JSON stays strict (null + warning)
+    lines = text.splitlines()
+    offsets = [i for i, ln in enumerate(lines) if ln.strip().startswith("OFFSET")]
+    for i in offsets[1:4]:
+        lines[i] = lines[i].split("OFFSET")[0] + "OFFSET 0 1e308 0"
+    huge = tmp_path / "huge.bvh"
+    huge.write_text("\n".join(lines) + "\n")
+    code, out, err = run("info", "--json", str(huge))
+    assert code == 0
+
+    def refuse(c: str) -> None:
+        raise AssertionError(c)
+
+    info = json.loads(out, parse_constant=refuse)
+    assert None in info["bounding_box"]["max"]
+    assert err.startswith(f"mocapkit: warning: {huge}: ") and "written as null" in err
+    assert "overflow" not in err and "repaired" not in err
+
+
+def test_info_prints_file_strings_as_text_not_markup(walk_bvh: Path, tmp_path: Path) -> None:
+    for name in ("[bold]walk.bvh", "[take 1].bvh", "[link=x]a[i].bvh"):
+        p = tmp_path / name
+        p.write_bytes(walk_bvh.read_bytes())
+        code, out, err = run("info", str(p))
+        assert code == 0, err
+        assert name in out
+    renamed = tmp_path / "renamed.bvh"
+    renamed.write_text(walk_bvh.read_text().replace("ROOT Hips", "ROOT [red]Hips[/red]"))
+    code, out, err = run("info", "--tree", str(renamed))
+    assert code == 0, err
+    assert "[red]Hips[/red]" in out
+
+
+def test_info_up_must_be_an_axis(walk_bvh: Path) -> None:
+    for bad in ("W", "YY", "+-Y", ""):
+        code, out, err = run("info", "--up", bad, str(walk_bvh))
+        assert code == 2 and out == "" and err.count("\n") == 1, err
+        assert err.startswith("mocapkit: error: ") and "--up" in err
+    assert run("info", "--up", "-z", str(walk_bvh))[0] == 0
+
+
+def test_only_repairs_say_repaired(monkeypatch: pytest.MonkeyPatch) -> None:
+    import warnings
+
+    import click
+
+    from mocapkit.cli.common import friendly_errors
+    from mocapkit.io import RepairWarning
+
+    @click.command()
+    @friendly_errors
+    def cmd() -> None:
+        warnings.warn("overflow encountered in multiply", RuntimeWarning, stacklevel=1)
+        warnings.warn("invalid value encountered in subtract", RuntimeWarning, stacklevel=1)
+        warnings.warn("Mean of empty slice", RuntimeWarning, stacklevel=1)
+        warnings.warn("x.bvh: 2 blank rows dropped", RepairWarning, stacklevel=1)
+        warnings.warn("x.bvh: 2 blank rows dropped", RepairWarning, stacklevel=1)
+
+    res = CliRunner().invoke(cmd, [])
+    assert res.exit_code == 0
+    assert res.stderr.splitlines() == [
+        "mocapkit: warning: Mean of empty slice",
+        "mocapkit: repaired: x.bvh: 2 blank rows dropped",
+    ]
+
+
+def test_view_writes_its_default_page_into_the_current_folder(
+    walk_bvh: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    data = tmp_path / "data"
+    data.mkdir()
+    take = Path(shutil.copy(walk_bvh, data / "walk.bvh"))
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    code, _out, err = run("view", str(take))
+    assert code == 0, err
+    assert (work / "walk.html").is_file()
+    assert _listing(data) == ["walk.bvh"]
+
+
+def test_usage_errors_are_one_line(walk_bvh: Path) -> None:
+    for args in (["info", "--bogus", str(walk_bvh)], ["convert"], ["clean", str(walk_bvh.parent)]):
+        code, _out, err = run(*args)
+        assert code == 2 and err.count("\n") == 1 and err.startswith("mocapkit: error: "), err

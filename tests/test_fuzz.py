@@ -607,6 +607,8 @@ def path_cases() -> list[Case]:
         outputs=("take.html",))  # fmt: skip
     add("view-default-out-cwd-from-sub", ("view", "../clips/take.bvh"), expect="ok", files=sub,
         folders=("w",), cwd="w", outputs=("w/take.html",))  # fmt: skip
+    add("graph-plot-named-like-a-clip", ("graph", "build", "clips", "--out", "g.json", "--plot",
+                                          "clips/x.bvh"), files=sub)  # fmt: skip
     add("graph-plot-ok-then-nothing", ("graph", "build", "clips", "--out", "g.json", "--plot",
                                         "clips/take.bvh"), files=sub)  # fmt: skip
     return cases

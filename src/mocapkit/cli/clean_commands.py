@@ -14,6 +14,7 @@ from mocapkit.cli.common import (
     MOTION_SUFFIXES,
     CLIError,
     check_input_file,
+    data_output,
     expand_inputs,
     friendly_errors,
     load,
@@ -149,7 +150,12 @@ def clean_command(
     check_input_file(input_path)
     ctx_paths = expand_inputs(contexts, MOTION_SUFFIXES, exclude=[input_path])
     check_outputs(
-        [(out_path, WRITABLE) if out_path else None, report_path, mdm_path, plot_path],
+        [
+            (out_path, WRITABLE) if out_path else None,
+            data_output(report_path, "report", ".json"),
+            data_output(mdm_path, "MDM", ".npy"),
+            data_output(plot_path, "plot", ".png"),
+        ],
         [input_path, *ctx_paths],
     )
     motion = load(input_path, lenient)

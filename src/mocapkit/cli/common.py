@@ -349,6 +349,17 @@ def check_input_file(path: str | Path, what: str = "motion file") -> Path:
     return p
 
 
+def data_output(path: str | None, what: str, example: str) -> str | None:
+    """``path`` for an output that is not a motion (JSON, GraphML, a plot, an .npy, a page):
+    refused when named like a motion file (``--plot clips/x.bvh`` would put a PNG among the
+    clips, where the next run reads it as one)."""
+    if path is not None and Path(path).suffix.lower() in (*MOTION_SUFFIXES, ".asf"):
+        raise CLIError(
+            f"{path}: a motion file name for the {what}; give it another extension (e.g. {example})"
+        )
+    return path
+
+
 @contextmanager
 def naming(*paths: str | Path | None) -> Iterator[None]:
     """Errors about the data that do not name a file name the first of ``paths``: a ValueError

@@ -11,6 +11,7 @@ import click
 from mocapkit.cli.common import (
     MOTION_SUFFIXES,
     CLIError,
+    data_output,
     echo_json,
     expand_inputs,
     friendly_errors,
@@ -148,7 +149,9 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
     if T is not None and threshold is not None:
         raise CLIError("give --transitions or --threshold, not both")
     files = expand_inputs(inputs, MOTION_SUFFIXES)
-    check_outputs([out, graphml, plot], [*files, *([masses] if masses else [])])
+    outputs = [data_output(out, "graph", "graph.json"), data_output(graphml, "GraphML", ".graphml"),
+               data_output(plot, "plot", ".png")]  # fmt: skip
+    check_outputs(outputs, [*files, *([masses] if masses else [])])
     motions = load_all(files, False, show=not quiet)
     check_clips(files, motions)
     overrides = load_masses(masses) if masses else None

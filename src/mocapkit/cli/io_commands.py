@@ -27,6 +27,7 @@ from mocapkit.cli.common import (
     up_option,
 )
 from mocapkit.convert import convert_file
+from mocapkit.io import MocapFileError
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 from mocapkit.jsonio import NonFiniteWarning
 from mocapkit.summary import summarize_file
@@ -160,38 +161,38 @@ def info(
       mocapkit info --tree take.bvh              (hierarchy: Hips (pelvis), LeftUpLeg (left_hip)...)
     """
     single = is_single_file(files)
-    entries: list[tuple[str, Path | None]] = []  # (name, path) or (error message, None)
+    entries: list[tuple[str, Path | None, str | None]] = []  # (name, file, error)
     seen: set[tuple[Any, ...]] = set()
     for item in files:
         try:
             found = expand_item(item, MOTION_SUFFIXES)
         except CLIError as e:
-            entries.append((e.message, None))
+            entries.append((str(item), None, e.message))
             continue
         for f in found:
             key = file_key(f)
             if key not in seen:
                 seen.add(key)
-                entries.append((str(f), f))
+                entries.append((str(f), f, None))
     results: list[dict[str, Any]] = []
     failed = 0
     with progress(len(entries), "reading") as step:
-        for name, f in entries:
+        for name, f, error in entries:
             try:
                 if f is None:
-                    raise CLIError(name)
+                    raise CLIError(error or name)
                 if f.suffix.lower() == ".amc":
                     check_amc(f)
                 with naming(f):
                     results.append(_info_one(f, up, units, lenient))
-            except CLIError as e:
+            except (CLIError, MocapFileError, OSError) as e:
                 failed += 1
-                click.echo(f"mocapkit: error: {e.message}", err=True)
-                path = name if f is not None else e.message.split(": ", 1)[0]
-                results.append({"path": path, "error": e.message})
-            except OSError as e:
-                failed += 1
-                msg = one_line(os_error_line(e))
+                if isinstance(e, CLIError):
+                    msg = e.message
+                elif isinstance(e, MocapFileError):
+                    msg = one_line(e)
+                else:
+                    msg = one_line(os_error_line(e))
                 click.echo(f"mocapkit: error: {msg}", err=True)
                 results.append({"path": name, "error": msg})
             step()

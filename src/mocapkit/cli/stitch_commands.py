@@ -10,6 +10,7 @@ from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
     check_input_file,
+    data_output,
     expand_inputs,
     friendly_errors,
     load,
@@ -131,7 +132,12 @@ def stitch_cmd(
 
     sidecar = sidecar_path(out_path) if out_path else None
     check_outputs(
-        [(out_path, WRITABLE) if out_path else None, sidecar, json_path, plot_path],
+        [
+            (out_path, WRITABLE) if out_path else None,
+            sidecar,
+            data_output(json_path, "result", ".json"),
+            data_output(plot_path, "plot", ".png"),
+        ],
         [query, *data_paths],
     )
     q = load(query, lenient)

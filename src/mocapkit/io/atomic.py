@@ -110,6 +110,9 @@ def check_output(path: str | Path, suffixes: Sequence[str] | None = None) -> Pat
     fine (they are created when writing).
     """
     p = Path(path)
+    why = _why_not_writable(p)
+    if why is not None:
+        raise OutputPathError(p, why)
     if suffixes is not None:
         want = tuple(s.lower() for s in suffixes)
         if p.suffix.lower() not in want:
@@ -118,9 +121,6 @@ def check_output(path: str | Path, suffixes: Sequence[str] | None = None) -> Pat
                 f"cannot write this file type ({p.suffix or 'no extension'}); expected "
                 f"{' or '.join(want)}",
             )
-    why = _why_not_writable(p)
-    if why is not None:
-        raise OutputPathError(p, why)
     return p
 
 
@@ -167,8 +167,9 @@ def check_outputs(
         refuse_overwrite(p, ins)
         for other in outs:
             if same_file(p, other):
+                also = "" if str(p) == str(other) else f" (also as {other})"
                 raise OverwriteRefusedError(
-                    f"{p}: given for two outputs (also as {other}); choose another output"
+                    f"{p}: given for two outputs{also}; choose another output"
                 )
         outs.append(check_output(p, suffixes))
     return outs

@@ -1,0 +1,169 @@
+"""Atomic output (mocapkit.io.atomic): nothing left behind on failure, one-line path errors,
+the overwrite refusal under every spelling, all-or-nothing blocks."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from mocapkit.io import atomic
+from mocapkit.io.atomic import (
+    OutputPathError,
+    OverwriteRefusedError,
+    all_or_nothing,
+    atomic_write_bytes,
+    atomic_write_text,
+    check_output,
+    check_outputs,
+    refuse_overwrite,
+    same_file,
+)
+
+
+def _listing(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+def test_writes_and_replaces(tmp_path: Path) -> None:
+    p = atomic_write_text(tmp_path / "a" / "b" / "x.txt", "one")
+    assert p.read_text() == "one"
+    atomic_write_bytes(p, b"two")
+    assert p.read_bytes() == b"two"
+    assert _listing(tmp_path) == ["a", "a/b", "a/b/x.txt"]
+    assert oct(p.stat().st_mode & 0o777) != oct(0o600)  # not mkstemp's private mode
+
+
+def test_parent_is_a_file(tmp_path: Path) -> None:
+    f = tmp_path / "a.bvh"
+    f.write_text("x")
+    for out in (f / "c.bvh", f / "deeper" / "c.bvh"):
+        with pytest.raises(OutputPathError) as e:
+            atomic_write_text(out, "y")
+        assert str(e.value) == f"{out}: cannot write here: {f} is a file, expected a folder"
+        assert "\n" not in str(e.value)
+    assert f.read_text() == "x"
+    assert _listing(tmp_path) == ["a.bvh"]
+
+
+def test_target_is_a_folder(tmp_path: Path) -> None:
+    (tmp_path / "d").mkdir()
+    with pytest.raises(OutputPathError, match="is a folder, expected a file name"):
+        atomic_write_text(tmp_path / "d", "y")
+    assert _listing(tmp_path) == ["d"]
+
+
+@pytest.mark.parametrize("stage", ["mkstemp", "write", "fsync", "replace"])
+def test_no_temp_file_or_new_folder_after_a_failure(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, stage: str
+) -> None:
+    def boom(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    target = {"mkstemp": atomic.tempfile, "write": os, "fsync": os, "replace": os}[stage]
+    name = {"mkstemp": "mkstemp", "write": "write", "fsync": "fsync", "replace": "replace"}[stage]
+    monkeypatch.setattr(target, name, boom)
+    out = tmp_path / "new" / "deeper" / "x.bvh"
+    with pytest.raises(OutputPathError) as e:
+        atomic_write_text(out, "data")
+    assert str(e.value).startswith(f"{out}: ")
+    assert "permission denied" in str(e.value)
+    monkeypatch.undo()
+    assert _listing(tmp_path) == []  # neither the temp file nor the folders it made
+
+
+def test_interrupt_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    def interrupt(fd):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "fsync", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_text(tmp_path / "x.bvh", "data")
+    monkeypatch.undo()
+    assert _listing(tmp_path) == []
+
+
+def test_check_output(tmp_path: Path) -> None:
+    (tmp_path / "f").write_text("x")
+    (tmp_path / "d").mkdir()
+    assert check_output(tmp_path / "new" / "x.bvh", (".bvh",)) == tmp_path / "new" / "x.bvh"
+    with pytest.raises(OutputPathError, match=r"cannot write this file type \(\.txt\)"):
+        check_output(tmp_path / "x.txt", (".bvh", ".npz"))
+    with pytest.raises(OutputPathError, match="is a file, expected a folder"):
+        check_output(tmp_path / "f" / "x.bvh")
+    with pytest.raises(OutputPathError, match="is a folder"):
+        check_output(tmp_path / "d")
+    assert _listing(tmp_path) == ["d", "f"]  # checking creates nothing
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root ignores permissions (see tests/test_fuzz)")
+def test_check_output_read_only_folder(tmp_path: Path) -> None:
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        with pytest.raises(OutputPathError, match="permission denied"):
+            check_output(ro / "x.bvh")
+        with pytest.raises(OutputPathError, match="permission denied"):
+            atomic_write_text(ro / "sub" / "x.bvh", "x")
+        assert list(ro.iterdir()) == []
+    finally:
+        ro.chmod(0o755)
+
+
+def test_same_file_under_every_spelling(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    Path("a.bvh").write_text("x")
+    Path("d").mkdir()
+    os.symlink("a.bvh", "link.bvh")
+    os.symlink(".", "here")
+    os.link("a.bvh", "hard.bvh")
+    for spelling in ("a.bvh", "./a.bvh", "d/../a.bvh", ".//a.bvh", "link.bvh", "hard.bvh",
+                     "here/a.bvh", str(tmp_path / "a.bvh"), "nodir/../a.bvh"):  # fmt: skip
+        assert same_file(spelling, "a.bvh"), spelling
+        with pytest.raises(OverwriteRefusedError, match="refusing to overwrite the input file"):
+            refuse_overwrite(spelling, ["other.bvh", "a.bvh"])
+    assert not same_file("b.bvh", "a.bvh")
+    refuse_overwrite("b.bvh", ["a.bvh"])
+
+
+def test_check_outputs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    Path("a.bvh").write_text("x")
+    assert check_outputs(["g.json", None, ("x.bvh", (".bvh",))], ["a.bvh"]) == [
+        Path("g.json"),
+        Path("x.bvh"),
+    ]
+    with pytest.raises(OverwriteRefusedError, match=r"a\.bvh: refusing to overwrite"):
+        check_outputs(["g.json", "./a.bvh"], ["a.bvh"])
+    with pytest.raises(OverwriteRefusedError, match="given for two outputs"):
+        check_outputs(["g.json", "./g.json"])
+
+
+def test_all_or_nothing_writes_all_at_the_end(tmp_path: Path) -> None:
+    with all_or_nothing():
+        a = atomic_write_text(tmp_path / "a.json", "1")
+        atomic_write_text(tmp_path / "sub" / "b.json", "2")
+        assert not a.exists()  # held back until the block ends
+    assert (tmp_path / "a.json").read_text() == "1"
+    assert (tmp_path / "sub" / "b.json").read_text() == "2"
+    assert _listing(tmp_path) == ["a.json", "sub", "sub/b.json"]
+
+
+def test_all_or_nothing_failure_writes_nothing(tmp_path: Path) -> None:
+    (tmp_path / "old.json").write_text("old")
+    with pytest.raises(RuntimeError), all_or_nothing():
+        atomic_write_text(tmp_path / "old.json", "new")
+        atomic_write_text(tmp_path / "sub" / "b.json", "2")
+        raise RuntimeError("later step failed")
+    assert _listing(tmp_path) == ["old.json"]
+    assert (tmp_path / "old.json").read_text() == "old"
+
+
+def test_all_or_nothing_nested_joins_the_outer(tmp_path: Path) -> None:
+    with all_or_nothing():
+        with all_or_nothing():
+            atomic_write_text(tmp_path / "a", "1")
+        assert not (tmp_path / "a").exists()
+    assert (tmp_path / "a").read_text() == "1"
