@@ -29,6 +29,7 @@ from mocapkit.core.skeleton import Skeleton
 
 # ---------------------------------------------------------------------------------- groups
 
+
 def rotating_joints(motion: Motion, tol: float = 1e-6) -> np.ndarray:
     """(J,) bool: joints whose local rotation changes during the take (beyond ``tol`` radians)."""
     q = motion.rotations
