@@ -215,14 +215,19 @@ def info(
 
 
 # ------------------------------------------------------------------------------------ convert
+POSITIVE = click.FloatRange(min=0, min_open=True)
+
+
 @main.command()
 @click.argument("inputs", nargs=-1, required=True, metavar="IN... OUT")
-@click.option("--fps", type=float, default=None, help="Resample to this frame rate.")
+@click.option("--fps", type=POSITIVE, default=None, help="Resample to this frame rate.")
 @click.option("--order", default=None, help="Rewrite every joint's rotation order (e.g. ZYX).")
-@click.option("--scale", type=float, default=None, help="Multiply lengths (e.g. 0.01 for cm->m).")
+@click.option(
+    "--scale", type=POSITIVE, default=None, help="Multiply lengths (e.g. 0.01 for cm->m)."
+)
 @click.option(
     "--amc-fps",
-    type=float,
+    type=POSITIVE,
     default=120.0,
     show_default=True,
     help="Frame rate of AMC input (AMC files do not store it).",
