@@ -4,13 +4,14 @@ write."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from mocapkit.core.motion import Motion
 
-__all__ = ["Converted", "convert_file", "convert_motion"]
+__all__ = ["Converted", "convert_file", "convert_motion", "units_scale"]
 
 
 def convert_motion(motion: Motion, fps: float | None = None, scale: float | None = None) -> Motion:
@@ -48,6 +49,17 @@ class Converted:
         }
 
 
+def units_scale(motion: Motion, units: str) -> float:
+    """The factor taking ``motion``'s lengths to ``units`` ("m", "cm", "mm", "inch"): from the
+    unit its file states (ASF), else from the guess (:func:`mocapkit.features.detect_units`)."""
+    from mocapkit.body import UNITS
+    from mocapkit.features import detect_units
+
+    if units not in UNITS:
+        raise ValueError(f"--units must be one of {', '.join(UNITS)}, got {units!r}")
+    return detect_units(motion)[1] / UNITS[units]
+
+
 def convert_file(
     source: str | Path,
     output: str | Path,
@@ -55,6 +67,7 @@ def convert_file(
     asf: str | Path | None = None,
     fps: float | None = None,
     scale: float | None = None,
+    units: str | None = None,
     order: str | None = None,
     amc_fps: float = 120.0,
     lenient: bool = False,
@@ -68,5 +81,20 @@ def convert_file(
 
     refuse_overwrite(output, [p for p in (source, asf) if p is not None])
     motion = read_motion(source, lenient=lenient, asf=asf, fps=amc_fps)
+    if units is not None:
+        if scale is not None:
+            raise ValueError("give --units or --scale, not both")
+        scale = units_scale(motion, units)
+    elif str(output).lower().endswith(".bvh") and motion.skeleton.metres_per_unit is not None:
+        from mocapkit.body import UNITS
+
+        mpu = motion.skeleton.metres_per_unit
+        if not any(abs(mpu / v - 1) < 1e-9 for v in UNITS.values()) and scale is None:
+            warnings.warn(
+                f"{source}: its unit ({mpu:g} m) cannot be stated in a BVH file, which readers "
+                "will guess as inch or cm; pass --units cm (or m, inch) to rescale",
+                UserWarning,
+                stacklevel=2,
+            )
     motion = convert_motion(motion, fps=fps, scale=scale)
     return Converted(write_motion(motion, output, order=order), motion)

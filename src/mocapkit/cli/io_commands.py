@@ -226,6 +226,12 @@ POSITIVE = click.FloatRange(min=0, min_open=True)
     "--scale", type=POSITIVE, default=None, help="Multiply lengths (e.g. 0.01 for cm->m)."
 )
 @click.option(
+    "--units",
+    type=click.Choice(["m", "cm", "mm", "inch"]),
+    default=None,
+    help="Rescale to this length unit, from the unit the file states (ASF) or the guess.",
+)
+@click.option(
     "--amc-fps",
     type=POSITIVE,
     default=120.0,
@@ -239,6 +245,7 @@ def convert(
     fps: float | None,
     order: str | None,
     scale: float | None,
+    units: str | None,
     amc_fps: float,
     lenient: bool,
 ) -> None:
@@ -253,7 +260,7 @@ def convert(
     Examples:
       mocapkit convert walk.bvh walk_zyx.bvh --order ZYX
       mocapkit convert walk.bvh walk_60.npz --fps 60
-      mocapkit convert 01.asf 01_01.amc 01_01.bvh --scale 2.54
+      mocapkit convert 01.asf 01_01.amc 01_01.bvh --units cm   (BVH cannot state units)
     """
     from mocapkit.io import WRITABLE
 
@@ -273,6 +280,14 @@ def convert(
     check_outputs([(out, WRITABLE)], [p for p in (src, asf) if p is not None])
     with naming(src, asf), all_or_nothing():
         res = convert_file(
-            src, out, asf=asf, fps=fps, scale=scale, order=order, amc_fps=amc_fps, lenient=lenient
+            src,
+            out,
+            asf=asf,
+            fps=fps,
+            scale=scale,
+            units=units,
+            order=order,
+            amc_fps=amc_fps,
+            lenient=lenient,
         )
     click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {res.motion.fps:.6g} fps)")

@@ -78,8 +78,13 @@ def plot_stitch(
         L = np.asarray(lscore_by_k)
         ks = np.arange(len(L))
         ax.plot(ks, L, "k.-", ms=4)
-        k = int(np.argmin(L))
-        ax.plot([k], [L[k]], "r*", ms=14, label=f"k_opt = {k} ({k / fps:.2f} s), L* = {L[k]:.4g}")
+        k_opt = int(np.argmin(L))
+        k = int(stitched.k) if 0 <= int(stitched.k) < len(L) else k_opt
+        label = f"k_opt = {k} ({k / fps:.2f} s), L* = {L[k]:.4g}"
+        if k != k_opt:  # a forced k (--inject): mark what was used, and the optimum beside it
+            label = f"k = {k} (forced), L_k = {L[k]:.4g}; k_opt = {k_opt}"
+            ax.plot([k_opt], [L[k_opt]], "o", mfc="none", mec="r", ms=10)
+        ax.plot([k], [L[k]], "r*", ms=14, label=label)
         ax.set_xlabel(f"k, injected frames (at {fps:g} fps)")
         ax.set_ylabel("L_k (effort; lower = smoother)")
         ax.set_title("elastic L-score vs k", fontsize=10)

@@ -1,0 +1,36 @@
+"""convert --units: lengths rescaled from the unit the file states (ASF) or the guess."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from mocapkit.body import body_of
+from mocapkit.cli import main
+from mocapkit.io import read_motion
+
+
+@pytest.mark.shared
+@pytest.mark.parametrize(("units", "mpu"), [("cm", 0.01), ("m", 1.0), ("inch", 0.0254)])
+def test_cmu_to_bvh_keeps_the_height(units, mpu, shared_path, tmp_path) -> None:
+    amc = shared_path("cmu-asfamc/01/01_01.amc")
+    out = tmp_path / f"cmu_{units}.bvh"
+    r = CliRunner().invoke(main, ["convert", str(amc), str(out), "--units", units])
+    assert r.exit_code == 0, r.output
+    src = body_of(read_motion(amc))
+    back = read_motion(out)
+    assert back.skeleton.metres_per_unit is None  # BVH states no unit
+    # the file's lengths are now in the chosen unit: its stature in that unit is the source's
+    assert body_of(back).stature * mpu == pytest.approx(src.height_m, rel=1e-6)
+
+
+@pytest.mark.shared
+def test_cmu_to_bvh_without_units_warns_that_the_unit_is_lost(shared_path, tmp_path) -> None:
+    amc = shared_path("cmu-asfamc/01/01_01.amc")
+    r = CliRunner().invoke(main, ["convert", str(amc), str(tmp_path / "raw.bvh")])
+    assert r.exit_code == 0
+    assert "--units" in r.output
+    bad = CliRunner().invoke(
+        main, ["convert", str(amc), str(tmp_path / "x.bvh"), "--units", "cm", "--scale", "2"]
+    )
+    assert bad.exit_code == 2 and "not both" in bad.output
