@@ -648,10 +648,7 @@ def readonly_cases() -> list[Case]:
 
 # Parser-side failures (src/mocapkit/io/bvh.py, _numparse.py, asfamc.py, errors.py are being
 # fixed elsewhere): cases that still fail are listed here and expected to fail (not strictly).
-PARSER_SIDE: dict[str, str] = {
-    r"numeric-frames-400-digits-.*": "a 400-digit frame count is quoted whole in the error "
-    "(~80 characters with a closed quote wanted)",
-}
+PARSER_SIDE: dict[str, str] = {}  # cases the parser still fails (xfail): none now
 
 
 def all_cases() -> list[Case]:

@@ -578,7 +578,7 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         )
     rows = values.shape[0]
     if rows != declared:
-        msg = f"'Frames: {declared}' but {rows} rows of motion data follow"
+        msg = f"{quote('Frames: ' + str(declared))} but {rows} rows of motion data follow"
         if not lenient:
             raise BVHError(source, fl, msg + " (lenient mode reads the rows present)")
         warnings.warn(f"{source}:{fl}: {msg}; read {rows} frames", RepairWarning, stacklevel=2)
