@@ -74,3 +74,12 @@ def test_cli_inject(clips, tmp_path) -> None:
     assert plan.segments[-1].output_stop == m.num_frames
     bad = CliRunner().invoke(main, ["stitch", str(q), str(d), "--takeoff", "40", "--inject", "-1"])
     assert bad.exit_code == 2
+
+
+def test_error_quotes_close(clips, tmp_path) -> None:
+    walk, run = clips
+    q, d = write_bvh(walk, tmp_path / "walk.bvh"), write_bvh(run, tmp_path / "run.bvh")
+    r = CliRunner().invoke(main, ["stitch", str(q), str(d), "--takeoff", "80:40"])
+    assert r.exit_code == 2
+    line = r.output.strip()
+    assert line.count("\n") == 0 and line.endswith("'80:40'")

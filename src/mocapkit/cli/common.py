@@ -74,6 +74,14 @@ def one_line(message: object) -> str:
     return " ".join(str(message).split())
 
 
+def exception_text(e: BaseException) -> str:
+    """The message of an exception; a KeyError's repr quotes are dropped, never a quote that
+    belongs to the message (``got '80:40'``)."""
+    if isinstance(e, KeyError) and len(e.args) == 1 and isinstance(e.args[0], str):
+        return e.args[0]
+    return str(e)
+
+
 def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     """Turn library exceptions about bad input (and OSErrors about paths) into one-line CLI
     errors with exit status 2 (no traceback).
@@ -100,7 +108,7 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             except OSError as e:
                 raise CLIError(one_line(os_error_line(e))) from None
             except (ValueError, KeyError, ImportError) as e:
-                raise CLIError(one_line(str(e).strip("'\""))) from None
+                raise CLIError(one_line(exception_text(e))) from None
             _flush_warnings(caught)
             return result
 
@@ -371,7 +379,7 @@ def naming(*paths: str | Path | None) -> Iterator[None]:
     except (click.ClickException, MocapFileError, OSError):
         raise
     except (ValueError, KeyError) as e:
-        msg = one_line(str(e).strip("'\""))
+        msg = one_line(exception_text(e))
         names = [str(p) for p in paths if p is not None]
         if names and not any(n in msg for n in names):
             msg = f"{names[0]}: {msg}"
