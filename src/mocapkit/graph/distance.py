@@ -30,7 +30,7 @@ well conditioned.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -39,15 +39,18 @@ from mocapkit.core.motion import Motion
 from mocapkit.features import detect_up_axis, ground_frame, pelvis_index
 from mocapkit.graph.pointcloud import BodyParts, body_parts, point_cloud
 from mocapkit.graph.weights import (
-    clip_contact_parts,
+    contact_parts_of,
     metric_weights,
     part_masses,
     support_mask,
 )
 
 __all__ = [
+    "DEFAULT_BUCKET_SECONDS",
+    "DEFAULT_PER_BUCKET",
     "DEFAULT_WINDOW",
     "CostDatabase",
+    "MinimaReducer",
     "build_database",
     "cost_matrix",
     "cost_tile",
@@ -89,6 +92,10 @@ class CostDatabase:
         metric: the metric name.
         parts: the body parts.
         up: the up axis.
+        foot_points: (S,) the point of each side's ankle (S <= 2, the feet of
+            :func:`mocapkit.features.find_feet`, left first), the joint the foot skate measures.
+        foot_contacts: (N, S) bool, that foot planted (:func:`mocapkit.features.foot_contacts`
+            by side, or the given per-part contacts of its joints).
     """
 
     coords: np.ndarray
@@ -103,6 +110,8 @@ class CostDatabase:
     metric: str
     parts: BodyParts
     up: str
+    foot_points: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    foot_contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=bool))
 
     @property
     def num_frames(self) -> int:
@@ -171,8 +180,9 @@ def build_database(
     basis = np.stack([side, u, fwd], axis=1)  # (3, 3): columns x, y, z
     pelvis = pelvis_index(first.skeleton)
     counts = parts.points_per_part().astype(np.float64)
-    coords, centres, frames = [], [], []
+    coords, centres, frames, sides = [], [], [], []
     foot_joints: set[int] = set()
+    ankles = _side_ankles(first, parts, up)
     for c, m in enumerate(motions):
         if m.num_frames == 0:
             raise ValueError(f"clip {c} has no frames")
@@ -187,11 +197,18 @@ def build_database(
         centres.append(pel[:, [0, 2]])
         if contacts is not None:
             cp = np.asarray(contacts[c], dtype=bool)
+            side = np.stack(
+                [cp[:, [int(parts.point_part[p]) for p in pts]].any(axis=1) for _, pts in ankles],
+                axis=1,
+            ).reshape(m.num_frames, len(ankles))
         else:
-            from mocapkit.features import find_feet
+            from mocapkit.features import find_feet, foot_contacts
 
             foot_joints.update(j for _, j in find_feet(m.skeleton, m, up))
-            cp = clip_contact_parts(m, parts, up)
+            fc = foot_contacts(m, up=up)
+            cp = contact_parts_of(parts, fc, m.num_frames)
+            side = fc.by_side()[:, : len(ankles)]
+        sides.append(side)
         pw = metric_weights(metric, parts, cp, mass)
         frames.append(pw.frame)
         static = pw.static
@@ -221,7 +238,22 @@ def build_database(
         metric,
         parts,
         up,
+        np.array([pts[0] for _, pts in ankles], dtype=np.int64),
+        np.ascontiguousarray(np.concatenate(sides), dtype=bool),
     )
+
+
+def _side_ankles(motion: Motion, parts: BodyParts, up: str) -> list[tuple[str, list[int]]]:
+    """Per foot side (at most two, in :func:`~mocapkit.features.find_feet` order): the points
+    of its joints, the ankle's first (the joint :mod:`mocapkit.graph.skate` measures)."""
+    from mocapkit.features import find_feet
+
+    src = parts.point_source.tolist()
+    by: dict[str, list[int]] = {}
+    for side, j in find_feet(motion.skeleton, motion, up):
+        if j in src:
+            by.setdefault(side or f"s{len(by)}", []).append(src.index(j))
+    return list(by.items())[:2]
 
 
 # ============================================================================================
@@ -607,6 +639,150 @@ class MinimaResult:
     dtype: str = "float64"
 
 
+#: Default length (seconds) of the clip pieces that each keep their own best matches.
+DEFAULT_BUCKET_SECONDS = 0.5
+#: Default number of partner clips each piece keeps (its cheapest minimum with each).
+DEFAULT_PER_BUCKET = 16
+
+
+@numba.njit(cache=True, nogil=True)
+def _bucket_insert(bucket, clip, fi, fj, cv, bc, bp, bi, bj, count):  # pragma: no cover
+    """Offer each minimum (fi, fj, cv) to the buckets of both its frames: a bucket keeps its
+    cheapest minimum with each partner clip, for its ``k`` cheapest partners (in place)."""
+    k = bc.shape[1]
+    for n in range(fi.shape[0]):
+        for side in range(2):
+            a = fi[n] if side == 0 else fj[n]
+            o = fj[n] if side == 0 else fi[n]
+            b = bucket[a]
+            p = clip[o]
+            c = cv[n]
+            m = count[b]
+            slot = -1
+            worst = -1
+            for s in range(m):
+                if bp[b, s] == p:
+                    slot = s
+                    break
+                if worst < 0 or bc[b, s] > bc[b, worst]:
+                    worst = s
+            if slot >= 0:
+                if c < bc[b, slot]:
+                    bc[b, slot] = c
+                    bi[b, slot] = fi[n]
+                    bj[b, slot] = fj[n]
+                continue
+            if m < k:
+                slot = m
+                count[b] = m + 1
+            elif c < bc[b, worst]:
+                slot = worst
+            else:
+                continue
+            bc[b, slot] = c
+            bp[b, slot] = p
+            bi[b, slot] = fi[n]
+            bj[b, slot] = fj[n]
+
+
+class MinimaReducer:
+    """The reduction behind :func:`tiled_local_minima`: tiles' local minima in, candidates out.
+
+    Two parts, both exact under any order of tiles and mergeable (:meth:`merge`), so that tiles
+    can be reduced on separate workers and the states combined:
+
+    * the ``max_candidates`` cheapest minima of the whole library (as in Kovar et al.);
+    * per *bucket* (each clip cut into pieces of ``bucket_frames``), the cheapest minimum with
+      each partner clip, for its ``per_bucket`` cheapest partners. A motion's own cost scale
+      (standing still is cheap, a run dear) would otherwise leave the global list to the
+      cheapest motions, and most clips, their ends above all, without candidates.
+    """
+
+    def __init__(
+        self,
+        starts: np.ndarray,
+        bucket_frames: int,
+        per_bucket: int = DEFAULT_PER_BUCKET,
+        max_candidates: int = 200_000,
+    ):
+        starts = np.asarray(starts, dtype=np.int64)
+        N = int(starts[-1])
+        bf = max(1, int(bucket_frames))
+        lens = np.diff(starts)
+        nb = -(-lens // bf)
+        first = np.concatenate([[0], np.cumsum(nb)])
+        clip = np.repeat(np.arange(len(lens)), lens)
+        self.clip = clip.astype(np.int64)
+        self.bucket = (first[clip] + (np.arange(N) - starts[clip]) // bf).astype(np.int64)
+        B = int(first[-1])
+        k = max(0, int(per_bucket))
+        self.best_c = np.full((B, max(k, 1)), np.inf)
+        self.best_p = np.full((B, max(k, 1)), -1, dtype=np.int64)
+        self.best_i = np.zeros((B, max(k, 1)), dtype=np.int64)
+        self.best_j = np.zeros((B, max(k, 1)), dtype=np.int64)
+        self.count = np.zeros(B, dtype=np.int64)
+        self.per_bucket = k
+        self.max_candidates = int(max_candidates)
+        self._i: list[np.ndarray] = []
+        self._j: list[np.ndarray] = []
+        self._c: list[np.ndarray] = []
+        self._kept = 0
+
+    def add(self, i: np.ndarray, j: np.ndarray, cost: np.ndarray, to_global: bool = True) -> None:
+        """Offer minima (global frames, i < j, each pair once, and their costs)."""
+        i = np.ascontiguousarray(i, dtype=np.int64)
+        j = np.ascontiguousarray(j, dtype=np.int64)
+        cost = np.ascontiguousarray(cost, dtype=np.float64)
+        if self.per_bucket and len(cost):
+            _bucket_insert(
+                self.bucket, self.clip, i, j, cost,
+                self.best_c, self.best_p, self.best_i, self.best_j, self.count,
+            )  # fmt: skip
+        if not to_global:
+            return
+        self._i.append(i)
+        self._j.append(j)
+        self._c.append(cost)
+        self._kept += len(cost)
+        if self._kept > 2 * self.max_candidates:
+            self._compact()
+
+    def _compact(self) -> None:
+        if not self._i:
+            return
+        ci, cj, cc = (np.concatenate(v) for v in (self._i, self._j, self._c))
+        if len(cc) > self.max_candidates:
+            part = np.argpartition(cc, self.max_candidates)[: self.max_candidates]
+            ci, cj, cc = ci[part], cj[part], cc[part]
+        self._i, self._j, self._c = [ci], [cj], [cc]
+        self._kept = len(cc)
+
+    def merge(self, other: MinimaReducer) -> MinimaReducer:
+        """Fold another reducer's state (same library and settings) into this one."""
+        for name in ("bucket", "clip"):
+            if not np.array_equal(getattr(self, name), getattr(other, name)):
+                raise ValueError("reducers of different libraries or bucket sizes")
+        sel = other.best_p >= 0
+        self.add(other.best_i[sel], other.best_j[sel], other.best_c[sel], to_global=False)
+        for v in zip(other._i, other._j, other._c, strict=True):
+            self.add(*v)
+        return self
+
+    def result(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The union of both parts, each pair once, sorted by cost (then i, j)."""
+        self._compact()
+        sel = self.best_p >= 0
+        ci = np.concatenate([self._i[0] if self._i else np.zeros(0, np.int64), self.best_i[sel]])
+        cj = np.concatenate([self._j[0] if self._j else np.zeros(0, np.int64), self.best_j[sel]])
+        cc = np.concatenate([self._c[0] if self._c else np.zeros(0), self.best_c[sel]])
+        order = np.lexsort((cj, ci, cc))
+        ci, cj, cc = ci[order], cj[order], cc[order]
+        key = ci * (int(self.clip.shape[0]) + 1) + cj
+        _, first = np.unique(key, return_index=True)
+        first = np.sort(first)
+        return ci[first].astype(np.int64), cj[first].astype(np.int64), cc[first]
+
+
 def tiled_local_minima(
     db: CostDatabase,
     stride: int = 1,
@@ -615,13 +791,17 @@ def tiled_local_minima(
     min_gap: int | None = None,
     max_candidates: int = 200_000,
     progress: Callable[[int, int], None] | None = None,
+    bucket_seconds: float = DEFAULT_BUCKET_SECONDS,
+    per_bucket: int = DEFAULT_PER_BUCKET,
 ) -> MinimaResult:
     """Local minima of the cost matrix over a stride grid, computed tile by tile (upper
     triangle; the cost is symmetric), never holding more than one tile (+ 1-cell halo).
 
     Pairs within one clip closer than ``min_gap`` frames (default: the window length) are
-    dropped. At most ``max_candidates`` lowest minima are kept. ``progress(done, total)`` is
-    called after each tile.
+    dropped. The tiles' minima are reduced by a :class:`MinimaReducer`: the ``max_candidates``
+    cheapest, plus, for every ``bucket_seconds`` piece of every clip, its cheapest minimum with
+    each of its ``per_bucket`` cheapest partner clips (``per_bucket=0``: the global list only).
+    ``progress(done, total)`` is called after each tile.
     """
     import time
 
@@ -639,10 +819,9 @@ def tiled_local_minima(
     done = 0
     pairs = 0
     Wk_s = _support_window(db, dtype)
-    keep_i: list[np.ndarray] = []
-    keep_j: list[np.ndarray] = []
-    keep_c: list[np.ndarray] = []
-    kept = 0
+    reducer = MinimaReducer(
+        db.starts, max(1, round(bucket_seconds * db.fps)), per_bucket, max_candidates
+    )
     col_cache: dict[int, _ColPack] = {}
     for ra in starts:
         rb = min(ra + tile, G - 1)
@@ -668,28 +847,16 @@ def tiled_local_minima(
             near = (clip[gi] == clip[gj]) & (np.abs(fj - fi) < gap)
             fi, fj = fi[~near], fj[~near]
             cv = t[mi[sel][~near] + 1, mj[sel][~near] + 1].astype(np.float64)
-            keep_i.append(fi)
-            keep_j.append(fj)
-            keep_c.append(cv)
-            kept += len(cv)
-            if kept > 2 * max_candidates:
-                ci, cj, cc = (np.concatenate(v) for v in (keep_i, keep_j, keep_c))
-                part = np.argpartition(cc, max_candidates)[:max_candidates]
-                keep_i, keep_j, keep_c = [ci[part]], [cj[part]], [cc[part]]
-                kept = max_candidates
+            reducer.add(fi, fj, cv)
             done += 1
             if progress is not None:
                 progress(done, total)
         col_cache.pop(ra, None)  # later row blocks never use this column block again
-    ci, cj, cc = (np.concatenate(v) if v else np.zeros(0) for v in (keep_i, keep_j, keep_c))
-    if len(cc) > max_candidates:
-        part = np.argpartition(cc, max_candidates)[:max_candidates]
-        ci, cj, cc = ci[part], cj[part], cc[part]
-    order = np.argsort(cc, kind="stable")
+    ci, cj, cc = reducer.result()
     return MinimaResult(
-        ci[order].astype(np.int64),
-        cj[order].astype(np.int64),
-        cc[order],
+        ci,
+        cj,
+        cc,
         stride,
         pairs,
         float(pairs) * db.flops_per_pair(),

@@ -27,7 +27,12 @@ from mocapkit.graph.distance import (
     cost_tile,
     tiled_local_minima,
 )
-from mocapkit.graph.select import Candidates, select_transitions
+from mocapkit.graph.select import (
+    Candidates,
+    find_overlaps,
+    select_connected,
+    select_transitions,
+)
 from mocapkit.provenance import Provenance, Segment, TransitionTaken
 
 __all__ = [
@@ -69,7 +74,10 @@ class MotionGraph:
         metric, window (seconds), half (window half-width, frames), blend (frames), stride.
         ranked_costs: rank-ordered costs of all merged candidates (the curve of the knee rule).
         T: the number of transitions chosen (before refinement merged any).
-        stats: timings and sizes.
+        stats: timings and sizes; ``selection`` (the rule and how many transitions each step
+            added), ``overlaps`` (duplicate or overlapping takes found).
+        kind: (T,) why each transition was chosen ("knee", "end", "bridge"), or None (an
+            explicit T or threshold, or a file without it).
     """
 
     clips: list[ClipInfo]
@@ -87,6 +95,7 @@ class MotionGraph:
     T: int = 0
     in_scc: np.ndarray | None = None
     stats: dict = field(default_factory=dict)
+    kind: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ("src_clip", "src_frame", "dst_clip", "dst_frame"):
@@ -114,6 +123,10 @@ class MotionGraph:
         if self.in_scc is None:
             self.in_scc = self._scc_mask()
         self.in_scc = np.asarray(self.in_scc, dtype=bool)
+        if self.kind is not None:
+            self.kind = np.asarray(self.kind, dtype=str).reshape(-1)
+            if len(self.kind) != n:
+                raise ValueError("kind must give one entry per transition")
 
     # ---- structure -------------------------------------------------------------------------
     @property
@@ -204,6 +217,20 @@ class MotionGraph:
         _, edges = self.scc()
         return int(sum(e["frames"] for e in edges if e["kind"] == "clip"))
 
+    def coverage(self) -> Coverage:
+        """How much of each clip lies in the pruned graph (the frames a walk can play)."""
+        nodes, edges = self.scc()
+        per = np.zeros(len(self.clips), dtype=np.int64)
+        for e in edges:
+            if e["kind"] == "clip":
+                per[nodes[e["u"]][0]] += e["frames"]
+        return Coverage(
+            tuple(c.path for c in self.clips),
+            np.array([c.frames for c in self.clips], dtype=np.int64),
+            per,
+            tuple(dict(o) for o in self.stats.get("overlaps", [])),
+        )
+
     # ---- files -----------------------------------------------------------------------------
     def to_dict(self) -> dict:
         return {
@@ -224,6 +251,7 @@ class MotionGraph:
                     "dst_frame": int(self.dst_frame[t]),
                     "cost": float(self.cost[t]),
                     "in_scc": bool(self.in_scc[t]),
+                    **({"kind": str(self.kind[t])} if self.kind is not None else {}),
                 }
                 for t in range(self.num_transitions)
             ],
@@ -247,21 +275,25 @@ class MotionGraph:
     def report(
         self, base: Path | None = None, motions: Sequence[Motion] | None = None
     ) -> GraphReport:
-        """Transition count, the strongly connected component and the foot skate of the
-        transitions (:func:`mocapkit.graph.skate.transition_skate`) on ``motions``, or on the
+        """Transition count, the strongly connected component, its coverage of each clip
+        (:meth:`coverage`) and the foot skate of the transitions, all and those in the
+        component (:func:`mocapkit.graph.skate.transition_skate`) on ``motions``, or on the
         clips read from their paths (relative ones against ``base``, the graph file's folder);
         clips that cannot be read leave the skate out and say why."""
         from mocapkit.graph.skate import transition_skate
         from mocapkit.graph.synth import load_clips
 
         nodes, _edges = self.scc()
-        skate = error = None
+        skate = skate_scc = error = None
         try:
             clips = list(motions) if motions is not None else load_clips(self, base)
         except (OSError, ValueError) as e:
             error = str(e)
         else:
-            skate = transition_skate(self, clips).summary() if self.num_transitions else None
+            if self.num_transitions:
+                sk = transition_skate(self, clips)
+                skate = sk.summary()
+                skate_scc = sk.subset(self.in_scc).summary()
         return GraphReport(
             clips=len(self.clips),
             frames=int(sum(c.frames for c in self.clips)),
@@ -273,6 +305,9 @@ class MotionGraph:
             scc_frames=self.scc_frames(),
             foot_skate=skate,
             foot_skate_error=error,
+            coverage=self.coverage().to_json(),
+            foot_skate_scc=skate_scc,
+            selection=self.stats.get("selection"),
         )
 
     def save_graphml(self, path: str | Path) -> Path:
@@ -320,6 +355,7 @@ class MotionGraph:
                 for k in ("src_clip", "src_frame", "dst_clip", "dst_frame", "cost")
             }
             in_scc = [bool(t.get("in_scc", True)) for t in tr] if tr else None
+            kind = [str(t["kind"]) for t in tr] if tr and all("kind" in t for t in tr) else None
         except (KeyError, TypeError) as e:
             raise ValueError(f"malformed motion graph file: missing {e}") from None
         return cls(
@@ -335,6 +371,7 @@ class MotionGraph:
             T=int(data.get("T", len(tr))),
             in_scc=in_scc,
             stats=dict(data.get("stats", {})),
+            kind=kind,
         )  # fmt: skip
 
     def clip_paths(self, base: Path | None = None) -> list[Path]:
@@ -349,12 +386,96 @@ class MotionGraph:
         return out
 
 
+#: Below this fraction of the library's frames in the largest strongly connected component,
+#: :meth:`Coverage.warning` warns.
+COVERAGE_WARNING = 0.5
+
+
+@dataclass(frozen=True, eq=False)
+class Coverage:
+    """The part of each clip that lies in the pruned graph (:meth:`MotionGraph.coverage`).
+
+    Attributes:
+        paths: the clips' paths; frames: (C,) their frame counts; in_scc: (C,) the frames of
+        each covered by the largest strongly connected component (what a walk can play);
+        overlaps: the duplicate or overlapping takes the build found (JSON dicts).
+    """
+
+    paths: tuple[str, ...]
+    frames: np.ndarray
+    in_scc: np.ndarray
+    overlaps: tuple[dict, ...] = ()
+
+    @property
+    def fraction(self) -> float:
+        total = int(self.frames.sum())
+        return float(self.in_scc.sum()) / total if total else 0.0
+
+    @property
+    def clips_reached(self) -> int:
+        return int((self.in_scc > 0).sum())
+
+    def warning(self) -> str | None:
+        """A warning when most of the library is unreachable (None otherwise)."""
+        if self.fraction >= COVERAGE_WARNING:
+            return None
+        return (
+            f"only {100 * self.fraction:.1f}% of the frames ({self.clips_reached} of "
+            f"{len(self.paths)} clips) lie in the largest strongly connected component; a walk "
+            "never reaches the rest. Build with the default rule (no --transitions or "
+            "--threshold, which keep only the cheapest transitions), or a larger --transitions "
+            "or --threshold; clips reached by nothing may need takes that link them (their "
+            "start and end poses differ from every other clip's)"
+        )
+
+    def summary(self) -> str:
+        """One line: the share of frames and clips in the component, and the overlaps."""
+        line = (
+            f"coverage: {100 * self.fraction:.1f}% of the frames in the largest strongly "
+            f"connected component ({self.clips_reached} of {len(self.paths)} clips reached, "
+            f"{int((self.in_scc == 0).sum())} not at all)"
+        )
+        if self.overlaps:
+            pairs = ", ".join(
+                f"{Path(o.get('path_b', str(o['clip_b']))).name} frames "
+                f"{o['b_frames'][0]}-{o['b_frames'][1]} = "
+                f"{Path(o.get('path_a', str(o['clip_a']))).name} frames "
+                f"{o['a_frames'][0]}-{o['a_frames'][1]}"
+                for o in self.overlaps[:3]
+            )
+            more = f" and {len(self.overlaps) - 3} more" if len(self.overlaps) > 3 else ""
+            line += f"; duplicate takes: {pairs}{more}"
+        return line
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "frames": int(self.frames.sum()),
+            "frames_in_scc": int(self.in_scc.sum()),
+            "fraction": self.fraction,
+            "clips_reached": self.clips_reached,
+            "clips": [
+                {
+                    "path": p,
+                    "frames": int(f),
+                    "frames_in_scc": int(c),
+                    "fraction": float(c) / int(f) if f else 0.0,
+                }
+                for p, f, c in zip(self.paths, self.frames, self.in_scc, strict=True)
+            ],
+            "overlaps": list(self.overlaps),
+            "warning": self.warning(),
+        }
+
+
 @dataclass(frozen=True)
 class GraphReport:
     """What ``mocapkit graph report`` says about a graph (:meth:`MotionGraph.report`).
 
     ``foot_skate``: :meth:`~mocapkit.graph.skate.SkateReport.summary` (cm), None without
-    transitions or when the clips could not be read (``foot_skate_error`` says why).
+    transitions or when the clips could not be read (``foot_skate_error`` says why); over the
+    component's transitions: ``foot_skate_scc``. ``coverage``: :meth:`Coverage.to_json` (per
+    clip, the frames in the component; the overlaps found; a warning when most of the library
+    is unreachable). ``selection``: the rule and what each step added.
     """
 
     clips: int
@@ -367,6 +488,13 @@ class GraphReport:
     scc_frames: int
     foot_skate: dict | None = None
     foot_skate_error: str | None = None
+    coverage: dict | None = None
+    foot_skate_scc: dict | None = None
+    selection: dict | None = None
+
+    @property
+    def warning(self) -> str | None:
+        return self.coverage.get("warning") if self.coverage else None
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -379,6 +507,9 @@ class GraphReport:
             "scc_nodes": self.scc_nodes,
             "scc_frames": self.scc_frames,
             "foot_skate": self.foot_skate,
+            "foot_skate_scc": self.foot_skate_scc,
+            "coverage": self.coverage,
+            "selection": self.selection,
         }
         if self.foot_skate_error is not None:
             out["foot_skate_error"] = self.foot_skate_error
@@ -420,8 +551,15 @@ def build_graph(
     database: CostDatabase | None = None,
 ) -> tuple[MotionGraph, CostDatabase, MinimaResult]:
     """Build a motion graph: tiled local minima of the aligned window cost, merged and ranked
-    candidates, T chosen by the knee rule (or ``transitions`` / ``threshold``), pruning to the
-    largest strongly connected component.
+    candidates, and pruning to the largest strongly connected component.
+
+    By default the transitions are the knee rule's T cheapest plus what makes the library
+    walkable: every clip's best way out of its end and into its start, and bridges between
+    components (:func:`mocapkit.graph.select.select_connected`); ``transitions`` (T) or
+    ``threshold`` keep exactly the T cheapest, or those under the cost, instead. Duplicate or
+    overlapping takes are found and reported in ``stats["overlaps"]``
+    (:func:`mocapkit.graph.select.find_overlaps`); their zero-cost matches are never
+    transitions. :meth:`MotionGraph.coverage` says how much of each clip a walk can reach.
 
     Args:
         motions: clips with one skeleton and frame rate.
@@ -449,22 +587,39 @@ def build_graph(
     minima = tiled_local_minima(
         db, stride, tile, dtype, max_candidates=max_candidates, progress=progress
     )
-    chosen, merged, T = select_transitions(db, minima, transitions, threshold)
-    chosen = _fit_blend(db, chosen, blend)
-    cs, cd = db.clip_of(chosen.src), db.clip_of(chosen.dst)
     paths = list(paths) if paths is not None else [f"clip{c}" for c in range(len(motions))]
+    selection: dict[str, Any]
+    if transitions is None and threshold is None:
+        sel = select_connected(db, minima, blend)
+        chosen, merged, T, kind = sel.chosen, sel.merged, sel.T, sel.kind
+        selection = {
+            "rule": "connected",
+            **sel.counts(),
+            "components_bridged": sel.bridged,
+            "components_left_out": sel.skipped,
+        }
+        overlaps = sel.overlaps
+    else:
+        chosen, merged, T = select_transitions(db, minima, transitions, threshold)
+        chosen = _fit_blend(db, chosen, blend)
+        kind = None
+        selection = {"rule": "transitions" if transitions is not None else "threshold"}
+        overlaps = find_overlaps(db, minima.i, minima.j, minima.cost, minima.stride)[0]
+    cs, cd = db.clip_of(chosen.src), db.clip_of(chosen.dst)
     clips = [ClipInfo(str(p), m.num_frames, m.fps) for p, m in zip(paths, motions, strict=True)]
     g = MotionGraph(
         clips,
         cs, chosen.src - db.starts[cs], cd, chosen.dst - db.starts[cd], chosen.cost,
         metric=db.metric, window=window, half=db.half, blend=blend, stride=stride,
-        ranked_costs=merged.cost, T=T,
+        ranked_costs=merged.cost, T=T, kind=kind,
         stats={
             "frames": db.num_frames,
             "pairs_evaluated": minima.pairs,
             "gflop": minima.flops / 1e9,
             "tile_seconds": minima.seconds,
             "candidates": len(merged),
+            "selection": selection,
+            "overlaps": [o.to_json([c.path for c in clips]) for o in overlaps],
         },
     )  # fmt: skip
     return g, db, minima

@@ -34,6 +34,10 @@ class SkateReport:
     arc_length: np.ndarray
     supported: np.ndarray
 
+    def subset(self, mask: np.ndarray) -> SkateReport:
+        """The report of the transitions selected by ``mask`` (bool, or indices)."""
+        return SkateReport(self.start_to_end[mask], self.arc_length[mask], self.supported[mask])
+
     def summary(self) -> dict:
         s = self.supported
 
