@@ -73,6 +73,7 @@ def test_coverage_in_files_and_report(built, library, tmp_path):
     assert rep["foot_skate_scc"]["transitions"] == int(g.in_scc.sum())
     json.dumps(rep)  # strict JSON
     assert "coverage:" in g.coverage().summary()
+    assert h.report(motions=library).coverage_summary() == g.coverage().summary()
 
 
 def test_warning_when_most_is_unreachable(built, library):

@@ -447,6 +447,17 @@ class Coverage:
             line += f"; duplicate takes: {pairs}{more}"
         return line
 
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Coverage:
+        """Back from :meth:`to_json`."""
+        clips = data.get("clips", [])
+        return cls(
+            tuple(str(c["path"]) for c in clips),
+            np.array([int(c["frames"]) for c in clips], dtype=np.int64),
+            np.array([int(c["frames_in_scc"]) for c in clips], dtype=np.int64),
+            tuple(dict(o) for o in data.get("overlaps", [])),
+        )
+
     def to_json(self) -> dict[str, Any]:
         return {
             "frames": int(self.frames.sum()),
@@ -494,7 +505,12 @@ class GraphReport:
 
     @property
     def warning(self) -> str | None:
+        """The coverage warning (:meth:`Coverage.warning`), or None."""
         return self.coverage.get("warning") if self.coverage else None
+
+    def coverage_summary(self) -> str | None:
+        """The coverage line (:meth:`Coverage.summary`), or None."""
+        return Coverage.from_json(self.coverage).summary() if self.coverage else None
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
