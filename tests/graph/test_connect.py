@@ -322,3 +322,23 @@ def test_tiny_library_builds_with_a_warning():
     assert cov.warning() is not None or cov.fraction >= COVERAGE_WARNING
     empty = MinimaReducer(np.array([0, 10, 30]), 5)
     assert all(len(v) == 0 for v in empty.result())
+
+
+def test_take_that_repeats_itself():
+    """A take holding the same 2 s twice (a copy inside one file) is an overlap of the clip
+    with itself, found and kept out at stride 1 and 2."""
+    from mocapkit.core.motion import Motion
+
+    w = datasets.procedural_motion("walk", 2.0, fps=30, seed=5).motion
+    twice = Motion(
+        w.skeleton,
+        np.concatenate([w.rotations, w.rotations]),
+        np.concatenate([w.root_positions, w.root_positions]),
+        w.frame_time,
+    )
+    run = datasets.procedural_motion("run", 3.0, fps=30, seed=6).motion
+    for stride in (1, 2):
+        g, _, _ = build_graph([twice, run], stride=stride)
+        self_ov = [o for o in g.stats["overlaps"] if o["clip_a"] == o["clip_b"] == 0]
+        assert self_ov and abs(self_ov[0]["offset"]) == w.num_frames, g.stats["overlaps"]
+        assert np.all(g.cost > 1e-6)

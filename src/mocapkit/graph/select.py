@@ -400,7 +400,7 @@ def find_overlaps(
     # candidates within 5 % of the height: a grid neighbour of a copy (up to stride - 1 frames
     # off) is that close even in a run
     near = np.flatnonzero(cost <= (5e-2 * character_height(db)) ** 2 * W)
-    best_c = cost[near].copy()
+    best_c = pair_costs(db, i[near], j[near])  # exact (the tiles may be float32)
     best_j = j[near].copy()
     ok = db.valid_centres()
     ci = db.clip_of(i[near])
@@ -450,9 +450,7 @@ def _extend_overlap(
     valid = (f + offset >= 0) & (f + offset < Fb)
     f = f[valid]
     f = f[ok[sa + f] & ok[sb + f + offset]]
-    if a == b:
-        f = f[np.abs(offset) > 2 * db.half]
-    if len(f) == 0:
+    if len(f) == 0 or (a == b and abs(offset) <= 2 * db.half):
         return lo, hi, 0.0
     i, j = sa + f, sb + f + offset
     c = pair_costs(db, i, j)
