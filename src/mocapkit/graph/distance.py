@@ -412,7 +412,7 @@ def _side(db: CostDatabase, idx: np.ndarray, dtype: type) -> _Side:
     )  # fmt: skip
 
 
-@numba.njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, fastmath=True, error_model="numpy", parallel=True)
 def _finish_kernel(
     prod, pb, syy, pd, rw, rx, rz, raa, cw, cx, cz, cbb, has_s, out
 ):  # pragma: no cover
@@ -420,7 +420,7 @@ def _finish_kernel(
     [Bx | Bz | Sbb] row parts, ``pb`` (3n, m) = [Ax; Az; Saa] column parts, ``syy`` (n, m),
     ``pd`` (n, 2m) = [Sdot | Scrs]; the r*/c* vectors are the row / column scalar terms."""
     n, m = out.shape
-    for i in range(n):
+    for i in numba.prange(n):
         for j in range(m):
             W = rw[i] + cw[j]
             ax = rx[i]
@@ -516,15 +516,33 @@ def _col_pack(c: _Side, Wk_s: np.ndarray) -> _ColPack:
     )  # fmt: skip
 
 
-def _tile_cost_packed(r: _RowPack, c: _ColPack) -> np.ndarray:
-    """Costs (n, m): four matrix products finished by one compiled pass."""
+def _tile_cost_packed(r: _RowPack, c: _ColPack, bufs: dict | None = None) -> np.ndarray:
+    """Costs (n, m): four matrix products finished by one compiled pass. With ``bufs`` (a
+    dict kept across tiles) the products and the result reuse its arrays (no fresh pages per
+    tile; the result is overwritten by the next call)."""
     n, m = r.u.shape[0], c.b3.shape[1] // 3
-    prod = r.u @ c.b3
+    dt = np.result_type(r.u, c.b3)
+
+    def buf(name: str, shape: tuple[int, int]) -> np.ndarray | None:
+        if bufs is None:
+            return None
+        a = bufs.get(name)
+        if a is None or a.shape != shape or a.dtype != dt:
+            a = bufs[name] = np.empty(shape, dtype=dt)
+        return a
+
+    prod = np.matmul(r.u, c.b3, out=buf("prod", (n, 3 * m)))
     has_s = r.ab is not None and c.beta is not None
-    pb = r.ab @ c.beta if has_s else np.zeros((1, 1), dtype=prod.dtype)
-    syy = r.y @ c.y
-    pd = r.d @ c.d
-    out = np.empty((n, m), dtype=prod.dtype)
+    pb = (
+        np.matmul(r.ab, c.beta, out=buf("pb", (r.ab.shape[0], m)))
+        if has_s
+        else np.zeros((1, 1), dtype=prod.dtype)
+    )
+    syy = np.matmul(r.y, c.y, out=buf("syy", (n, m)))
+    pd = np.matmul(r.d, c.d, out=buf("pd", (n, 2 * m)))
+    out = buf("out", (n, m))
+    if out is None:
+        out = np.empty((n, m), dtype=prod.dtype)
     _finish_kernel(prod, pb, syy, pd, r.rw, r.rx, r.rz, r.raa, c.cw, c.cx, c.cz, c.cbb, has_s, out)
     return out
 
@@ -598,24 +616,32 @@ def candidate_grid(db: CostDatabase, stride: int = 1) -> np.ndarray:
     return np.concatenate(out).astype(np.int64)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, parallel=True)
 def _local_minima_kernel(t, out):  # pragma: no cover - compiled
     n, m = t.shape
-    for i in range(1, n - 1):
+    for i in numba.prange(1, n - 1):
         for j in range(1, m - 1):
             v = t[i, j]
-            ok = v < np.inf
-            if ok:
-                for di in range(-1, 2):
-                    for dj in range(-1, 2):
-                        if (di != 0 or dj != 0) and not v <= t[i + di, j + dj]:
-                            ok = False
+            # most cells lose to a row neighbour: test those first and stop at the first loss
+            ok = (
+                v < np.inf
+                and v <= t[i, j - 1]
+                and v <= t[i, j + 1]
+                and v <= t[i - 1, j]
+                and v <= t[i + 1, j]
+                and v <= t[i - 1, j - 1]
+                and v <= t[i - 1, j + 1]
+                and v <= t[i + 1, j - 1]
+                and v <= t[i + 1, j + 1]
+            )
             out[i - 1, j - 1] = ok
 
 
-def _local_minima(t: np.ndarray) -> np.ndarray:
+def _local_minima(t: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """(n-2, m-2) bool: interior cells <= their 8 neighbours and finite (compiled)."""
-    out = np.empty((t.shape[0] - 2, t.shape[1] - 2), dtype=np.bool_)
+    shape = (t.shape[0] - 2, t.shape[1] - 2)
+    if out is None or out.shape != shape:
+        out = np.empty(shape, dtype=np.bool_)
     _local_minima_kernel(t, out)
     return out
 
@@ -823,6 +849,8 @@ def tiled_local_minima(
         db.starts, max(1, round(bucket_seconds * db.fps)), per_bucket, max_candidates
     )
     col_cache: dict[int, _ColPack] = {}
+    bufs: dict[str, np.ndarray] = {}
+    mins_buf: np.ndarray | None = None
     for ra in starts:
         rb = min(ra + tile, G - 1)
         rows = np.arange(ra - 1, rb + 1)
@@ -834,12 +862,13 @@ def tiled_local_minima(
             cols = np.arange(ca - 1, cb + 1)
             if ca not in col_cache:
                 col_cache[ca] = _col_pack(_side(db, idx[cols], dtype), Wk_s)
-            t = _tile_cost_packed(rpack, col_cache[ca])
+            t = _tile_cost_packed(rpack, col_cache[ca], bufs)
             t[sep[rows], :] = np.inf
             t[:, sep[cols]] = np.inf
             pairs += t.size
-            mins = _local_minima(t)
-            mi, mj = np.nonzero(mins)
+            mins = mins_buf = _local_minima(t, mins_buf)
+            flat = np.flatnonzero(mins)
+            mi, mj = np.divmod(flat, mins.shape[1])
             gi, gj = rows[mi + 1], cols[mj + 1]
             sel = gj > gi
             gi, gj = gi[sel], gj[sel]
