@@ -149,3 +149,33 @@ def test_bandai_fighting_dynamics_skates_least(shared_path) -> None:
     # heuristic (2.49 vs 2.46 cm on these takes; it led both when the root biased alignment).
     assert means["dynamics"] < means["uniform"]
     assert means["dynamics"] <= 1.03 * means["torso"], means
+
+
+def test_build_and_report_print_coverage_per_clip_and_warn(clip_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "few.json"
+    code, so, se = run("graph", "build", str(clip_dir), "--out", str(out), "--transitions", "2",
+                       "--quiet")  # fmt: skip
+    assert code == 0, so + se
+    data = json.loads(out.read_text())
+    lines = so.splitlines()
+    head = lines.index("coverage per clip (least covered first):")
+    per_clip = lines[head + 1 : head + 4]
+    # every clip named once, least covered first, with its share of frames in the component
+    assert sorted(Path(ln.split()[-1]).name for ln in per_clip) == sorted(
+        p.name for p in clip_dir.glob("*.bvh")
+    )
+    shares = [float(ln.split("%")[0]) for ln in per_clip]
+    assert shares == sorted(shares)
+    code, rep, rse = run("graph", "report", str(out))
+    assert code == 0
+    assert any("coverage per clip" in ln for ln in rep.splitlines())
+    js = json.loads(run("graph", "report", str(out), "--json")[1])
+    fractions = [c["fraction"] for c in js["coverage"]["clips"]]
+    assert sorted(fractions) == shares_to_fractions(shares)
+    assert js["coverage"]["fraction"] < 0.5  # two transitions cannot join three clips
+    assert "warning: only" in se and "warning: only" in rse
+    assert len(data["transitions"]) <= 2
+
+
+def shares_to_fractions(shares: list[float]) -> list[float]:
+    return pytest.approx(sorted(s / 100 for s in shares), abs=1e-3)

@@ -190,6 +190,11 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
         f"{g.num_transitions} transitions, {int(g.in_scc.sum())} in the largest strongly "
         f"connected component ({g.scc_frames()} frames)"
     )
+    cov = g.coverage()
+    click.echo(cov.summary())
+    click.echo("coverage per clip (least covered first):")
+    for line in cov.clip_lines():
+        click.echo(f"  {line}")
     for p in wrote:
         click.echo(f"wrote {p}")
 
@@ -269,7 +274,8 @@ def report(graph_file, as_json):
     from mocapkit.graph.graph import load_graph
 
     with naming(graph_file):
-        r = load_graph(graph_file).report(Path(graph_file).parent).to_json()
+        rep = load_graph(graph_file).report(Path(graph_file).parent)
+    r = rep.to_json()
     if as_json:
         echo_json(r)
         return
@@ -293,6 +299,13 @@ def report(graph_file, as_json):
             )
     elif "foot_skate_error" in r:
         click.echo(f"  foot skate: clips not readable ({r['foot_skate_error']})")
+    if rep.coverage:
+        click.echo(f"  {rep.coverage_summary()}")
+        click.echo("  coverage per clip (least covered first):")
+        for line in rep.coverage_lines():
+            click.echo(f"    {line}")
+        if rep.warning:
+            click.echo(f"mocapkit: warning: {rep.warning}", err=True)
 
 
 def graph_step(out: Path) -> None:

@@ -36,9 +36,12 @@ from mocapkit.graph.select import (
 from mocapkit.provenance import Provenance, Segment, TransitionTaken
 
 __all__ = [
+    "COVERAGE_WARNING",
     "FORMAT",
     "ClipInfo",
     "CostComparison",
+    "Coverage",
+    "CoverageWarning",
     "GraphReport",
     "MotionGraph",
     "Synthesis",
@@ -387,8 +390,12 @@ class MotionGraph:
 
 
 #: Below this fraction of the library's frames in the largest strongly connected component,
-#: :meth:`Coverage.warning` warns.
+#: :meth:`Coverage.warning` warns (and :func:`build_graph` issues a :class:`CoverageWarning`).
 COVERAGE_WARNING = 0.5
+
+
+class CoverageWarning(UserWarning):
+    """Most of the library is unreachable in the graph just built (:meth:`Coverage.warning`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -446,6 +453,20 @@ class Coverage:
             more = f" and {len(self.overlaps) - 3} more" if len(self.overlaps) > 3 else ""
             line += f"; duplicate takes: {pairs}{more}"
         return line
+
+    def clip_lines(self, most: int = 20) -> list[str]:
+        """Per clip, least covered first: its share of frames in the component (at most
+        ``most`` lines, then how many more; every clip is in :meth:`to_json`)."""
+        frac = self.in_scc / np.maximum(self.frames, 1)
+        order = np.lexsort((np.arange(len(frac)), frac))
+        lines = [
+            f"{100 * frac[c]:5.1f}%  {int(self.in_scc[c]):6d}/{int(self.frames[c]):<6d} "
+            f"{self.paths[c]}"
+            for c in order[:most]
+        ]
+        if len(order) > most:
+            lines.append(f"... {len(order) - most} more clips (graph report --json lists all)")
+        return lines
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Coverage:
@@ -512,6 +533,10 @@ class GraphReport:
         """The coverage line (:meth:`Coverage.summary`), or None."""
         return Coverage.from_json(self.coverage).summary() if self.coverage else None
 
+    def coverage_lines(self, most: int = 20) -> list[str]:
+        """Per clip, least covered first (:meth:`Coverage.clip_lines`); empty without coverage."""
+        return Coverage.from_json(self.coverage).clip_lines(most) if self.coverage else []
+
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
             "clips": self.clips,
@@ -575,7 +600,8 @@ def build_graph(
     ``threshold`` keep exactly the T cheapest, or those under the cost, instead. Duplicate or
     overlapping takes are found and reported in ``stats["overlaps"]``
     (:func:`mocapkit.graph.select.find_overlaps`); their zero-cost matches are never
-    transitions. :meth:`MotionGraph.coverage` says how much of each clip a walk can reach.
+    transitions. :meth:`MotionGraph.coverage` says how much of each clip a walk can reach; a
+    :class:`CoverageWarning` says when most of the library is unreachable, and what to do.
 
     Args:
         motions: clips with one skeleton and frame rate.
@@ -638,6 +664,11 @@ def build_graph(
             "overlaps": [o.to_json([c.path for c in clips]) for o in overlaps],
         },
     )  # fmt: skip
+    warning = g.coverage().warning()
+    if warning is not None:
+        import warnings
+
+        warnings.warn(warning, CoverageWarning, stacklevel=2)
     return g, db, minima
 
 
