@@ -1,4 +1,5 @@
-"""File formats: BVH, ASF/AMC (read) and mocapkit's .npz, behind one pair of entry points."""
+"""File formats: BVH, ASF/AMC (read), mocapkit's .npz and glTF 2.0 (.glb/.gltf), behind one pair
+of entry points."""
 
 from __future__ import annotations
 
@@ -17,15 +18,18 @@ __all__ = [
     "RepairWarning",
     "find_asf",
     "read_bvh",
+    "read_gltf",
     "read_motion",
     "read_npz",
     "write_bvh",
+    "write_gltf",
     "write_motion",
     "write_npz",
 ]
 
-READABLE = (".bvh", ".npz", ".amc")
-WRITABLE = (".bvh", ".npz")
+READABLE = (".bvh", ".npz", ".amc", ".glb", ".gltf")
+WRITABLE = (".bvh", ".npz", ".glb", ".gltf")
+GLTF = (".glb", ".gltf")
 
 
 def find_asf(amc: Path) -> Path:
@@ -49,9 +53,10 @@ def find_asf(amc: Path) -> Path:
 def read_motion(
     path: str | Path, lenient: bool = False, asf: str | Path | None = None, fps: float = 120.0
 ) -> Motion:
-    """Read a BVH, .npz or AMC (+ ASF) file by its extension.
+    """Read a BVH, .npz, AMC (+ ASF) or glTF (.glb/.gltf) file by its extension.
 
-    ``asf`` and ``fps`` apply to AMC files only (AMC stores no frame rate; CMU's is 120).
+    ``asf`` and ``fps`` apply to AMC files only (AMC stores no frame rate; CMU's is 120). A
+    glTF motion comes back in glTF's frame: metres, +Y up (:func:`mocapkit.io.gltf.read_gltf`).
     """
     path = Path(path)
     ext = path.suffix.lower()
@@ -63,11 +68,14 @@ def read_motion(
         from mocapkit.io.asfamc import read_asfamc
 
         return read_asfamc(Path(asf) if asf else find_asf(path), path, fps=fps)
+    if ext in GLTF:
+        return read_gltf(path)
     raise MocapFileError(path, None, f"unknown file type {ext!r}; expected one of {READABLE}")
 
 
 def write_motion(motion: Motion, path: str | Path, order: str | None = None) -> Path:
-    """Write a motion as BVH or .npz by the extension (atomically)."""
+    """Write a motion as BVH, .npz or glTF 2.0 (.glb/.gltf: metres, +Y up, see
+    :func:`mocapkit.io.gltf.write_gltf`) by the extension (atomically)."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext == ".bvh":
@@ -76,4 +84,24 @@ def write_motion(motion: Motion, path: str | Path, order: str | None = None) -> 
         if order is not None:
             motion = motion.with_skeleton(motion.skeleton.with_rotation_order(order))
         return write_npz(motion, path)
+    if ext in GLTF:
+        if order is not None:
+            motion = motion.with_skeleton(motion.skeleton.with_rotation_order(order))
+        return write_gltf(motion, path)
     raise ValueError(f"cannot write {path}: unknown file type {ext!r}; expected one of {WRITABLE}")
+
+
+def read_gltf(path: str | Path, animation: int = 0) -> Motion:
+    """:func:`mocapkit.io.gltf.read_gltf` (imported on first use: it needs pygltflib)."""
+    from mocapkit.io.gltf import read_gltf as _read
+
+    return _read(path, animation)
+
+
+def write_gltf(
+    motion: Motion, path: str | Path, up: str | None = None, metres_per_unit: float | None = None
+) -> Path:
+    """:func:`mocapkit.io.gltf.write_gltf` (imported on first use: it needs pygltflib)."""
+    from mocapkit.io.gltf import write_gltf as _write
+
+    return _write(motion, path, up, metres_per_unit)
