@@ -9,6 +9,7 @@ register themselves on :data:`main` when imported below.
 from mocapkit.cli import (  # noqa: F401
     clean_commands,
     demo,
+    edit_commands,
     graph_commands,
     io_commands,
     stitch_commands,

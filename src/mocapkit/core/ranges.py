@@ -1,0 +1,146 @@
+"""One syntax for frame ranges and frame positions, shared by every ``mocapkit`` option.
+
+* ``A:B`` -- 0-based frames A..B-1 (B excluded, like a Python slice); ``A:`` runs to the end,
+  ``:B`` from the start, ``:`` is the whole take.
+* ``1.5s:4.0s`` -- the same in seconds; each end becomes the frame nearest to ``t * fps``
+  (frame k lies at ``k * frame_time``), so ``0s:2s`` at 30 fps is ``0:60``. Ends may mix units
+  (``30:2.5s``).
+* A single position, where an option takes one (``--takeoff 60``, ``--takeoff 2.0s``), is the
+  one-frame range ``A:A+1``.
+
+Negative frames are refused rather than read Python-style from the end: a take's length is not
+always known to the person typing, and a silent wrap would cut the wrong frames.
+
+Errors are :class:`RangeError` (a ValueError) with a one-line message that names the option and
+what was expected, so the CLI prints it as is.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+__all__ = ["RangeError", "RangeSpec", "parse_frame", "parse_range"]
+
+_END = re.compile(r"^\s*(?:(?P<frame>\d+)|(?P<sec>\d+(?:\.\d*)?|\.\d+)\s*s)\s*$", re.IGNORECASE)
+_SYNTAX = "A:B (0-based frames, B excluded), A:, :B, or seconds such as 1.5s:4.0s"
+_SYNTAX_ONE = "a frame (60) or a time (2.0s)"
+
+
+class RangeError(ValueError):
+    """A range or frame that cannot be read or does not fit the take (one line)."""
+
+
+@dataclass(frozen=True)
+class _End:
+    value: float
+    seconds: bool
+
+    def frame(self, fps: float) -> int:
+        if not self.seconds:
+            return int(self.value)
+        x = self.value * fps
+        # A time meant to sit on a frame (2.0 s at 29.97 fps) may miss it by rounding: snap.
+        return math.floor(x + 0.5 + 1e-9)
+
+    def __str__(self) -> str:
+        return f"{self.value:g}s" if self.seconds else str(int(self.value))
+
+
+def _parse_end(text: str) -> _End | None:
+    m = _END.match(text)
+    if m is None:
+        return None
+    if m.group("frame") is not None:
+        return _End(float(int(m.group("frame"))), False)
+    return _End(float(m.group("sec")), True)
+
+
+@dataclass(frozen=True)
+class RangeSpec:
+    """A parsed range, not yet tied to a take: ``start``/``stop`` None for an open end.
+
+    Build it with :meth:`parse` (syntax only, e.g. before any file is read), then turn it into
+    frames with :meth:`frames` once the take's frame rate and length are known.
+    """
+
+    text: str
+    start: _End | None
+    stop: _End | None
+    single: bool
+    option: str
+
+    @classmethod
+    def parse(cls, text: str, option: str = "range", single: bool = False) -> RangeSpec:
+        """Read ``text``; with ``single=True`` a lone position (``60``, ``2.0s``) is accepted too
+        and means that one frame. ``option`` names the option in error messages."""
+        if not isinstance(text, str):
+            raise RangeError(f"{option}: expected {_SYNTAX}, got {text!r}")
+        s = text.strip()
+        want = f"{_SYNTAX_ONE} or a range {_SYNTAX}" if single else _SYNTAX
+        if ":" not in s:
+            end = _parse_end(s) if single else None
+            if end is None:
+                raise RangeError(f"{option}: expected {want}, got {text!r}")
+            return cls(text, end, None, True, option)
+        if s.count(":") != 1:
+            raise RangeError(f"{option}: expected {want}, got {text!r}")
+        lo_t, hi_t = s.split(":")
+        lo = _parse_end(lo_t) if lo_t.strip() else None
+        hi = _parse_end(hi_t) if hi_t.strip() else None
+        if (lo_t.strip() and lo is None) or (hi_t.strip() and hi is None):
+            raise RangeError(f"{option}: expected {want}, got {text!r}")
+        return cls(text, lo, hi, False, option)
+
+    def frames(self, fps: float, num_frames: int | None = None) -> tuple[int, int]:
+        """``(start, stop)`` frames, stop excluded, for a take at ``fps`` of ``num_frames``
+        frames (None: no upper bound is checked, for options whose takes are checked later).
+
+        Refused: a reversed or empty range, and ends past the take."""
+        lo = 0 if self.start is None else self.start.frame(fps)
+        if self.single:
+            hi = lo + 1
+        elif self.stop is None:
+            if num_frames is None:
+                raise RangeError(f"{self.option} {self.text}: an open end needs the take's length")
+            hi = num_frames
+        else:
+            hi = self.stop.frame(fps)
+        where = f"{self.option} {self.text.strip()}"
+        if hi < lo:
+            raise RangeError(f"{where}: reversed range (frames {lo}:{hi}); expected A:B with A < B")
+        if hi == lo:
+            raise RangeError(f"{where}: empty range (frames {lo}:{hi}); expected A:B with A < B")
+        if num_frames is not None and (hi > num_frames or lo >= num_frames):
+            what = f"frame {lo}" if self.single else f"frames {lo}:{hi}"
+            raise RangeError(
+                f"{where}: {what} past the end of the take ({num_frames} frames, "
+                f"{num_frames / fps:.6g} s at {fps:.6g} fps; expected within 0:{num_frames})"
+            )
+        return lo, hi
+
+    @property
+    def in_seconds(self) -> bool:
+        """Whether an end is given in seconds."""
+        return any(e is not None and e.seconds for e in (self.start, self.stop))
+
+
+def parse_range(
+    text: str,
+    fps: float,
+    num_frames: int | None,
+    option: str = "range",
+    single: bool = False,
+) -> tuple[int, int]:
+    """``parse_range("1.5s:4.0s", 30, 300) == (45, 120)``: frames ``start..stop-1`` of a take
+    at ``fps`` with ``num_frames`` frames (see the module notes; :class:`RangeError` otherwise)."""
+    return RangeSpec.parse(text, option, single).frames(fps, num_frames)
+
+
+def parse_frame(text: str, fps: float, num_frames: int | None, option: str = "frame") -> int:
+    """One frame from ``60`` or ``2.0s`` (:class:`RangeError` for anything else)."""
+    spec = RangeSpec.parse(text, option, single=True)
+    if not spec.single:
+        raise RangeError(f"{option}: expected {_SYNTAX_ONE}, got {text!r}")
+    return spec.frames(fps, num_frames)[0]

@@ -1,0 +1,253 @@
+"""Mirror a take left/right.
+
+The world is reflected across the **world mirror** ``M_w``: the vertical plane through the
+origin spanned by the up axis (the body model's, measured on the poses) and the ground frame's
+forward axis (:func:`mocapkit.features.ground_frame`): X -> -X for a Y-up take, Y -> -Y for a
+Z-up one. Each joint ``j`` and its counterpart ``s(j)`` (:func:`mirror_pairs`) trade places, so
+that, exactly, ``P'[s(j)] = M_w P[j]`` for every joint position and End Site.
+
+Rigs do not agree on how a right joint's local axes relate to its left twin's (CMU and Mixamo
+mirror them across one plane; Bandai's bones run along +X on the left and -X on the right), so
+each joint gets its own mirror ``B[j]``, an improper orthogonal matrix (det -1) that takes its
+twin's rest offsets to its own: ``B[j] o[s(c)] ~ o[c]`` for its children and End Sites ``c``,
+solved by orthogonal Procrustes, leaning on the parent's ``B`` where the offsets leave a twist
+open (a chain with one child) and on ``M_w`` at the root; ``B[s(j)] = B[j]^T`` (so mirroring
+twice gives the take back) and ``B[j]^2 = I`` for a centre joint. With global rotations
+``G'[s(j)] = M_w G[j] B[j]`` the local rotations follow as
+``L'[s(j)] = B[p]^T L[j] B[j]`` (``L'[0] = M_w L[0] B[0]`` at the root), and local
+translations as ``t'[s(j)] = B[p]^T t[j]``. Since FK multiplies exactly these along each chain,
+``P'[s(j)] = M_w P[j]`` holds on any rig. The offsets are set to ``B[p]^T o[j]`` too: on a
+symmetric rig that is the skeleton it had, and on one whose left and right bones differ (CMU
+subjects) the bone lengths trade sides (:attr:`Mirrored.offset_change` says by how much).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocapkit.body import Body, body_of, split_name
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+from mocapkit.core.skeleton import Skeleton
+from mocapkit.features import ground_frame
+
+__all__ = ["Mirrored", "joint_mirrors", "mirror", "mirror_pairs"]
+
+
+def mirror_pairs(skeleton: Skeleton, body: Body | None = None) -> np.ndarray:
+    """(J,) the counterpart of each joint: its mirror twin on the other side, or itself for a
+    centre joint. An involution that respects the tree (the twin's parent is the parent's twin).
+
+    Names first: a joint whose name states a side (:func:`mocapkit.body.split_name`) pairs with
+    the one joint of the other side with the same side-less name (``LeftHandIndex1`` with
+    ``RightHandIndex1``, ``lfemur`` with ``rfemur``). Then structure, for the joints of the body
+    model's left and right limbs (:meth:`mocapkit.body.Body.side_of`) that names left unpaired:
+    the two limbs are walked in parallel from their tops, children matched in joint order
+    (same number of children required). Refused (ValueError naming a joint): a sided joint
+    without a counterpart, or pairs that do not form mirror-image trees.
+    """
+    body = body_of(skeleton) if body is None else body
+    J = skeleton.num_joints
+    twin = np.arange(J)
+    paired = np.zeros(J, dtype=bool)
+    split = [split_name(n) for n in skeleton.names]
+    groups: dict[str, dict[str, list[int]]] = defaultdict(lambda: {"left": [], "right": []})
+    for j, (side, base) in enumerate(split):
+        if side:
+            groups[base][side].append(j)
+    for g in groups.values():
+        if len(g["left"]) == 1 and len(g["right"]) == 1:
+            a, b = g["left"][0], g["right"][0]
+            twin[a], twin[b] = b, a
+            paired[a] = paired[b] = True
+
+    # Structure: match the left and right limbs' subtrees where names did not.
+    sides = [body.side_of(j) for j in range(J)]
+    for name in ("hip", "clavicle", "shoulder"):
+        pr = body.pair(name)
+        if pr is None:
+            continue
+        tops = [_limb_top(skeleton, j, sides) for j in pr]
+        _pair_subtrees(skeleton, tops[0], tops[1], twin, paired)
+
+    for j in range(J):
+        if not paired[j] and sides[j] == "unknown" and not split[j][0]:
+            raise ValueError(
+                f"mirror: cannot tell left from right on this rig (joint {skeleton.names[j]!r}: "
+                "its name states no side and the poses tell no forward direction)"
+            )
+        if not paired[j] and (split[j][0] or sides[j] in ("left", "right")):
+            raise ValueError(
+                f"mirror: joint {skeleton.names[j]!r} is on one side but has no counterpart "
+                "on the other (by name or by the limb's structure)"
+            )
+    for j in range(1, J):
+        t, p = int(twin[j]), int(skeleton.parents[j])
+        if twin[t] != j or skeleton.parents[t] != twin[p]:
+            raise ValueError(
+                f"mirror: {skeleton.names[j]!r} and {skeleton.names[t]!r} pair by name, but their "
+                "parents are not each other's counterparts (the two sides are not mirror images)"
+            )
+    return twin
+
+
+def _limb_top(sk: Skeleton, j: int, sides: list[str]) -> int:
+    """The first joint of ``j``'s side branch (its highest ancestor of the same side)."""
+    top = j
+    for a in sk.ancestors(j):
+        if sides[a] != sides[j]:
+            break
+        top = a
+    return top
+
+
+def _pair_subtrees(sk: Skeleton, a: int, b: int, twin: np.ndarray, paired: np.ndarray) -> None:
+    """Pair ``a`` with ``b`` and their subtrees child by child, where names did not."""
+    stack = [(a, b)]
+    while stack:
+        x, y = stack.pop()
+        if paired[x] or paired[y]:
+            if twin[x] != y:  # names paired them otherwise: names win
+                continue
+        else:
+            twin[x], twin[y] = y, x
+            paired[x] = paired[y] = True
+        cx, cy = sk.children(x), sk.children(y)
+        if len(cx) == len(cy):
+            stack.extend(zip(cx, cy, strict=True))
+
+
+def _improper_fit(h: np.ndarray, symmetric: bool) -> np.ndarray:
+    """The orthogonal matrix ``B`` with det -1 that maximises ``tr(B^T h)`` (orthogonal
+    Procrustes with a reflection). With ``symmetric`` (``h`` symmetric, a centre joint) the
+    answer is taken from the eigenvectors, so that it is symmetric and ``B^2 = I``."""
+    if symmetric:
+        lam, q = np.linalg.eigh(0.5 * (h + h.T))
+        s = np.where(lam >= 0, 1.0, -1.0)
+        if np.prod(s) > 0:
+            s[int(np.argmin(np.abs(lam)))] *= -1.0
+        return (q * s) @ q.T
+    u, _, vt = np.linalg.svd(h)
+    d = np.ones(3)
+    d[2] = -1.0 if np.linalg.det(u @ vt) > 0 else 1.0
+    return (u * d) @ vt
+
+
+def joint_mirrors(sk: Skeleton, twin: np.ndarray, world: np.ndarray) -> np.ndarray:
+    """(J, 3, 3) the per-joint mirrors ``B`` (see the module notes), ``world`` = ``M_w``."""
+    J = sk.num_joints
+    B = np.zeros((J, 3, 3))
+    scale = max(float(np.sum(sk.offsets**2)) + float(np.sum(sk.end_site_offsets**2)), 1e-12)
+    lam = 1e-6 * scale / max(J, 1)  # only breaks ties the offsets leave open
+    es_of = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
+    for j in range(J):
+        t = int(twin[j])
+        if t < j:
+            B[j] = B[t].T
+            continue
+        p = int(sk.parents[j])
+        prior = world if p < 0 else B[p]
+        if not sk.has_rotation[j] or not sk.has_rotation[t]:
+            # a joint that cannot rotate needs L' = B[p]^T I B[j] = I
+            B[j] = prior if p >= 0 else world
+            if t != j:
+                B[t] = B[j].T
+            continue
+        h = lam * prior
+        for c in sk.children(j):
+            h = h + np.outer(sk.offsets[c], sk.offsets[int(twin[c])])
+        mine, theirs = es_of[j], es_of[t]
+        if len(mine) == len(theirs):
+            for e, f in zip(mine, theirs, strict=True):
+                h = h + np.outer(sk.end_site_offsets[e], sk.end_site_offsets[f])
+        B[j] = _improper_fit(h, symmetric=t == j)
+        if t != j:
+            B[t] = B[j].T
+    return B
+
+
+@dataclass(frozen=True, eq=False)
+class Mirrored:
+    """What :func:`mirror` did.
+
+    Attributes:
+        motion: the mirrored motion.
+        twins: (J,) each joint's counterpart (:func:`mirror_pairs`).
+        world_normal: (3,) normal of the world mirror plane ``M_w``.
+        joint_mirrors: (J, 3, 3) the per-joint mirrors ``B``.
+        offset_change: largest change of a joint offset (file units): 0 on a symmetric rig.
+    """
+
+    motion: Motion
+    twins: np.ndarray
+    world_normal: np.ndarray
+    joint_mirrors: np.ndarray
+    offset_change: float
+
+    def to_json(self) -> dict[str, object]:
+        names = self.motion.skeleton.names
+        return {
+            "pairs": [[names[j], names[int(t)]] for j, t in enumerate(self.twins) if t > j],
+            "world_normal": [float(x) for x in self.world_normal],
+            "offset_change": self.offset_change,
+        }
+
+
+def mirror(motion: Motion, up: str | None = None) -> Mirrored:
+    """The take mirrored left/right (see the module notes for the plane and the formulas).
+
+    ``up`` overrides the body model's up axis. Mirroring twice gives the take back.
+    """
+    sk = motion.skeleton
+    body = body_of(motion)
+    twin = mirror_pairs(sk, body)
+    side, _, _ = ground_frame(up or body.up)
+    n_w = np.abs(side)  # the sign of a normal does not matter
+    M_w = np.eye(3) - 2.0 * np.outer(n_w, n_w)
+    B = joint_mirrors(sk, twin, M_w)
+    # -B is a proper rotation (det(-B) = -det B = 1 in 3-D), and B^T R B' = (-B)^T R (-B').
+    qb = rot.matrix_to_quat(-B)
+    parents = sk.parents
+    src = motion.rotations[:, twin]  # L[j] feeding joint s(j): row k holds L[s(k)]
+    # Joint k = s(j) gets B[p]^T L[j] B[j] with p = parent(j); s(parent(j)) = parent(k).
+    pj = parents[twin]
+    q_left = np.where((pj >= 0)[:, None], rot.quat_conj(qb[np.maximum(pj, 0)]), 0.0)
+    rots = rot.quat_mul(rot.quat_mul(q_left, src), qb[twin])
+    # Root: M_w L B[0] = (-M_w) L (-B[0]), -M_w being the half turn about n_w.
+    half_turn = np.array([0.0, *n_w])
+    rots[:, 0] = rot.quat_mul(rot.quat_mul(half_turn, motion.rotations[:, 0]), qb[0])
+    rots = rot.quat_normalize(rots)
+    root = motion.root_positions @ M_w.T
+    # t'[s(j)] = B[p]^T t[j]: row k = s(j) takes t[j] @ B[p] (row vectors).
+    Bp = B[np.maximum(pj, 0)]
+    offsets = np.einsum("ki,kij->kj", sk.offsets[twin], Bp)
+    offsets[0] = M_w @ sk.offsets[0]
+    translations = None
+    if motion.translations is not None:
+        translations = np.einsum("fki,kij->fkj", motion.translations[:, twin], Bp)
+        translations[:, 0] = root
+    es_off = sk.end_site_offsets.copy()
+    for j in range(sk.num_joints):
+        mine = np.flatnonzero(sk.end_site_parents == j)
+        theirs = np.flatnonzero(sk.end_site_parents == twin[j])
+        src_es = theirs if len(mine) == len(theirs) else mine
+        # End Site of s(j) = k-th of joint j mirrored: B[j]^T o, with B[twin]^T = B[j] here.
+        es_off[mine] = sk.end_site_offsets[src_es] @ B[int(twin[j])]
+    new_sk = Skeleton(
+        sk.names,
+        sk.parents,
+        offsets,
+        sk.channels,
+        sk.end_site_parents,
+        es_off,
+        sk.end_site_names,
+        sk.metres_per_unit,
+    )
+    diffs = [np.abs(offsets - sk.offsets).max(initial=0.0)]
+    if len(es_off):
+        diffs.append(np.abs(es_off - sk.end_site_offsets).max(initial=0.0))
+    out = Motion(new_sk, rots, root, motion.frame_time, translations)
+    return Mirrored(out, twin, n_w, B, float(max(diffs)))

@@ -1,0 +1,68 @@
+"""Edits in time: trim a take to a range, change its speed.
+
+Both keep the frame time exactly as read (never rebuilt from a rounded fps), so a trimmed or
+sped-up take writes back with the same ``Frame Time:`` line as its source.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mocapkit.core.motion import Motion
+from mocapkit.features import resample
+
+__all__ = ["change_speed", "trim", "trim_frames"]
+
+
+def trim_frames(motion: Motion, start: int, stop: int | None = None) -> Motion:
+    """Frames ``start..stop-1`` (0-based, ``stop`` excluded; None: to the end) as a new motion.
+
+    Refused (ValueError): negative or reversed bounds, an empty result, ends past the take.
+    """
+    F = motion.num_frames
+    stop = F if stop is None else int(stop)
+    start = int(start)
+    if start < 0 or stop < 0:
+        raise ValueError(f"trim: frames count from 0, got {start}:{stop}")
+    if stop <= start:
+        raise ValueError(f"trim: empty or reversed range {start}:{stop}; expected start < stop")
+    if stop > F:
+        raise ValueError(f"trim: frames {start}:{stop} past the end of the take ({F} frames)")
+    return motion[start:stop]
+
+
+def trim(motion: Motion, start_s: float = 0.0, stop_s: float | None = None) -> Motion:
+    """The frames whose times lie in ``[start_s, stop_s)`` seconds (frame k at ``k *
+    frame_time``; each bound becomes the nearest frame, as in :mod:`mocapkit.core.ranges`)."""
+    ft = motion.frame_time
+    a = math.floor(start_s / ft + 0.5 + 1e-9)
+    b = None if stop_s is None else math.floor(stop_s / ft + 0.5 + 1e-9)
+    return trim_frames(motion, a, b)
+
+
+def change_speed(motion: Motion, factor: float) -> Motion:
+    """The take played ``factor`` times faster (2.0: half the duration), at its own frame rate.
+
+    The source is read as if its frame time were ``frame_time / factor`` and resampled back to
+    the original rate with :func:`mocapkit.features.resample` (rotations slerped on
+    hemisphere-continuous tracks, translations linear), so the result has
+    ``max(1, round(num_frames / factor))`` frames and the path is the same, only traversed at
+    another pace. The frame time of the result is the source's, bit for bit.
+    """
+    factor = float(factor)
+    if not (math.isfinite(factor) and factor > 0):
+        raise ValueError(f"speed factor must be a positive number, got {factor!r}")
+    if factor == 1.0 or motion.num_frames == 0:
+        return motion.copy()
+    ft = motion.frame_time
+    fast = Motion(
+        motion.skeleton, motion.rotations, motion.root_positions, ft / factor, motion.translations
+    )
+    out = resample(fast, 1.0 / ft)
+    # resample sets 1 / (1 / ft), which may differ from ft in the last bit: keep the source's.
+    return Motion(out.skeleton, out.rotations, out.root_positions, ft, out.translations)
+
+
+def _frames_after_speed(num_frames: int, factor: float) -> int:
+    """How many frames :func:`change_speed` returns (for summaries and tests)."""
+    return max(1, math.floor(num_frames / factor + 0.5 + 1e-9))
