@@ -12,6 +12,7 @@ from mocapkit.cli import (  # noqa: F401
     edit_commands,
     graph_commands,
     io_commands,
+    retarget_commands,
     stitch_commands,
     view_commands,
 )
