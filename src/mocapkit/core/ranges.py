@@ -103,21 +103,24 @@ class RangeSpec:
             hi = lo + 1
         elif self.stop is None:
             if num_frames is None:
-                raise RangeError(f"{self.option} {self.text}: an open end needs the take's length")
+                raise RangeError(
+                    f"{self.option} {self.text!r}: an open end needs the take's length"
+                )
             hi = num_frames
         else:
             hi = self.stop.frame(fps)
-        where = f"{self.option} {self.text.strip()}"
-        if hi < lo:
-            raise RangeError(f"{where}: reversed range (frames {lo}:{hi}); expected A:B with A < B")
-        if hi == lo:
-            raise RangeError(f"{where}: empty range (frames {lo}:{hi}); expected A:B with A < B")
-        if num_frames is not None and (hi > num_frames or lo >= num_frames):
+        where = f"{self.option} {self.text.strip()!r}"
+        # a start past the end says more than "reversed" (300: on a 300-frame take)
+        if num_frames is not None and (lo >= num_frames or (lo < hi and hi > num_frames)):
             what = f"frame {lo}" if self.single else f"frames {lo}:{hi}"
             raise RangeError(
                 f"{where}: {what} past the end of the take ({num_frames} frames, "
                 f"{num_frames / fps:.6g} s at {fps:.6g} fps; expected within 0:{num_frames})"
             )
+        if hi < lo:
+            raise RangeError(f"{where}: reversed range (frames {lo}:{hi}); expected A:B with A < B")
+        if hi == lo:
+            raise RangeError(f"{where}: empty range (frames {lo}:{hi}); expected A:B with A < B")
         return lo, hi
 
     @property
