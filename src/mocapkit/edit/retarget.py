@@ -259,6 +259,8 @@ def _auto_map(
             a, b = segS[i], segS[i + 1]
             if w > 1 - 1e-9:
                 a, w = b, 0.0
+            if j == segT[0]:  # the anchor itself (not a zero-length joint beside it)
+                a, b, w = segS[0], segS[0], 0.0
             entries[j] = _Entry(a, b, w, k0 if j == segT[0] else "spine")
             centre.append(j)
     last = anchors[-1]

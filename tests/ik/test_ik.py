@@ -1,0 +1,152 @@
+"""The IK module: the fast solver against the readable reference, and foot locking."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from testsupport import load_sibling
+
+from mocapkit.body import body_of
+from mocapkit.core.kinematics import forward_kinematics
+from mocapkit.datasets import procedural_motion
+from mocapkit.ik import (
+    FootLockConfig,
+    IKConfig,
+    _prepare,
+    _solve_frames,
+    flexion_angles,
+    leg_chains,
+    lock_feet,
+    lock_targets,
+    solve,
+)
+
+naive = load_sibling(__file__, "naive")
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return procedural_motion("walk", seconds=2.0, fps=30.0, seed=1).motion
+
+
+def _run_both(m, chains, targets, iters=6):
+    sk = m.skeleton
+    lt = m.local_translations()
+    plan = _prepare(chains, sk.parents)
+    pos, grot = forward_kinematics(m)
+    minf = []
+    for c in chains:
+        for h, ax in zip(c.hinges, c.hinge_axes, strict=True):
+            k = c.joints.index(h)
+            child = c.joints[k + 1]
+            minf.append(np.minimum(flexion_angles(pos, grot, c.joints[k - 1], h, child, ax), 0))
+    fast, res, _ = _solve_frames(
+        sk.parents, m.rotations, lt, plan, targets, minf, 0.01, 1e-6, 20.0, iters
+    )
+    ref = [
+        naive.solve_frame(
+            sk.parents,
+            m.rotations[f],
+            lt[f],
+            [
+                (c.joints, c.effectors, dict(zip(c.hinges, c.hinge_axes, strict=True)))
+                for c in chains
+            ],
+            targets[f],
+            [mf[f] for mf in minf],
+            0.01,
+            1e-6,
+            20.0,
+            iters,
+        )
+        for f in range(m.num_frames)
+    ]
+    return fast, res, np.stack([r[0] for r in ref]), np.stack([r[1] for r in ref])
+
+
+@settings(max_examples=15, deadline=None)
+@given(shift=st.tuples(*[st.floats(-0.15, 0.15)] * 3), seed=st.integers(0, 3))
+def test_fast_solver_matches_naive(walk, shift, seed):
+    m = walk[seed * 10 : seed * 10 + 8]
+    chains = leg_chains(m)
+    pos, _ = forward_kinematics(m)
+    effs = [e for c in chains for e in c.effectors]
+    targets = pos[:, effs] + np.asarray(shift)
+    fast, res, ref, ref_res = _run_both(m, chains, targets)
+    # same rotations up to sign
+    d = np.abs(np.einsum("fjk,fjk->fj", fast, ref))
+    assert np.allclose(d, 1.0, atol=1e-9)
+    assert np.allclose(res, ref_res, atol=1e-9)
+
+
+def test_solve_reaches_targets_and_keeps_knees(walk):
+    m = walk
+    body = body_of(m)
+    chains = leg_chains(m, body)
+    pos, _ = forward_kinematics(m)
+    effs = [e for c in chains for e in c.effectors]
+    # ankles and toes pulled 3 cm back and 2 cm up: reachable
+    targets = pos[:, effs] + np.array([0.0, 0.02, -0.03])
+    r = solve(m, chains, targets, config=IKConfig())
+    assert r.residual.max() < 2e-3  # metres (procedural rig is in metres)
+    p2, g2 = forward_kinematics(r.motion)
+    for c in chains:
+        f = flexion_angles(p2, g2, *c.joints, c.hinge_axes[0])
+        assert f.min() > -math.radians(1.0)
+    # only the chain joints changed
+    others = sorted(set(range(m.num_joints)) - {j for c in chains for j in c.joints})
+    assert np.array_equal(r.motion.rotations[:, others], m.rotations[:, others])
+
+
+def test_zero_weights_change_nothing(walk):
+    chains = leg_chains(walk)
+    pos, _ = forward_kinematics(walk)
+    effs = [e for c in chains for e in c.effectors]
+    w = np.zeros((walk.num_frames, len(effs)))
+    w[10:15, 0] = 1.0
+    r = solve(walk, chains, pos[:, effs] + 0.05, w)
+    keep = np.ones(walk.num_frames, dtype=bool)
+    keep[10:15] = False
+    assert np.array_equal(r.motion.rotations[keep], walk.rotations[keep])
+    assert not np.array_equal(r.motion.rotations[10:15], walk.rotations[10:15])
+
+
+def test_lock_targets_blend_is_smooth():
+    F = 40
+    pos = np.zeros((F, 1, 3))
+    pos[:, 0, 0] = np.linspace(0, 1, F)
+    flags = np.zeros((F, 1), dtype=bool)
+    flags[15:25] = True
+    t, w = lock_targets(pos, flags, 4, "mean")
+    assert np.all(w[15:25] == 1) and np.all(w[:11] == 0) and np.all(w[30:] == 0)
+    assert np.all(np.diff(w[10:16, 0]) > 0) and np.all(np.diff(w[24:30, 0]) < 0)
+    assert np.allclose(t[15:25, 0], pos[15:25, 0].mean(axis=0))
+
+
+def test_lock_feet_holds_planted_feet(shared_path):
+    from mocapkit.io import read_motion
+
+    m = read_motion(shared_path("bandai1/data") / "dataset-1_walk_normal_001.bvh")
+    cfg = FootLockConfig(blend=0.15)
+    fl = lock_feet(m, config=cfg)
+    pos0, _ = forward_kinematics(m)
+    pos, _ = forward_kinematics(fl.motion)
+    e = list(fl.effectors)
+    full = fl.weights == 1
+    up = np.array([0.0, 1.0, 0.0])
+
+    def horiz(d):
+        return np.linalg.norm(d - (d @ up)[..., None] * up, axis=-1)
+
+    before = horiz(pos0[:, e] - fl.targets)[full]
+    after = horiz(pos[:, e] - fl.targets)[full]
+    assert after.mean() < 0.5 * before.mean()
+    assert after.mean() < 0.3  # cm (Bandai units): planted feet held
+    assert after.max() < 1.5
+    # nothing changes outside contacts and their blend
+    outside = (fl.weights == 0).all(axis=1)
+    assert np.array_equal(fl.motion.rotations[outside], m.rotations[outside])
