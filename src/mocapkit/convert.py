@@ -1,17 +1,31 @@
 """What ``mocapkit convert`` does: read, resample and/or scale, rewrite the rotation order,
 write (:func:`convert_file`); :func:`convert_motion` is the in-memory step between read and
-write."""
+write; :func:`convert_many` converts a list of files into a folder, going on past bad ones."""
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from mocapkit.core.motion import Motion
 
-__all__ = ["Converted", "convert_file", "convert_motion", "units_scale"]
+__all__ = [
+    "FOLDER_FORMATS",
+    "Converted",
+    "ConvertedMany",
+    "ItemResult",
+    "convert_file",
+    "convert_many",
+    "convert_motion",
+    "output_path",
+    "units_scale",
+]
+
+FOLDER_FORMATS = ("bvh", "npz", "glb", "gltf")
+"""What :func:`convert_many` writes (``--to``)."""
 
 
 def convert_motion(motion: Motion, fps: float | None = None, scale: float | None = None) -> Motion:
@@ -98,3 +112,112 @@ def convert_file(
             )
     motion = convert_motion(motion, fps=fps, scale=scale)
     return Converted(write_motion(motion, output, order=order), motion)
+
+
+@dataclass(frozen=True)
+class ItemResult:
+    """One input of :func:`convert_many`: what was written, or why not (one line naming the
+    input file)."""
+
+    source: Path
+    output: Path | None
+    frames: int | None = None
+    fps: float | None = None
+    error: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"source": str(self.source)}
+        if self.error is None:
+            out.update(output=str(self.output), frames=self.frames, fps=self.fps)
+        else:
+            out["error"] = self.error
+        return out
+
+
+@dataclass(frozen=True)
+class ConvertedMany:
+    """Every input of :func:`convert_many`, in order."""
+
+    items: tuple[ItemResult, ...]
+
+    @property
+    def failed(self) -> list[ItemResult]:
+        return [i for i in self.items if not i.ok]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "converted": len(self.items) - len(self.failed),
+            "failed": len(self.failed),
+            "items": [i.to_json() for i in self.items],
+        }
+
+
+def output_path(source: str | Path, out_dir: str | Path, to: str) -> Path:
+    """Where :func:`convert_many` writes ``source``: ``out_dir/<its stem>.<to>``."""
+    to = to.lower().lstrip(".")
+    if to not in FOLDER_FORMATS:
+        raise ValueError(f"cannot convert to {to!r}; expected one of {', '.join(FOLDER_FORMATS)}")
+    return Path(out_dir) / f"{Path(source).stem}.{to}"
+
+
+def _error_line(source: Path, e: BaseException) -> str:
+    """One line naming ``source`` and what went wrong (the message as it is when it names a
+    path already, as file readers' and output-path errors do)."""
+    from mocapkit.io.atomic import OutputPathError
+
+    if isinstance(e, OutputPathError):
+        msg = str(e)
+    elif isinstance(e, OSError):
+        where = e.filename if e.filename is not None else source
+        msg = f"{where}: {e.strerror or e}"
+    else:
+        msg = str(e.args[0]) if isinstance(e, KeyError) and e.args else str(e)
+    msg = " ".join(msg.split())
+    return msg if str(source) in msg else f"{source}: {msg}"
+
+
+def convert_many(
+    sources: Sequence[str | Path],
+    out_dir: str | Path,
+    to: str,
+    *,
+    on_item: Callable[[ItemResult], None] | None = None,
+    **options: Any,
+) -> ConvertedMany:
+    """Convert every file of ``sources`` into ``out_dir`` as ``<stem>.<to>`` (``to``: one of
+    :data:`FOLDER_FORMATS`) with :func:`convert_file` and ``options`` (``fps``, ``scale``,
+    ``units``, ``order``, ``amc_fps``, ``lenient``; an AMC's ASF is the one beside it).
+
+    A file that cannot be converted (unreadable, or its output name taken by an earlier input
+    or by one of the inputs) is recorded with one error line and the others go on; each output
+    is written atomically on its own. ``on_item`` is called with each result as it is done.
+    """
+    from mocapkit.io import MocapFileError
+    from mocapkit.io.atomic import refuse_overwrite
+
+    srcs = [Path(s) for s in sources]
+    written: dict[Path, Path] = {}
+    items: list[ItemResult] = []
+    for src in srcs:
+        out = output_path(src, out_dir, to)
+        try:
+            key = out.resolve()
+            if key in written:
+                raise ValueError(
+                    f"{src}: its output {out} is already written from {written[key]}; "
+                    "rename one of them"
+                )
+            refuse_overwrite(out, srcs)  # never over any input, not only this one
+            res = convert_file(src, out, **options)
+            written[key] = src
+            item = ItemResult(src, res.output, res.motion.num_frames, res.motion.fps)
+        except (MocapFileError, ValueError, KeyError, OSError) as e:
+            item = ItemResult(src, None, error=_error_line(src, e))
+        items.append(item)
+        if on_item is not None:
+            on_item(item)
+    return ConvertedMany(tuple(items))

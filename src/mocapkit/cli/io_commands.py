@@ -15,6 +15,7 @@ from mocapkit.cli.common import (
     check_amc,
     check_input_file,
     echo_json,
+    expand_inputs,
     expand_item,
     file_key,
     friendly_errors,
@@ -26,7 +27,7 @@ from mocapkit.cli.common import (
     progress,
     up_option,
 )
-from mocapkit.convert import convert_file
+from mocapkit.convert import FOLDER_FORMATS, ConvertedMany, ItemResult, convert_file, convert_many
 from mocapkit.io import MocapFileError
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 from mocapkit.jsonio import NonFiniteWarning
@@ -218,8 +219,26 @@ def info(
 POSITIVE = click.FloatRange(min=0, min_open=True)
 
 
+CONVERT_INPUTS = (*MOTION_SUFFIXES, ".glb", ".gltf")
+"""What folder mode converts (an .amc needs its subject's .asf beside it)."""
+
+
 @main.command()
-@click.argument("inputs", nargs=-1, required=True, metavar="IN... OUT")
+@click.argument("inputs", nargs=-1, required=True, metavar="IN... [OUT]")
+@click.option(
+    "--out-dir",
+    default=None,
+    metavar="DIR",
+    help="Folder mode: convert every IN (files, folders, quoted globs) into this folder as "
+    "<name>.<--to>.",
+)
+@click.option(
+    "--to",
+    "to",
+    type=click.Choice(FOLDER_FORMATS, case_sensitive=False),
+    default=None,
+    help="Folder mode: the format to write.",
+)
 @click.option("--fps", type=POSITIVE, default=None, help="Resample to this frame rate.")
 @click.option("--order", default=None, help="Rewrite every joint's rotation order (e.g. ZYX).")
 @click.option(
@@ -242,6 +261,8 @@ POSITIVE = click.FloatRange(min=0, min_open=True)
 @friendly_errors
 def convert(
     inputs: tuple[str, ...],
+    out_dir: str | None,
+    to: str | None,
     fps: float | None,
     order: str | None,
     scale: float | None,
@@ -249,45 +270,111 @@ def convert(
     amc_fps: float,
     lenient: bool,
 ) -> None:
-    """Convert IN to OUT: BVH <-> BVH/.npz, ASF+AMC -> BVH/.npz.
+    """Convert IN to OUT: BVH/.npz/ASF+AMC -> BVH, .npz or glTF 2.0 (.glb, .gltf).
 
     The last argument is the output. For ASF/AMC give the ASF, the AMC and the output (or only
-    the AMC if its subject's ASF lies beside it). Never overwrites an input (under any
-    spelling, link included); checks the output before reading and writes it atomically, so a
-    failed run leaves nothing behind.
+    the AMC if its subject's ASF lies beside it). glTF output is in metres with +Y up (from the
+    file's up axis and unit, as `mocapkit info` finds them): a skinned box per bone and one
+    animation. Never overwrites an input (under any spelling, link included); checks the output
+    before reading and writes it atomically, so a failed run leaves nothing behind.
+
+    Folder mode (--out-dir with --to): every IN is a file, a folder (its motion files) or a
+    quoted glob; each one is converted to OUT_DIR/<name>.<to> and reported on its own line; a
+    file that cannot be converted is one error line and the others go on (exit status 2 at the
+    end if any failed).
 
     \b
     Examples:
       mocapkit convert walk.bvh walk_zyx.bvh --order ZYX
       mocapkit convert walk.bvh walk_60.npz --fps 60
+      mocapkit convert take.bvh take.glb                       (Blender, three.js, engines)
       mocapkit convert 01.asf 01_01.amc 01_01.bvh --units cm   (BVH cannot state units)
+      mocapkit convert lib/ --out-dir lib_glb/ --to glb         (every motion of a folder)
+      mocapkit convert 'takes/*.bvh' --out-dir npz/ --to npz --fps 60
     """
+    options = {
+        "fps": fps,
+        "scale": scale,
+        "units": units,
+        "order": order,
+        "amc_fps": amc_fps,
+        "lenient": lenient,
+    }
+    if out_dir is not None or to is not None:
+        if out_dir is None or to is None:
+            raise CLIError(
+                "folder mode needs both --out-dir and --to (e.g. --out-dir out/ --to glb)"
+            )
+        _convert_folder(inputs, out_dir, to.lower(), options)
+        return
     from mocapkit.io import WRITABLE
 
     if len(inputs) < 2:
-        raise CLIError("convert needs an input and an output path")
+        raise CLIError("convert needs an input and an output path (or --out-dir and --to)")
     *srcs, out = inputs
+    if Path(out).is_dir() or any(Path(p).is_dir() for p in srcs):
+        raise CLIError(
+            f"{next(p for p in inputs if Path(p).is_dir())}: is a folder; to convert every file "
+            "of a folder give --out-dir OUT_DIR --to glb|bvh|npz"
+        )
     asf = None
     if len(srcs) == 2 and srcs[0].lower().endswith(".asf"):
         asf, src = srcs
     elif len(srcs) == 1:
         src = srcs[0]
     else:
-        raise CLIError("convert takes IN OUT, or ASF AMC OUT")
+        raise CLIError("convert takes IN OUT, or ASF AMC OUT, or IN... --out-dir DIR --to FORMAT")
     for p in (asf, src):
         if p is not None:
             check_input_file(p, "ASF file" if p is asf else "motion file")
     check_outputs([(out, WRITABLE)], [p for p in (src, asf) if p is not None])
     with naming(src, asf), all_or_nothing():
-        res = convert_file(
-            src,
-            out,
-            asf=asf,
-            fps=fps,
-            scale=scale,
-            units=units,
-            order=order,
-            amc_fps=amc_fps,
-            lenient=lenient,
-        )
+        res = convert_file(src, out, asf=asf, **options)
     click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {res.motion.fps:.6g} fps)")
+
+
+def _convert_folder(
+    inputs: tuple[str, ...], out_dir: str, to: str, options: dict[str, Any]
+) -> ConvertedMany:
+    """``convert --out-dir --to``: every input named by ``inputs`` (an item naming none is one
+    error line), one line per file as it is done, exit status 2 at the end if any failed."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise CLIError(f"{out}: is a file, expected a folder for --out-dir")
+    sources: list[Path] = []
+    failed = 0
+    for item in inputs:
+        try:
+            sources += expand_inputs([item], CONVERT_INPUTS)
+        except CLIError as e:
+            failed += 1
+            click.echo(f"mocapkit: error: {e.message}", err=True)
+    unique: list[Path] = []  # the same file named by two items is converted once
+    seen: set[tuple[Any, ...]] = set()
+    for f in sources:
+        if file_key(f) not in seen:
+            seen.add(file_key(f))
+            unique.append(f)
+
+    def report(item: ItemResult) -> None:
+        if item.ok:
+            click.echo(f"wrote {item.output} ({item.frames} frames at {item.fps:.6g} fps)")
+        else:
+            click.echo(f"mocapkit: error: {one_line(item.error)}", err=True)
+
+    with progress(len(unique), "converting") as step:
+
+        def on_item(item: ItemResult) -> None:
+            report(item)
+            step()
+
+        res = convert_many(unique, out, to, on_item=on_item, **options)
+    failed += len(res.failed)
+    done = len(res.items) - len(res.failed)
+    click.echo(
+        f"converted {done} of {done + failed} inputs into {out}"
+        + (f"; {failed} failed" if failed else "")
+    )
+    if failed:
+        raise click.exceptions.Exit(2)
+    return res

@@ -256,15 +256,16 @@ def to_gltf_json(
     """The glTF document (a JSON-able dict whose one buffer has no ``uri`` yet) and its binary
     buffer for ``motion`` (see the module notes)."""
     motion.check_finite("cannot write glTF")
-    from mocapkit.body import body_of
+    if up is None or metres_per_unit is None:
+        from mocapkit.body import body_of
 
-    body = body_of(motion)
-    src_up = body.up if up is None else up
-    src_mpu = body.metres_per_unit if metres_per_unit is None else metres_per_unit
+        body = body_of(motion)
+        up = body.up if up is None else up
+        metres_per_unit = body.metres_per_unit if metres_per_unit is None else metres_per_unit
+    src_up, src_mpu = up, metres_per_unit
     m, _, _ = gltf_space(motion, src_up, src_mpu)
     sk = m.skeleton
     J, E, F = sk.num_joints, len(sk.end_site_parents), m.num_frames
-    height = max(body.height_m, 1e-3)
 
     # the skin's joints: the joints, then the End Sites (children of their joints)
     parents = np.concatenate([sk.parents, sk.end_site_parents]).astype(np.int64)
@@ -290,6 +291,8 @@ def to_gltf_json(
     ibm[:, :3, 3] = -rest  # rest rotations are identity: undoing the rest pose is a translation
     ibm_acc = blob.add(ibm.transpose(0, 2, 1).reshape(J + E, 16), "MAT4")  # column-major
 
+    # the boxes' thickness follows the rig's size (its rest pose's largest extent)
+    height = max(float(np.ptp(rest, axis=0).max()), 1e-3)
     mesh = _mesh(rest, parents, height)
     attrs = {
         key: blob.add(
@@ -547,6 +550,11 @@ def read_gltf(path: str | Path, animation: int = 0) -> Motion:
         stack.extend(c for c in reversed(nodes[k].children or []) if c in in_skin)
     if len(order) != len(in_skin):
         raise GLTFError(path, None, "the skin's joints are not one connected hierarchy")
+    pos_in_skin = {k: i for i, k in enumerate(skin_joints)}
+    if skin_joints[0] == roots[0] and all(
+        pos_in_skin[parent_of[k]] < pos_in_skin[k] for k in skin_joints[1:]
+    ):
+        order = skin_joints  # the skin's own order when parents come first (mocapkit's do)
     index = {k: i for i, k in enumerate(order)}
 
     # the root's parents (an "Armature" node) move the whole character: fold them into it
