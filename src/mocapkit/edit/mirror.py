@@ -43,10 +43,10 @@ def mirror_pairs(skeleton: Skeleton, body: Body | None = None) -> np.ndarray:
 
     Names first: a joint whose name states a side (:func:`mocapkit.body.split_name`) pairs with
     the one joint of the other side with the same side-less name (``LeftHandIndex1`` with
-    ``RightHandIndex1``, ``lfemur`` with ``rfemur``). Then structure, for the joints of the body
-    model's left and right limbs (:meth:`mocapkit.body.Body.side_of`) that names left unpaired:
-    the two limbs are walked in parallel from their tops, children matched in joint order
-    (same number of children required). Refused (ValueError naming a joint): a sided joint
+    ``RightHandIndex1``, ``lfemur`` with ``rfemur``). On a rig whose names pair nothing,
+    structure: the body model's left and right limbs (:meth:`mocapkit.body.Body.side_of`) are
+    walked in parallel from their tops, children matched in joint order (same number of
+    children required). Refused (ValueError naming a joint): a sided joint
     without a counterpart, or pairs that do not form mirror-image trees.
     """
     body = body_of(skeleton) if body is None else body
@@ -64,22 +64,25 @@ def mirror_pairs(skeleton: Skeleton, body: Body | None = None) -> np.ndarray:
             twin[a], twin[b] = b, a
             paired[a] = paired[b] = True
 
-    # Structure: match the left and right limbs' subtrees where names did not.
+    # Structure, on rigs whose names state no sides: match the left and right limbs' subtrees.
+    # (Where names pair joints they are the rig's own convention, and the structural limbs of
+    # an unusual rig could cut across it.)
     sides = [body.side_of(j) for j in range(J)]
-    for name in ("hip", "clavicle", "shoulder"):
-        pr = body.pair(name)
-        if pr is None:
-            continue
-        tops = [_limb_top(skeleton, j, sides) for j in pr]
-        _pair_subtrees(skeleton, tops[0], tops[1], twin, paired)
+    by_structure = not paired.any()
+    if by_structure:
+        if "unknown" in sides:
+            raise ValueError(
+                "mirror: cannot tell left from right on this rig (no joint name states a side "
+                "and the poses tell no forward direction)"
+            )
+        for name in ("hip", "clavicle", "shoulder"):
+            pr = body.pair(name)
+            if pr is not None:
+                tops = [_limb_top(skeleton, j, sides) for j in pr]
+                _pair_subtrees(skeleton, tops[0], tops[1], twin, paired)
 
     for j in range(J):
-        if not paired[j] and sides[j] == "unknown" and not split[j][0]:
-            raise ValueError(
-                f"mirror: cannot tell left from right on this rig (joint {skeleton.names[j]!r}: "
-                "its name states no side and the poses tell no forward direction)"
-            )
-        if not paired[j] and (split[j][0] or sides[j] in ("left", "right")):
+        if not paired[j] and (split[j][0] or (by_structure and sides[j] in ("left", "right"))):
             raise ValueError(
                 f"mirror: joint {skeleton.names[j]!r} is on one side but has no counterpart "
                 "on the other (by name or by the limb's structure)"
@@ -141,7 +144,7 @@ def joint_mirrors(sk: Skeleton, twin: np.ndarray, world: np.ndarray) -> np.ndarr
     J = sk.num_joints
     B = np.zeros((J, 3, 3))
     scale = max(float(np.sum(sk.offsets**2)) + float(np.sum(sk.end_site_offsets**2)), 1e-12)
-    lam = 1e-6 * scale / max(J, 1)  # only breaks ties the offsets leave open
+    lam = 1e-10 * scale  # only breaks ties the offsets leave open (a twist about one bone)
     es_of = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
     for j in range(J):
         t = int(twin[j])
