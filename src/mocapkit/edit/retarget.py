@@ -47,6 +47,7 @@ from mocapkit.features import (
     foot_contacts,
     ground_frame,
     ground_root_on_path,
+    heading_angles,
     resample,
 )
 from mocapkit.ik import FootLockConfig, flexion_angles, hinge_axis, lock_feet
@@ -376,7 +377,8 @@ class Retargeted:
         (mean and max horizontal distance of each planted foot joint from its contact run's
         mean position, over the source's detected contacts: ``source``, ``output_without_ik``,
         ``output``), ``effector_path_error_pct`` (per effector, mean and 95th percentile of
-        |d - mean(d)| x 100 with d = p_T/L_T - p_S/L_S, p the effector relative to the pelvis,
+        |d - mean(d)| x 100, d = p_T/L_T - p_S/L_S in the source's heading frame, p the
+        effector relative to the pelvis,
         L its limb's length (hip-knee-ankle, shoulder-elbow-wrist, pelvis to head); the mean
         offset removed is the rigs' constant difference in proportions, reported as
         ``uncentred_mean``), ``joint_limits`` (per knee and elbow, frames bent backwards
@@ -597,13 +599,16 @@ def _measure(
     refS = source.skeleton.rest_positions()
     refT = out.skeleton.rest_positions()
     eff: dict[str, Any] = {}
+    face = rot.rotvec_to_quat(-heading_angles(source, bS.up)[:, None] * upT)
     for key in _EFFECTORS:
         js, jt = bS.joint(key), bT.joint(key)
         if js is None or jt is None:
             continue
         LS, LT = _limb_len(bS, refS, key), _limb_len(bT, refT, key)
-        rS = rot.quat_apply(U, posS[:, js] - posS[:, bS.pelvis]) / LS
-        rT = (posT[:, jt] - posT[:, bT.pelvis]) / LT
+        # in the source body's heading frame: a constant body-relative difference of the
+        # rigs stays constant while the character turns
+        rS = rot.quat_apply(face, rot.quat_apply(U, posS[:, js] - posS[:, bS.pelvis])) / LS
+        rT = rot.quat_apply(face, posT[:, jt] - posT[:, bT.pelvis]) / LT
         d = rT - rS
         # the path: each clip's mean offset removed, so that the rigs' constant proportions
         # (wider shoulders, a longer spine) do not count as a path error

@@ -1,0 +1,72 @@
+"""Retargeting figures, CMU ASF/AMC <-> Bandai, on takes not used while tuning.
+
+Tuning used CMU 03_01/03_02 and the Bandai walk_normal_001 takes; this script measures others.
+Per take: foot slide during the source's detected contacts (mean / max, cm) for the source, the
+output without IK and the output with IK; effector path error (% of limb length, pelvis-relative,
+mean offset removed; and uncentred); knee/elbow frames bent backwards (source -> output).
+
+    .venv/bin/python bench/eval_retarget.py
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from mocapkit.edit.retarget import read_target, retarget
+from mocapkit.io import read_motion
+
+SHARED = Path(os.environ.get("MOCAPKIT_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+DATA = SHARED / "data"
+CMU_TAKES = ["03/03_03.amc", "03/03_04.amc", "01/01_02.amc", "01/01_05.amc"]
+BANDAI_TAKES = [
+    "bandai2/data/dataset-2_walk_active_005.bvh",
+    "bandai2/data/dataset-2_walk_elderly_005.bvh",
+    "bandai1/data/dataset-1_walk-left_active_001.bvh",
+    "bandai1/data/dataset-1_run_normal_001.bvh",
+]
+BANDAI_RIG = "bandai2/data/dataset-2_walk_masculine_005.bvh"
+CMU_RIG = "cmu-asfamc/03/03.asf"
+
+
+def _row(direction: str, take: str, res, secs: float) -> str:
+    j = res.to_json()
+    fs = j["foot_slide_cm"]
+
+    def mm(d):
+        return "   n/a      " if d["mean"] is None else f"{d['mean']:5.2f}/{d['max']:5.2f}"
+
+    e = j["effector_path_error_pct"]
+    unc = sum(v["uncentred_mean"] for v in e["per_effector"].values()) / len(e["per_effector"])
+    lim = j["joint_limits"]["per_joint"]
+    src_v = sum(v["source_frames_bent_backwards"] for v in lim.values())
+    out_v = sum(v["output_frames_bent_backwards"] for v in lim.values())
+    return (
+        f"{direction:12s} {take:44s} {mm(fs['source'])}  {mm(fs['output_without_ik'])}  "
+        f"{mm(fs['output'])}  {e['mean']:5.2f}  {unc:5.1f}  {src_v:4d}->{out_v:<4d} {secs:5.2f}"
+    )
+
+
+def main() -> None:
+    print(
+        f"{'direction':12s} {'take':44s} {'src slide':11s}  {'no-IK':11s}  {'IK':11s}  "
+        f"{'path%':5s}  {'unc%':5s}  {'bent-back':9s} {'s':>5s}"
+    )
+    print(f"{'':57s}(cm mean/max for the slides)")
+    bandai = read_motion(DATA / BANDAI_RIG)
+    for t in CMU_TAKES:
+        src = read_motion(DATA / "cmu-asfamc" / t)
+        t0 = time.perf_counter()
+        res = retarget(src, bandai)
+        print(_row("CMU->Bandai", t, res, time.perf_counter() - t0))
+    cmu = read_target(DATA / CMU_RIG)
+    for t in BANDAI_TAKES:
+        src = read_motion(DATA / t)
+        t0 = time.perf_counter()
+        res = retarget(src, cmu)
+        print(_row("Bandai->CMU", Path(t).name, res, time.perf_counter() - t0))
+
+
+if __name__ == "__main__":
+    main()
