@@ -312,10 +312,11 @@ def convert(
     if len(inputs) < 2:
         raise CLIError("convert needs an input and an output path (or --out-dir and --to)")
     *srcs, out = inputs
-    if Path(out).is_dir() or any(Path(p).is_dir() for p in srcs):
+    folders = [p for p in srcs if Path(p).is_dir()]
+    if folders:
         raise CLIError(
-            f"{next(p for p in inputs if Path(p).is_dir())}: is a folder; to convert every file "
-            "of a folder give --out-dir OUT_DIR --to glb|bvh|npz"
+            f"{folders[0]}: is a folder; to convert every file of a folder give "
+            "--out-dir OUT_DIR --to glb|bvh|npz"
         )
     asf = None
     if len(srcs) == 2 and srcs[0].lower().endswith(".asf"):
