@@ -33,7 +33,7 @@ CASES = [
     ("cmu-asfamc", "cmu-asfamc/01", "01_02.amc"),
     ("corpus-mixed", "bvh-corpus", "VictorS-67__pybvh__bvh_test1.bvh"),
     ("corpus-zxy", "bvh-corpus", "rmGinner__Bvh-Viewer__Male1_A13_Skipping.bvh"),
-    ("corpus-yxz", "bvh-corpus", "nishiokozo__hv__test.bvh"),
+    ("corpus-yxz", "bvh-corpus", "GoldNotch__AxisNeuronFakeServer__test.bvh"),
     ("corpus-xyz", "bvh-corpus",
      "PeizhuoLi__ganimator__Baseball-Milling-Idle-edited-keyframes.bvh"),
 ]  # fmt: skip
