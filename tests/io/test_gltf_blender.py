@@ -46,7 +46,7 @@ CHECKED_FRAMES = 6
 # (case id, data set, file, its rotation order(s) as the manifest states them)
 CASES = [
     ("bandai", "bandai1/data", "dataset-1_bow_active_001.bvh", "ZXY, 6 channels per joint"),
-    ("cmu-asfamc", "cmu-asfamc/01", "01_02.amc", "ASF XYZ"),
+    ("cmu-asfamc", "cmu-asfamc/01", "01_02.amc", "ZYX (ASF rx ry rz)"),
     ("corpus-mixed", "bvh-corpus", "VictorS-67__pybvh__bvh_test1.bvh", "XZY/XYZ/YZX/ZYX, Z-up"),
     ("corpus-zxy", "bvh-corpus", "rmGinner__Bvh-Viewer__Male1_A13_Skipping.bvh", "ZXY"),
     ("corpus-yxz", "bvh-corpus", "GoldNotch__AxisNeuronFakeServer__test.bvh", "YXZ"),

@@ -35,7 +35,15 @@ from mocapkit.core.skeleton import POSITION_CHANNELS, Skeleton
 from mocapkit.io.atomic import atomic_write_bytes
 from mocapkit.io.errors import MocapFileError
 
-__all__ = ["FORMAT", "GLTFError", "gltf_space", "read_gltf", "up_rotation", "write_gltf"]
+__all__ = [
+    "FORMAT",
+    "GLTFError",
+    "gltf_space",
+    "read_gltf",
+    "to_gltf_json",
+    "up_rotation",
+    "write_gltf",
+]
 
 FORMAT = "mocapkit-gltf-1"
 """``extras.mocapkit.format`` of files this module writes."""
