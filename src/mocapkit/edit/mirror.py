@@ -123,28 +123,67 @@ def _pair_subtrees(sk: Skeleton, a: int, b: int, twin: np.ndarray, paired: np.nd
             stack.extend(zip(cx, cy, strict=True))
 
 
-def _improper_fit(h: np.ndarray, symmetric: bool) -> np.ndarray:
+def _skew(a: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def _improper_fit(h: np.ndarray, prior: np.ndarray, symmetric: bool) -> np.ndarray:
     """The orthogonal matrix ``B`` with det -1 that maximises ``tr(B^T h)`` (orthogonal
-    Procrustes with a reflection). With ``symmetric`` (``h`` symmetric, a centre joint) the
-    answer is taken from the eigenvectors, so that it is symmetric and ``B^2 = I``."""
+    Procrustes with a reflection), ``h = sum o_c o_s(c)^T``.
+
+    Where ``h`` has rank 2 or more the answer is unique. Where it has rank 1 (one bone, or
+    collinear ones) every ``B`` that takes the one direction onto the other fits exactly, and
+    the twist about it is the one closest to ``prior`` (the parent's mirror); with rank 0,
+    ``prior`` itself. The tie is broken explicitly rather than by a small weight on the prior,
+    so the fit is exact and does not depend on noise in the offsets (mirroring twice gives the
+    same ``B``). With ``symmetric`` (a centre joint, ``h`` symmetric) ``B`` is symmetric, so
+    ``B^2 = I``."""
+    u, sv, vt = np.linalg.svd(h)
+    if sv[0] <= 1e-300:
+        return prior
+    if sv[1] > 1e-9 * sv[0]:
+        if symmetric:
+            lam, q = np.linalg.eigh(0.5 * (h + h.T))
+            sgn = np.where(lam >= 0, 1.0, -1.0)
+            if np.prod(sgn) > 0:
+                sgn[int(np.argmin(np.abs(lam)))] *= -1.0
+            return (q * sgn) @ q.T
+        d = np.ones(3)
+        d[2] = -1.0 if np.linalg.det(u @ vt) > 0 else 1.0
+        return (u * d) @ vt
+    tgt, src = u[:, 0], vt[0]  # B src = tgt
+    if symmetric and src @ tgt < 0:
+        # B turns the one direction round: the reflection across the plane normal to it, or
+        # the point inversion, whichever is nearer the prior.
+        cands = (np.eye(3) - 2.0 * np.outer(tgt, tgt), -np.eye(3))
+        return max(cands, key=lambda c: float(np.trace(c.T @ prior)))
     if symmetric:
-        lam, q = np.linalg.eigh(0.5 * (h + h.T))
-        s = np.where(lam >= 0, 1.0, -1.0)
-        if np.prod(s) > 0:
-            s[int(np.argmin(np.abs(lam)))] *= -1.0
-        return (q * s) @ q.T
-    u, _, vt = np.linalg.svd(h)
-    d = np.ones(3)
-    d[2] = -1.0 if np.linalg.det(u @ vt) > 0 else 1.0
-    return (u * d) @ vt
+        # B fixes the one direction and reflects across a plane through it: the plane's normal
+        # is the prior's most reflected direction across it.
+        q = np.eye(3) - np.outer(tgt, tgt)
+        lam, vecs = np.linalg.eigh(q @ (0.5 * (prior + prior.T)) @ q)
+        cand = [k for k in np.argsort(lam) if abs(vecs[:, k] @ tgt) < 0.5]
+        w = vecs[:, cand[0]]
+        return np.eye(3) - 2.0 * np.outer(w, w)
+    # A reflection taking src to tgt, then the twist about src that best matches the prior.
+    diff = src - tgt
+    if np.linalg.norm(diff) > 1e-12:
+        w = diff / np.linalg.norm(diff)
+    else:
+        w = np.cross(src, np.eye(3)[int(np.argmin(np.abs(src)))])
+        w /= np.linalg.norm(w)
+    b0 = np.eye(3) - 2.0 * np.outer(w, w)
+    k = b0.T @ prior
+    along = np.outer(src, src)
+    phi = np.arctan2(np.trace(_skew(src).T @ k), np.trace(k) - src @ k @ src)
+    twist = along + np.cos(phi) * (np.eye(3) - along) + np.sin(phi) * _skew(src)
+    return b0 @ twist
 
 
 def joint_mirrors(sk: Skeleton, twin: np.ndarray, world: np.ndarray) -> np.ndarray:
     """(J, 3, 3) the per-joint mirrors ``B`` (see the module notes), ``world`` = ``M_w``."""
     J = sk.num_joints
     B = np.zeros((J, 3, 3))
-    scale = max(float(np.sum(sk.offsets**2)) + float(np.sum(sk.end_site_offsets**2)), 1e-12)
-    lam = 1e-10 * scale  # only breaks ties the offsets leave open (a twist about one bone)
     es_of = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
     for j in range(J):
         t = int(twin[j])
@@ -159,14 +198,14 @@ def joint_mirrors(sk: Skeleton, twin: np.ndarray, world: np.ndarray) -> np.ndarr
             if t != j:
                 B[t] = B[j].T
             continue
-        h = lam * prior
+        h = np.zeros((3, 3))
         for c in sk.children(j):
             h = h + np.outer(sk.offsets[c], sk.offsets[int(twin[c])])
         mine, theirs = es_of[j], es_of[t]
         if len(mine) == len(theirs):
             for e, f in zip(mine, theirs, strict=True):
                 h = h + np.outer(sk.end_site_offsets[e], sk.end_site_offsets[f])
-        B[j] = _improper_fit(h, symmetric=t == j)
+        B[j] = _improper_fit(h, prior, symmetric=t == j)
         if t != j:
             B[t] = B[j].T
     return B
