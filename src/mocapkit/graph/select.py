@@ -535,6 +535,25 @@ def _slide_kernel(coords, joints, feet, contacts, src, dst, w, out):  # pragma: 
         for f in range(feet.shape[0]):
             if contacts[s0, f] and contacts[d0, f]:
                 any_both = True
+        # feet planted at both ends anchor the translation (as synthesis does): B's planted
+        # feet are moved onto A's, on average over the blend
+        ox = oz = 0.0
+        if any_both:
+            cnt = 0
+            for f in range(feet.shape[0]):
+                if not (contacts[s0, f] and contacts[d0, f]):
+                    continue
+                p = feet[f]
+                for k in range(K):
+                    fa = min(s0 + k, last)
+                    fb = min(d0 + k, last)
+                    x = coords[fb, p, 0] - bx
+                    z = coords[fb, p, 2] - bz
+                    ox += coords[fa, p, 0] - (x * c + z * sn + ax)
+                    oz += coords[fa, p, 2] - (-x * sn + z * c + az)
+                    cnt += 1
+            ox /= cnt
+            oz /= cnt
         best = -1.0
         for f in range(feet.shape[0]):
             ka = contacts[s0, f]
@@ -549,8 +568,8 @@ def _slide_kernel(coords, joints, feet, contacts, src, dst, w, out):  # pragma: 
                 fb = min(d0 + k, last)
                 x = coords[fb, p, 0] - bx
                 z = coords[fb, p, 2] - bz
-                ux = x * c + z * sn + ax
-                uz = -x * sn + z * c + az
+                ux = x * c + z * sn + ax + ox
+                uz = -x * sn + z * c + az + oz
                 vx = (1.0 - w[k]) * coords[fa, p, 0] + w[k] * ux
                 vz = (1.0 - w[k]) * coords[fa, p, 2] + w[k] * uz
                 if e == 0:
@@ -572,7 +591,8 @@ def blend_slide(db: CostDatabase, src: np.ndarray, dst: np.ndarray, blend: int) 
     The same quantity as :func:`mocapkit.graph.skate.transition_skate` measures by rendering
     (start-to-end, the larger over the feet planted at both ``src`` and ``dst``, else at
     either), predicted from the point clouds: window B is aligned onto window A by the
-    unweighted ground-plane fit of the body's joints over the blend (as synthesis does) and the
+    unweighted ground-plane fit of the body's joints over the blend, its translation moved so
+    that the feet planted at both ends coincide on average (as synthesis does), and the
     ankles are blended linearly with synthesis' ease-in/ease-out weights. It agrees with the
     rendered measure to a few per cent and costs about a microsecond per transition.
     """

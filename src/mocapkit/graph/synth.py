@@ -4,7 +4,10 @@ and rendering a walk into one continuous motion.
 A walk is a list of edges of the pruned graph (:meth:`MotionGraph.scc`): continuations play clip
 frames ``[f0, f1)``; transitions play ``blend`` frames. At a transition ``(A, i) -> (B, j)`` clip B
 is aligned to A by the best rigid ground transform of the two blend windows' joint positions
-(Kovar & Gleicher's closed form, :func:`mocapkit.features.align_point_clouds_2d`), then either
+(Kovar & Gleicher's closed form, :func:`mocapkit.features.align_point_clouds_2d`); where a foot
+is planted at both ``A[i]`` and ``B[j]``, the transform's translation is then moved so that B's
+planted feet lie on A's (on average over the blend), since a planted foot does not move and
+the fit's residual there would otherwise become foot skate over the blend. Then either
 
 * ``"crossfade"`` (Kovar et al.): frame k of the blend slerps every local rotation (and lerps
   the root and joint translations) from ``A[i+k]`` to the aligned ``B[j+k]`` with the ease-in /
@@ -32,6 +35,8 @@ from mocapkit.features import (
     align_point_clouds_2d,
     apply_ground_transform,
     detect_up_axis,
+    find_feet,
+    foot_contacts,
     ground_root_on_path,
     heading_angles,
     root_trajectory,
@@ -111,6 +116,13 @@ class Synthesizer:
         self._traj = [root_trajectory(m, self.up) for m in self.motions]
         self._head = [heading_angles(m, self.up) for m in self.motions]
         self._pos: dict[int, np.ndarray] = {}
+        self._fk: dict[int, np.ndarray] = {}
+        self._contacts: dict[int, np.ndarray] = {}
+        ankle: dict[str, int] = {}
+        for side, j in find_feet(motions[0].skeleton, motions[0], self.up):
+            ankle.setdefault(side or f"s{len(ankle)}", j)
+        # per column of FootContacts.by_side (left, right): the ankle the skate is measured at
+        self._ankles = list(ankle.values())[:2]
         self.start_transform: GroundTransform | None = None  # set by follow_path
 
     # ---- pieces --------------------------------------------------------------------------
@@ -121,8 +133,20 @@ class Synthesizer:
         if c not in self._pos:
             m = self.motions[c]
             body = np.flatnonzero(m.skeleton.subtree_mask(body_of(m.skeleton).pelvis))
-            self._pos[c] = forward_kinematics(m)[0][:, body]
+            self._pos[c] = self._world(c)[:, body]
         return self._pos[c]
+
+    def _world(self, c: int) -> np.ndarray:
+        """(F, J, 3) world joint positions of clip ``c``."""
+        if c not in self._fk:
+            self._fk[c] = forward_kinematics(self.motions[c])[0]
+        return self._fk[c]
+
+    def contacts(self, c: int) -> np.ndarray:
+        """(F, 2) the feet of clip ``c`` planted (left, right; :meth:`FootContacts.by_side`)."""
+        if c not in self._contacts:
+            self._contacts[c] = foot_contacts(self.motions[c], up=self.up).by_side()
+        return self._contacts[c]
 
     def alignment(self, t: int) -> GroundTransform:
         """Ground transform that moves clip B of transition t onto clip A over the blend."""
@@ -131,8 +155,24 @@ class Synthesizer:
             n = g.blend
             a = self._positions(int(g.src_clip[t]))[g.src_frame[t] : g.src_frame[t] + n]
             b = self._positions(int(g.dst_clip[t]))[g.dst_frame[t] : g.dst_frame[t] + n]
-            self._align[t] = align_point_clouds_2d(a.reshape(-1, 3), b.reshape(-1, 3), up=self.up)
+            T = align_point_clouds_2d(a.reshape(-1, 3), b.reshape(-1, 3), up=self.up)
+            self._align[t] = self._anchor_feet(t, T)
         return self._align[t]
+
+    def _anchor_feet(self, t: int, T: GroundTransform) -> GroundTransform:
+        """``T`` with its translation moved so that the feet planted at both ends of transition
+        ``t`` (source and landing frame) coincide, on average over the blend."""
+        g = self.graph
+        ca, cb = int(g.src_clip[t]), int(g.dst_clip[t])
+        i, j, n = int(g.src_frame[t]), int(g.dst_frame[t]), g.blend
+        both = self.contacts(ca)[i] & self.contacts(cb)[j]
+        feet = [a for k, a in enumerate(self._ankles) if both[k]]
+        if not feet:
+            return T
+        pa = self._world(ca)[i : i + n, feet]
+        pb = T.apply(self._world(cb)[j : j + n, feet])
+        shift = (pa - pb).reshape(-1, 3).mean(axis=0)
+        return GroundTransform(T.angle, T.translation + shift, self.up)
 
     def step_of(self, e: dict) -> Step:
         c0, f0 = self.nodes[e["u"]]
