@@ -80,6 +80,7 @@ TORSO_WEIGHTS: dict[str, float] = {
 #: Heuristic 2's extra weight on the part carrying most of the mass.
 TORSO_EXTRA = 4.0
 
+
 def part_categories(parts: BodyParts) -> list[str]:
     """de Leva category of each part, from the body model's segments
     (:meth:`mocapkit.body.Body.category`: the pelvis part is "pelvis"; "" for a part no
