@@ -1,0 +1,65 @@
+"""trim and change_speed: frames, durations and the exact frame time."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mocapkit import datasets
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+from mocapkit.edit import change_speed, trim, trim_frames
+
+
+def walk(frame_time: float = 1 / 30, seconds: float = 2.0) -> Motion:
+    m = datasets.procedural_motion("walk", seconds, seed=0).motion
+    return Motion(m.skeleton, m.rotations, m.root_positions, frame_time, m.translations)
+
+
+@settings(max_examples=40, derandomize=True, deadline=None)
+@given(a=st.integers(0, 59), n=st.integers(1, 60))
+def test_trim_frames_and_seconds(a: int, n: int) -> None:
+    m = walk()
+    b = min(a + n, m.num_frames)
+    out = trim_frames(m, a, b)
+    assert out.num_frames == b - a
+    assert np.array_equal(out.rotations, m.rotations[a:b])
+    assert out.frame_time == m.frame_time
+    same = trim(m, a * m.frame_time, b * m.frame_time)
+    assert same.allclose(out, 1e-12, 1e-12)
+
+
+def test_trim_refuses_bad_ranges() -> None:
+    m = walk()
+    for a, b in ((5, 5), (9, 3), (-1, 4), (0, m.num_frames + 1)):
+        with pytest.raises(ValueError, match="trim"):
+            trim_frames(m, a, b)
+
+
+@settings(max_examples=30, derandomize=True, deadline=None)
+@given(
+    factor=st.floats(0.3, 4.0),
+    ft=st.sampled_from([1 / 30, 0.0333333, 0.0083333, 0.0417083750417, 0.04]),
+)
+def test_change_speed_duration_and_exact_frame_time(factor: float, ft: float) -> None:
+    m = walk(ft, 1.0)
+    out = change_speed(m, factor)
+    assert out.frame_time == m.frame_time  # bit for bit
+    assert out.num_frames == max(1, round(m.num_frames / factor))
+    assert abs(out.duration - m.duration / factor) <= m.frame_time / 2 + 1e-9
+    assert out.skeleton is m.skeleton
+    # the path is the same, run at another pace: first frames agree, the last is near the end
+    assert rot.quat_angle(out.rotations[0], m.rotations[0]).max() < 1e-9
+    np.testing.assert_allclose(out.root_positions[0], m.root_positions[0], atol=1e-9)
+
+
+def test_speed_two_takes_every_other_frame_and_one_is_a_copy() -> None:
+    m = walk()
+    out = change_speed(m, 2.0)
+    assert out.num_frames == m.num_frames // 2
+    assert rot.quat_angle(out.rotations, m.rotations[::2][: out.num_frames]).max() < 1e-9
+    assert change_speed(m, 1.0).allclose(m, 1e-12, 1e-12)
+    with pytest.raises(ValueError, match="positive"):
+        change_speed(m, 0.0)
