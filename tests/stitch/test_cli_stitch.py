@@ -106,7 +106,14 @@ def test_stitch_cli_errors(clips, tmp_path) -> None:
     code, _, err = run("stitch", str(clips["walk"]), str(clips["idle"]), "--takeoff", "2")
     assert code == 2 and "take-off frame 2" in err
     code, _, err = run("stitch", str(clips["walk"]), str(clips["idle"]), "--takeoff", "9:3")
-    assert code == 2 and "take-off" in err
+    assert code == 2 and "--takeoff '9:3': reversed range" in err and len(err.splitlines()) == 1
+    for bad in ("x", "1:2:3", "99s"):
+        code, _, err = run("stitch", str(clips["walk"]), str(clips["idle"]), "--takeoff", bad)
+        assert code == 2 and "--takeoff" in err and len(err.splitlines()) == 1, err
+    code, _, err = run(
+        "stitch", str(clips["walk"]), str(clips["idle"]), "--takeoff", "50", "--landing", "3:9"
+    )
+    assert code == 2 and "--landing '3:9': expected one frame" in err
     code, _, err = run(
         "stitch", str(clips["walk"]), str(clips["idle"]), "--takeoff", "50", "--landing", "5000"
     )
@@ -123,3 +130,23 @@ def test_demo_step_writes_the_stitch(tmp_path) -> None:
     rep = json.loads((tmp_path / "stitch_walk_idle.json").read_text())
     assert rep["k"] > 0
     assert read_motion(tmp_path / "stitch_walk_idle.bvh").num_frames > 100
+
+
+def test_stitch_cli_reads_frames_and_seconds_alike(clips, tmp_path) -> None:
+    """One range syntax: ``--takeoff 60`` = ``2.0s``, ``50:60`` = ``1.6667s:2s`` at 30 fps,
+    ``--landing 30`` = ``1.0s``; the results are the same."""
+    reps = []
+    for takeoff, landing in (("50:60", "30"), ("1.6667s:2s", "1.0s"), ("60", None), ("2.0s", None)):
+        js = tmp_path / f"{len(reps)}.json"
+        args = ["stitch", str(clips["walk"]), str(clips["idle"]), "--takeoff", takeoff,
+                "--max-inject", "8", "--json", str(js)]  # fmt: skip
+        if landing is not None:
+            args += ["--landing", landing]
+        code, _, stderr = run(*args)
+        assert code == 0, stderr
+        reps.append(json.loads(js.read_text()))
+    for a, b in ((0, 1), (2, 3)):
+        for key in ("takeoff", "landing", "k", "lscore"):
+            assert reps[a][key] == reps[b][key], key
+    assert 50 <= reps[0]["takeoff"] < 60 and reps[0]["landing"] == 30
+    assert reps[2]["takeoff"] == 60
