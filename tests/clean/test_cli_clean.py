@@ -132,3 +132,15 @@ def test_clean_with_contact(files, tmp_path) -> None:
     assert code == 2 and "Nope" in stderr
     code, _, stderr = run("clean", str(files["input"]), "--contact", "LeftHand:5-2000")
     assert code == 2
+    # the one range syntax: frames 55..70 are 55:71 (end excluded), or the same in seconds
+    fps = read_motion(files["input"]).fps
+    for spec in ("LeftHand@55:71", f"LeftHand@{55 / fps!r}s:{71 / fps!r}s"):
+        other = tmp_path / f"c{len(spec)}.bvh"
+        code, _, stderr = run("clean", str(files["input"]), "--out", str(other), "--contact",
+                              spec, "--quiet")  # fmt: skip
+        assert code == 0, stderr
+        assert read_motion(other).allclose(read_motion(out), 1e-9, 1e-9)
+    for bad, words in (("LeftHand@70:55", "reversed"), ("LeftHand@5:2000", "past the end"),
+                       ("LeftHand@1:5@x", "expected JOINT@A:B")):  # fmt: skip
+        code, _, stderr = run("clean", str(files["input"]), "--contact", bad)
+        assert code == 2 and words in stderr and len(stderr.splitlines()) == 1, stderr

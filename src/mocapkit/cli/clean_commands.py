@@ -30,26 +30,49 @@ from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 
 
-def parse_contact(spec: str, motion: Motion) -> Any:
-    """``JOINT:START-END[:X,Y,Z]`` -> a ContactConstraint (frames inclusive, 0-based)."""
-    from mocapkit.clean import ContactConstraint
+def _contact_point(text: str, spec: str, form: str) -> tuple[float, float, float]:
+    try:
+        xyz = [float(x) for x in text.split(",")]
+        if len(xyz) != 3:
+            raise ValueError
+    except ValueError:
+        raise CLIError(f"--contact {spec!r}: expected {form}") from None
+    return (xyz[0], xyz[1], xyz[2])
 
+
+def parse_contact(spec: str, motion: Motion) -> Any:
+    """``JOINT@RANGE[@X,Y,Z]`` -> a ContactConstraint. RANGE is the range syntax of every
+    option (:mod:`mocapkit.core.ranges`: ``55:71`` frames with the end excluded, or
+    ``1.8s:2.4s``); ``@`` separates, so joint names with colons (``mixamorig:LeftHand``) work.
+    The older ``JOINT:START-END[:X,Y,Z]`` (frames inclusive, 0-based) is still read."""
+    from mocapkit.clean import ContactConstraint
+    from mocapkit.core.ranges import RangeError, RangeSpec
+
+    names = list(motion.skeleton.names)
+    if "@" in spec:
+        form = "JOINT@A:B[@X,Y,Z] (frames A..B-1, or seconds 1.8s:2.4s)"
+        parts = spec.split("@")
+        if len(parts) not in (2, 3):
+            raise CLIError(f"--contact {spec!r}: expected {form}")
+        if parts[0] not in names:
+            raise CLIError(f"--contact {spec!r}: no joint named {parts[0]!r}")
+        try:
+            lo, hi = RangeSpec.parse(parts[1], "--contact").frames(motion.fps, motion.num_frames)
+        except RangeError as e:
+            raise CLIError(str(e)) from None
+        pos = _contact_point(parts[2], spec, form) if len(parts) == 3 else None
+        return ContactConstraint(names.index(parts[0]), lo, hi - 1, pos)
+    form = "JOINT@A:B[@X,Y,Z] or JOINT:START-END[:X,Y,Z]"
     parts = spec.split(":")
     if len(parts) not in (2, 3):
-        raise CLIError(f"--contact {spec!r}: expected JOINT:START-END[:X,Y,Z]")
-    names = list(motion.skeleton.names)
+        raise CLIError(f"--contact {spec!r}: expected {form}")
     if parts[0] not in names:
         raise CLIError(f"--contact {spec!r}: no joint named {parts[0]!r}")
     try:
         a, b = (int(x) for x in parts[1].split("-"))
-        pos = None
-        if len(parts) == 3:
-            xyz = [float(x) for x in parts[2].split(",")]
-            if len(xyz) != 3:
-                raise ValueError
-            pos = (xyz[0], xyz[1], xyz[2])
     except ValueError:
-        raise CLIError(f"--contact {spec!r}: expected JOINT:START-END[:X,Y,Z]") from None
+        raise CLIError(f"--contact {spec!r}: expected {form}") from None
+    pos = _contact_point(parts[2], spec, form) if len(parts) == 3 else None
     c = ContactConstraint(names.index(parts[0]), a, b, pos)
     try:
         c.frames(motion.num_frames)
@@ -110,10 +133,12 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     "--contact",
     "contact_specs",
     multiple=True,
-    metavar="JOINT:START-END[:X,Y,Z]",
-    help="Keep an end effector on a contact point over frames START-END (inclusive) while "
-    "repairing: the KNN word that keeps it nearest wins, then IK pins it. Without X,Y,Z the "
-    "point is where the input has the joint at START. Repeatable.",
+    metavar="JOINT@RANGE[@X,Y,Z]",
+    help="Keep an end effector on a contact point over RANGE (frames A:B with B excluded, or "
+    "seconds 1.8s:2.4s, as in every option; the older JOINT:START-END with START-END "
+    "inclusive is still read) while repairing: the KNN word that keeps it nearest wins, then "
+    "IK pins it. Without X,Y,Z the point is where the input has the joint at the range's "
+    "first frame. Repeatable.",
 )
 @LENIENT
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")
@@ -146,6 +171,7 @@ def clean_command(
       mocapkit clean take.bvh --report report.json --plot mdm.png
       mocapkit clean take.bvh --context takes/ --out fixed.bvh --mdm mdm.npy
       mocapkit clean take.bvh --context takes/ --two-stage --threshold 0.6 --out fixed.bvh
+      mocapkit clean take.bvh --out fixed.bvh --contact LeftHand@1.8s:2.4s
     """
     check_input_file(input_path)
     ctx_paths = expand_inputs(contexts, MOTION_SUFFIXES, exclude=[input_path])
