@@ -190,6 +190,11 @@ def _cmds_bvh(take: str, other: str) -> list[tuple[str, tuple[str, ...], tuple[s
             ("graph.json",),
         ),
         ("view", ("view", take, "--out", "view.html"), ("view.html",)),
+        (
+            "edit",
+            ("edit", take, "e.bvh", "--trim", "0:10", "--mirror", "--in-place", "--speed", "1.5"),
+            ("e.bvh", "e.provenance.json"),
+        ),
     ]
 
 
@@ -394,6 +399,11 @@ def _asf_amc_cases(name: str, asf: bytes, amc: bytes, expect: str = "any") -> li
             "stitch",
             ("stitch", "01_01.amc", "01_02.amc", "--takeoff", "15", "--json", "stitch.json"),
             ("stitch.json",),
+        ),
+        (
+            "edit",
+            ("edit", "01_01.amc", "e.bvh", "--trim", "0.05s:", "--mirror", "--extract-root"),
+            ("e.bvh", "e.provenance.json"),
         ),
         (
             "graph",
@@ -908,6 +918,6 @@ def test_case_counts() -> None:
     assert len(CASES) >= 300
     assert {"structural", "numeric", "asfamc", "path"} <= set(families)
     assert all(n >= 30 for n in families.values()), families
-    for cmd in ("info", "convert", "clean", "stitch", "graph", "view"):
+    for cmd in ("info", "convert", "clean", "stitch", "graph", "view", "edit"):
         assert any(c.args[0] == cmd for c in CASES), cmd
     assert any(c.args[:2] == ("info", "--json") for c in CASES)
