@@ -14,7 +14,7 @@ from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.edit import drop_joints, extract_root_motion, in_place, mirror
 from mocapkit.features import ground_frame
-from mocapkit.io import read_motion
+from mocapkit.io import read_motion, write_motion
 
 BANDAI = "bandai1/data/dataset-1_walk_normal_001.bvh"
 CMU = "cmu-asfamc/01/01_01.amc"
@@ -101,12 +101,26 @@ def corpus_files() -> list:
 
 @pytest.mark.filterwarnings("ignore::mocapkit.io.RepairWarning")  # lenient reads say what
 @pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name[:40])
-def test_corpus_mirror_fk(path, shared_path) -> None:
+def test_corpus_edits(path, shared_path, tmp_path) -> None:
+    """Mirror FK exact; in-place and drop_joints survive writing to BVH (the channels they
+    need are there), with the pelvis still and the kept joints' FK unchanged."""
     shared_path("bvh-corpus")
     m = read_motion(path, lenient=True)[:150]
+    size = body_of(m).size
     try:
         err, back = mirror_errors(m)
     except ValueError as e:  # a rig with a limb on one side only (a hand-written fixture)
         assert "no counterpart" in str(e) and "\n" not in str(e)
-        return
-    assert err < 1e-9 and back < 1e-9
+    else:
+        assert err < 1e-9 and back < 1e-9
+    body = body_of(m)
+    _, u, _ = ground_frame(body.up)
+    ip = read_motion(write_motion(in_place(m), tmp_path / "ip.bvh"))
+    pelvis = forward_kinematics(ip)[0][:, body.pelvis]
+    assert np.ptp(pelvis - (pelvis @ u)[:, None] * u, axis=0).max() < 1e-6 * size
+    if m.num_joints > 2:
+        mid = m.num_joints // 2
+        dropped = read_motion(write_motion(drop_joints(m, [mid]), tmp_path / "d.bvh"))
+        kept = [j for j in range(m.num_joints) if j != mid]
+        pos = forward_kinematics(m)[0][:, kept]
+        assert np.abs(forward_kinematics(dropped)[0] - pos).max() < 1e-6 * size

@@ -16,6 +16,7 @@ order is :data:`EDIT_ORDER`:
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -146,6 +147,4 @@ def apply_edits(
 
 def joints_matching_name(name: str, pattern: str) -> bool:
     """Whether the joint regex ``pattern`` matches the whole of ``name``."""
-    import re
-
     return re.fullmatch(pattern, name) is not None

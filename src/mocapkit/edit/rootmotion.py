@@ -45,13 +45,27 @@ def in_place(motion: Motion, up: str | None = None) -> Motion:
     _, u, _ = ground_frame(up)
     if body.ground_root is not None:
         motion = ground_root_on_path(motion, up)
-    pos, _ = forward_kinematics(motion)
+    pos, grot = forward_kinematics(motion)
     path = _flat(pos[:, body.pelvis], u)
     travel = path - path[:1]
     out = motion.copy()
-    out.root_positions = motion.root_positions - travel
-    if out.translations is not None:
-        out.translations[:, 0] = out.root_positions
+    sk = motion.skeleton
+    if sk.has_position[0] or out.translations is None:
+        out.root_positions = motion.root_positions - travel
+        if out.translations is not None:
+            out.translations[:, 0] = out.root_positions
+        return out
+    # A root without position channels (a VR recording's static origin): the travel comes off
+    # the children that animate their translation, in the root's frame, so a file can store it.
+    kids = sk.children(0)
+    if not all(sk.has_position[c] for c in kids):
+        raise ValueError(
+            "in-place: the root joint has no position channels and not all of its children "
+            "have them, so the travel cannot be stored"
+        )
+    local = rot.quat_apply(rot.quat_conj(grot[:, 0]), travel)
+    for c in kids:
+        out.translations[:, c] -= local
     return out
 
 
