@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mocapkit import datasets
-from mocapkit.features import root_trajectory
+from mocapkit.features import find_feet, root_trajectory
 from mocapkit.graph.graph import MotionGraph, build_graph, load_graph
 from mocapkit.graph.select import Candidates, knee_rank, merge_nearby
 from mocapkit.graph.skate import transition_skate
@@ -147,6 +147,30 @@ def test_skate(built, clips):
     assert s["supported"] > 0
     assert np.all(rep.arc_length[rep.supported] >= rep.start_to_end[rep.supported] - 1e-9)
     assert 0 <= s["start_to_end_cm"]["mean"] < 50
+
+
+def test_foot_lock_holds_feet_planted_through_a_blend(built, clips):
+    g = built[0]
+    locked = transition_skate(g, clips)
+    raw = transition_skate(g, clips, foot_lock=False)
+    assert np.array_equal(locked.supported, raw.supported)
+    syn = Synthesizer(g, clips, walks=False)
+    fc = syn.foot_contacts(0)
+    ankles = [fc.joints.index(j) for j in dict(find_feet(clips[0].skeleton)).values()]
+    held = []  # an ankle planted at every blend frame of both clips must not move at all
+    for t in np.flatnonzero(raw.supported):
+        ca, cb, i, j, n = g.src_clip[t], g.dst_clip[t], g.src_frame[t], g.dst_frame[t], g.blend
+        a = syn.foot_contacts(int(ca)).contacts[i : i + n][:, ankles]
+        b = syn.foot_contacts(int(cb)).contacts[j : j + n][:, ankles]
+        steady = a.all(axis=0) & b.all(axis=0)  # per side
+        if steady.any() and np.array_equal((a | b).any(axis=0), steady):
+            held.append(t)
+    assert held, "no transition with a foot planted throughout"
+    # held to what the leg can reach (the IK's residual is a few millimetres on a near-straight
+    # stance leg), a third or less of what the blend alone slid
+    assert np.all(locked.start_to_end[held] < 0.6)  # cm
+    assert locked.start_to_end[held].mean() < 0.35 * raw.start_to_end[held].mean()
+    assert locked.summary()["start_to_end_cm"]["mean"] < raw.summary()["start_to_end_cm"]["mean"]
 
 
 def test_stride_refinement_reaches_full_resolution_minima(clips, built):

@@ -61,8 +61,10 @@ def transition_skate(
     indices: np.ndarray | None = None,
     blend: str = "crossfade",
     units: str | float | None = None,
+    foot_lock: bool = True,
 ) -> SkateReport:
-    """Foot skate of the transitions ``indices`` (default: all) of ``graph``."""
+    """Foot skate of the transitions ``indices`` (default: all) of ``graph``, rendered as
+    synthesis renders them (``foot_lock``: with planted feet held, as by default)."""
     syn = Synthesizer(graph, motions, walks=False)
     idx = np.arange(graph.num_transitions) if indices is None else np.asarray(indices)
     sk = motions[0].skeleton
@@ -88,7 +90,8 @@ def transition_skate(
             use = ka | kb
         if not use.any():
             continue
-        m = syn.render([Step("transition", cb, fb, fb + graph.blend, int(t))], blend)
+        m = syn.render([Step("transition", cb, fb, fb + graph.blend, int(t))], blend,
+                       foot_lock=foot_lock)  # fmt: skip
         pos, _ = forward_kinematics(m)
         best_s = best_a = 0.0
         for k in np.flatnonzero(use[: len(sides)]):

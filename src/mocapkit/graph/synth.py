@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +31,7 @@ from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.core.motion import Motion
 from mocapkit.features import (
+    FootContacts,
     GroundTransform,
     align_point_clouds_2d,
     apply_ground_transform,
@@ -42,6 +43,7 @@ from mocapkit.features import (
     root_trajectory,
 )
 from mocapkit.graph.graph import MotionGraph
+from mocapkit.ik import lock_feet
 
 __all__ = [
     "BLENDS",
@@ -117,7 +119,7 @@ class Synthesizer:
         self._head = [heading_angles(m, self.up) for m in self.motions]
         self._pos: dict[int, np.ndarray] = {}
         self._fk: dict[int, np.ndarray] = {}
-        self._contacts: dict[int, np.ndarray] = {}
+        self._contacts: dict[int, FootContacts] = {}
         ankle: dict[str, int] = {}
         for side, j in find_feet(motions[0].skeleton, motions[0], self.up):
             ankle.setdefault(side or f"s{len(ankle)}", j)
@@ -142,11 +144,15 @@ class Synthesizer:
             self._fk[c] = forward_kinematics(self.motions[c])[0]
         return self._fk[c]
 
+    def foot_contacts(self, c: int) -> FootContacts:
+        """The foot contacts of clip ``c`` (:func:`mocapkit.features.foot_contacts`)."""
+        if c not in self._contacts:
+            self._contacts[c] = foot_contacts(self.motions[c], up=self.up)
+        return self._contacts[c]
+
     def contacts(self, c: int) -> np.ndarray:
         """(F, 2) the feet of clip ``c`` planted (left, right; :meth:`FootContacts.by_side`)."""
-        if c not in self._contacts:
-            self._contacts[c] = foot_contacts(self.motions[c], up=self.up).by_side()
-        return self._contacts[c]
+        return self.foot_contacts(c).by_side()
 
     def alignment(self, t: int) -> GroundTransform:
         """Ground transform that moves clip B of transition t onto clip A over the blend."""
@@ -313,8 +319,14 @@ class Synthesizer:
         blend: str = "crossfade",
         start: GroundTransform | None = None,
         max_frames: int | None = None,
+        foot_lock: bool = True,
     ) -> Motion:
-        """One continuous Motion from a walk (see the module doc for the blends)."""
+        """One continuous Motion from a walk (see the module doc for the blends).
+
+        ``foot_lock``: hold planted feet still over each contact run of the output (Kovar et
+        al.'s footskate clean-up, by :func:`mocapkit.ik.lock_feet`): the contacts are the
+        clips' own, and across a blend those of the clip whose weight dominates, since a
+        blend of two planted feet a few centimetres apart slides between them."""
         if blend not in BLENDS:
             raise ValueError(f"unknown blend {blend!r}; expected one of {', '.join(BLENDS)}")
         if not steps:
@@ -323,11 +335,13 @@ class Synthesizer:
         G = start or GroundTransform(0.0, np.zeros(3), self.up)
         rots: list[np.ndarray] = []
         trans: list[np.ndarray] = []
+        flags: list[np.ndarray] = []
         for _k, s in enumerate(steps):
             if s.kind == "clip":
                 m = apply_ground_transform(self.motions[s.clip][s.start : s.stop], G)
                 rots.append(m.rotations)
                 trans.append(m.local_translations())
+                flags.append(self.foot_contacts(s.clip).contacts[s.start : s.stop])
                 continue
             t = s.index
             n = g.blend
@@ -341,6 +355,9 @@ class Synthesizer:
             ra, ta = _to_rep(a.rotations, a.local_translations(), chain)
             rb, tb = _to_rep(b.rotations, b.local_translations(), chain)
             w = _ease(np.arange(1, n + 1) / (n + 1.0))
+            fa = self.foot_contacts(int(g.src_clip[t])).contacts[i : i + n]
+            fb = self.foot_contacts(int(g.dst_clip[t])).contacts[j : j + n]
+            flags.append(np.where((w < 0.5)[:, None], fa, fb))
             if blend == "crossfade":
                 r = rot.quat_slerp(ra, rb, w[:, None])
                 tr = ta + (tb - ta) * w[:, None, None]
@@ -358,8 +375,9 @@ class Synthesizer:
             G = Gb
         R = rot.quat_normalize(np.concatenate(rots))
         Tr = np.concatenate(trans)
+        K = np.concatenate(flags)
         if max_frames is not None:
-            R, Tr = R[:max_frames], Tr[:max_frames]
+            R, Tr, K = R[:max_frames], Tr[:max_frames], K[:max_frames]
         first = self.motions[0]
         sk = first.skeleton
         needs = sk.has_position.copy()
@@ -367,8 +385,12 @@ class Synthesizer:
         translations = (
             Tr if needs.any() or any(m.translations is not None for m in self.motions) else None
         )
+        out = Motion(sk, R, Tr[:, 0].copy(), first.frame_time, translations)
+        if foot_lock and K.shape[1] and K.any():
+            fc = self.foot_contacts(0)
+            out = lock_feet(out, replace(fc, contacts=K)).motion
         # a ground root (Bandai's joint_Root) follows the walk's ground path and heading
-        return ground_root_on_path(Motion(sk, R, Tr[:, 0].copy(), first.frame_time, translations))
+        return ground_root_on_path(out)
 
 
 def _to_rep(lrot: np.ndarray, ltrans: np.ndarray, chain: list[int]):
