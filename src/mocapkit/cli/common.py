@@ -244,7 +244,7 @@ def main() -> None:
     """
 
 
-MOTION_SUFFIXES = (".bvh", ".npz", ".amc")
+MOTION_SUFFIXES = (".bvh", ".npz", ".amc", ".glb", ".gltf")
 """What the subcommands that read motions accept (an .amc needs its subject's .asf beside it)."""
 
 _GLOB_CHARS = frozenset("*?[")

@@ -5,10 +5,10 @@ Every edit is a free function from a :class:`~mocapkit.core.motion.Motion` to a 
 :func:`apply_edits` runs a set of them in the fixed order the ``mocapkit edit`` command uses.
 """
 
-# ---- everyday edits ----------------------------------------------------------------------
 from mocapkit.edit.everyday import EDIT_ORDER, EditResult, apply_edits
 from mocapkit.edit.joints import drop_joints, joints_matching, rename_joints
 from mocapkit.edit.mirror import Mirrored, joint_mirrors, mirror, mirror_pairs
+from mocapkit.edit.retarget import RetargetConfig, Retargeted, retarget
 from mocapkit.edit.rootmotion import extract_root_motion, in_place
 from mocapkit.edit.timing import change_speed, trim, trim_frames
 
@@ -16,6 +16,8 @@ __all__ = [
     "EDIT_ORDER",
     "EditResult",
     "Mirrored",
+    "RetargetConfig",
+    "Retargeted",
     "apply_edits",
     "change_speed",
     "drop_joints",
@@ -26,8 +28,7 @@ __all__ = [
     "mirror",
     "mirror_pairs",
     "rename_joints",
+    "retarget",
     "trim",
     "trim_frames",
 ]
-
-# ---- retargeting (mocapkit.edit.retarget): its imports and __all__ entries go below ---------
