@@ -438,6 +438,12 @@ class FootLockConfig:
     #: Where a planted foot is held: "mean" (the run's mean position: the least total change)
     #: or "first" (where it landed).
     anchor: str = "mean"
+    #: How the blends around a run ramp: "target" pulls the foot toward the run's anchor with
+    #: the ramping weight; "offset" adds the correction the run needs at its first (last) frame
+    #: to the foot's own position, fading to nothing. A foot swings in and out of a contact fast
+    #: (~1-3 m/s, 15-45 cm over a 0.15 s blend), so pulling it toward a fixed point reshapes
+    #: its swing; the fading offset keeps the swing's shape and still meets the anchor.
+    ramp: str = "target"
     #: Hold the planted height too. Off by default: an ankle's height changes legitimately while
     #: its foot is planted (the foot rolls heel to toe), and a straight leg cannot reach lower;
     #: the slide that reads as skating is horizontal.
@@ -446,6 +452,8 @@ class FootLockConfig:
     ik: IKConfig = field(default_factory=IKConfig)
 
     def __post_init__(self) -> None:
+        if self.ramp not in ("target", "offset"):
+            raise ValueError(f"ramp must be 'target' or 'offset', got {self.ramp!r}")
         if self.anchor not in ("mean", "first"):
             raise ValueError(f"anchor must be 'mean' or 'first', got {self.anchor!r}")
         if not (math.isfinite(self.blend) and self.blend >= 0):
@@ -471,13 +479,17 @@ def lock_targets(
     blend_frames: int,
     anchor: str = "mean",
     up: np.ndarray | None = None,
+    ramp: str = "target",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per foot joint (columns): targets (F, n, 3) and weights (F, n) for :func:`solve`.
 
     Over each run of True in ``flags[:, k]`` the target is the run's anchor (mean or first
     position) with weight 1; for ``blend_frames`` frames before and after, the weight ramps
-    smoothly (smoothstep) to 0 toward the nearest run's anchor. Elsewhere weight 0. With ``up``
-    (a unit vector) only the ground-plane part is held: the target keeps the input's height."""
+    smoothly (smoothstep) to 0 toward the nearest run's anchor (``ramp="target"``) or, with
+    ``ramp="offset"``, the target is the joint's own position plus the correction the run needs
+    at its nearest end frame (anchor - position there), so the swing keeps its shape while the
+    correction fades. Elsewhere weight 0. With ``up`` (a unit vector) only the ground-plane
+    part is held: the target keeps the input's height."""
     F, n = flags.shape
     targets = positions.copy()
     weights = np.zeros((F, n))
@@ -494,7 +506,13 @@ def lock_targets(
             wk = x * x * (3 - 2 * x)  # smoothstep: zero slope at both ends, no pop
             take = wk > best[fr]
             best[fr[take]] = wk[take]
-            if u is None:
+            if ramp == "offset":
+                end = np.where(fr < a, a, np.where(fr > b, b, fr))
+                off = pt - positions[end, k]
+                if u is not None:
+                    off = off - (off @ u)[:, None] * u
+                targets[fr[take], k] = positions[fr[take], k] + off[take]
+            elif u is None:
                 targets[fr[take], k] = pt
             else:  # the anchor's ground-plane position at the input's own height
                 h = positions[fr[take], k] @ u
@@ -538,6 +556,6 @@ def lock_feet(
     pos, _ = forward_kinematics(motion)
     blend = motion.seconds_to_frames(cfg.blend)
     up = None if cfg.lock_height else ground_frame(body.up)[1]
-    targets, weights = lock_targets(pos[:, list(effs)], flags, blend, cfg.anchor, up)
+    targets, weights = lock_targets(pos[:, list(effs)], flags, blend, cfg.anchor, up, cfg.ramp)
     res = solve(motion, chains, targets, weights, cfg.ik, body)
     return FootLock(res.motion, effs, targets, weights, res.residual, contacts)

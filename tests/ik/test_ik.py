@@ -127,6 +127,31 @@ def test_lock_targets_blend_is_smooth():
     assert np.allclose(t[15:25, 0], pos[15:25, 0].mean(axis=0))
 
 
+def test_lock_targets_offset_ramp_keeps_the_swing():
+    """ramp="offset": over the blends the target moves with the joint (a constant correction
+    per side, weighted down), inside the run it is the anchor, continuous at the run's ends."""
+    F = 40
+    pos = np.zeros((F, 1, 3))
+    pos[:, 0, 0] = np.linspace(0, 1, F) ** 2
+    flags = np.zeros((F, 1), dtype=bool)
+    flags[15:25] = True
+    t, w = lock_targets(pos, flags, 4, "mean", ramp="offset")
+    _, w0 = lock_targets(pos, flags, 4, "mean")
+    assert np.array_equal(w, w0)
+    anchor = pos[15:25, 0].mean(axis=0)
+    assert np.allclose(t[15:25, 0], anchor)
+    # the blend frames keep the joint's own motion (same velocity as the input)
+    assert np.allclose(np.diff(t[11:16, 0], axis=0)[:-1], np.diff(pos[11:16, 0], axis=0)[:-1])
+    assert np.allclose(t[11:15, 0] - pos[11:15, 0], anchor - pos[15, 0])
+    assert np.allclose(t[25:29, 0] - pos[25:29, 0], anchor - pos[24, 0])
+    # with up: only the ground-plane correction, the joint's own height
+    pos[:, 0, 1] = np.linspace(0, 0.3, F)
+    t, _ = lock_targets(pos, flags, 4, "mean", up=np.array([0.0, 1.0, 0.0]), ramp="offset")
+    assert np.allclose(t[:, 0, 1], pos[:, 0, 1])
+    with pytest.raises(ValueError, match="ramp"):
+        FootLockConfig(ramp="pull")
+
+
 def test_lock_feet_holds_planted_feet(shared_path):
     from mocapkit.io import read_motion
 
