@@ -35,6 +35,11 @@ def _check(res, src):
     for v in j["effector_path_error_pct"]["per_effector"].values():
         assert v["mean"] <= 5.0
     assert j["joint_limits"]["all_kept"]
+    # the IK reaches the planted targets (cm), so the remaining slide is not a solver failure
+    assert j["ik_residual_cm"]["max"] < 2.0
+    # planted runs: frames where the source joint drifts beyond contact_drift left the run
+    assert fs["source"]["max"] <= 2 * 100 * j["contacts"]["contact_drift_m"]
+    assert j["contacts"]["frames"] <= j["contacts"]["detected_frames"]
     assert res.motion.frame_time == src.frame_time
     assert np.all(np.isfinite(res.motion.rotations))
 
@@ -56,6 +61,90 @@ def test_bandai_to_cmu_asf(pair, shared_path):
     res = retarget(ban, asf)
     _check(res, ban)
     assert res.mapping["lfemur"] == "UpperLeg_L"
+
+
+def _limb(pos, body, side, U=None):
+    """(shoulder -> wrist vector, reach as a fraction of upper + lower arm, elbow offset)."""
+    from mocapkit.core import rotations as rot
+
+    s, e, w = (body.joint(f"{side}_{k}") for k in ("shoulder", "elbow", "wrist"))
+    r, u = pos[:, w] - pos[:, s], pos[:, e] - pos[:, s]
+    if U is not None:
+        r, u = rot.quat_apply(U, r), rot.quat_apply(U, u)
+    length = np.linalg.norm(u, axis=-1) + np.linalg.norm(pos[:, w] - pos[:, e], axis=-1)
+    return r, np.linalg.norm(r, axis=-1) / length, u
+
+
+@pytest.mark.parametrize("direction", ["cmu_to_bandai", "bandai_to_cmu"])
+def test_arms_match_source_reach_and_bend_side(pair, shared_path, direction):
+    """Rigs split an arm differently (CMU upper arm / forearm 1.63, Bandai 1.09): the wrist
+    keeps the source's direction from the shoulder and its reach as a fraction of the arm's
+    length, and the elbow stays on the source's side of the shoulder-wrist line."""
+    from mocapkit.body import body_of
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.edit.retarget import RetargetConfig, read_target
+    from mocapkit.features import ground_frame
+
+    cmu, ban = pair
+    if direction == "cmu_to_bandai":
+        src, tgt = cmu, ban
+    else:
+        src, tgt = ban, read_target(shared_path(CMU) / "03.asf")
+    res = retarget(src, tgt)
+    bS, bT = body_of(src), body_of(res.motion)
+    U = rot.quat_between(ground_frame(bS.up)[1], ground_frame(bT.up)[1])
+    posS, _ = forward_kinematics(src)
+    posT, _ = forward_kinematics(res.without_ik)
+    for side in ("left", "right"):
+        rS, fS, uS = _limb(posS, bS, side, U)
+        rT, fT, uT = _limb(posT, bT, side)
+        np.testing.assert_allclose(fT, fS, atol=1e-6)
+        cos = np.einsum("fi,fi->f", rS, rT) / (
+            np.linalg.norm(rS, axis=-1) * np.linalg.norm(rT, axis=-1)
+        )
+        assert cos.min() > 1 - 1e-9
+        # the elbow on the same side of the shoulder-wrist line (the bending plane's normal)
+        nS, nT = np.cross(uS, rS), np.cross(uT, rT)
+        bent = np.linalg.norm(nS, axis=-1) > 1e-3 * np.linalg.norm(rS, axis=-1) ** 2
+        assert np.all(np.einsum("fi,fi->f", nS, nT)[bent] > 0)
+    # copying bone directions alone leaves the wrists' paths further from the source's
+    off = retarget(src, tgt, RetargetConfig(match_reach=False)).to_json()
+    on = res.to_json()
+    for side in ("left", "right"):
+        k = f"{side}_wrist"
+        err = on["effector_path_error_pct"]["per_effector"][k]["mean"]
+        assert err < off["effector_path_error_pct"]["per_effector"][k]["mean"]
+
+
+def test_planted_runs_hold_only_still_frames(pair):
+    """A detected run keeps only the frames near its median position; every kept frame was
+    detected, and a run whose joint wanders splits."""
+    from dataclasses import replace
+
+    from mocapkit.body import body_of
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.core.runs import true_runs
+    from mocapkit.edit.retarget import _planted
+    from mocapkit.features import foot_contacts
+
+    cmu, _ = pair
+    body = body_of(cmu)
+    det = foot_contacts(cmu)
+    # a synthetic wandering contact: one run over the whole clip for the first foot joint
+    flags = det.contacts.copy()
+    flags[:, 0] = True
+    wide = replace(det, contacts=flags)
+    out = _planted(wide, cmu, body, 0.03)
+    assert not np.any(out.contacts & ~wide.contacts)
+    assert len(true_runs(out.contacts[:, 0])) >= 1
+    assert out.contacts[:, 0].sum() < 0.5 * cmu.num_frames  # a walking foot is not planted
+    pos, _ = forward_kinematics(cmu)
+    j = det.joints[0]
+    seg = pos[out.contacts[:, 0], j]
+    dev = seg - np.median(pos[:, j], axis=0)
+    dev[:, 1] = 0.0  # CMU is Y-up
+    assert np.all(np.linalg.norm(dev, axis=-1) * body.metres_per_unit <= 0.03 + 1e-9)
 
 
 def test_map_overrides_and_errors(pair):

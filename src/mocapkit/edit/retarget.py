@@ -15,11 +15,16 @@ source bone's global rotation carried through both canonical frames
 (``G_T = U G_S B_S B_T^-1``, ``B = G_ref^-1 F_ref``), then swung so that the bone points exactly
 along the source's posed bone: positions follow the source's directions, twist follows its
 rotations. Joints between mapped ones keep their reference pose relative to their parent.
+Then each two-bone limb (hip-knee-ankle, shoulder-elbow-wrist) is re-aimed so that its end
+sits in the source's direction from the limb root at the source's reach as a fraction of the
+limb's length, the hinge in the source's bending plane (rigs divide a limb between its two
+bones differently; see :func:`_match_reach`).
 
 The pelvis path is scaled by the ratio of leg lengths (hip to ankle), units converted
 (``metres_per_unit``) and the up axis turned (``U``). Then, optionally, the feet are locked over
-the source's contacts (:func:`mocapkit.ik.lock_feet`), and a ground root (Bandai's ``joint_Root``)
-is put back on the body's ground path.
+the source's contacts (:func:`mocapkit.ik.lock_feet`; the detected runs kept only where the
+source joint is really still, ``RetargetConfig.contact_drift``), and a ground root (Bandai's
+``joint_Root``) is put back on the body's ground path.
 
 :func:`retarget` also measures the result (:class:`Retargeted.to_json`): foot slide during the
 source's detected contacts (source, output without and with IK), the end-effector paths relative
@@ -31,7 +36,7 @@ from __future__ import annotations
 import itertools
 import json
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +44,7 @@ import numpy as np
 
 from mocapkit.body import Body, body_of
 from mocapkit.core import rotations as rot
-from mocapkit.core.kinematics import forward_kinematics
+from mocapkit.core.kinematics import fk_arrays, forward_kinematics
 from mocapkit.core.motion import Motion
 from mocapkit.core.runs import true_runs
 from mocapkit.features import (
@@ -76,8 +81,22 @@ class RetargetConfig:
     #: Lock planted feet with IK over the source's detected contacts: retargeting to other
     #: proportions makes planted feet slide (the pelvis path is scaled, the legs are not).
     foot_lock: bool = True
-    #: How feet are locked (blend time, anchor, solver).
-    lock: FootLockConfig = field(default_factory=FootLockConfig)
+    #: How feet are locked (blend time, anchor, solver). The blends ramp a fading offset: a
+    #: foot swings into and out of a contact fast, and pulling it toward the planted point over
+    #: the blend would reshape the swing (the ankle's path relative to the pelvis).
+    lock: FootLockConfig = field(default_factory=lambda: FootLockConfig(ramp="offset"))
+    #: Match each limb's reach (hip-knee-ankle, shoulder-elbow-wrist) by a two-bone solve: the
+    #: end effector's direction from the limb root and its distance as a fraction of the limb's
+    #: length equal the source's, the hinge in the source's bending plane. Rigs split a limb
+    #: differently (CMU upper arm / forearm 1.63, Bandai 1.09), so copying each bone's
+    #: direction alone moves a bent limb's end to another place relative to the body.
+    match_reach: bool = True
+    #: A source foot joint counts as planted only within this distance (metres, horizontal) of
+    #: where its contact run holds it (the run's median position); frames further away leave
+    #: the run, which may split it. A planted joint moves by marker noise and shoe compression
+    #: (1-2 cm); further, it has lifted (heel-off rolls the ankle forward over the toe, which
+    #: carries the contact) or slides, and locking it at one point drags the leg there.
+    contact_drift: float = 0.03
     #: A hinge (knee, elbow) bent backwards by more than this counts as a limit violation
     #: (degrees): a straight capture leg reads a few degrees either side of 0 from marker noise.
     hyperextension: float = 10.0
@@ -376,9 +395,12 @@ class Retargeted:
         """``frames``, ``fps``, ``scale``, ``mapping``, and the figures: ``foot_slide_cm``
         (mean and max horizontal distance of each planted foot joint from its contact run's
         mean position, over the source's detected contacts: ``source``, ``output_without_ik``,
-        ``output``), ``effector_path_error_pct`` (per effector, mean and 95th percentile of
-        |d - mean(d)| x 100, d = p_T/L_T - p_S/L_S in the source's heading frame, p the
-        effector relative to the pelvis,
+        ``output``; the contacts are the detector's runs kept where the source joint stays
+        within ``contact_drift``: ``contacts`` gives both frame counts), ``ik_residual_cm``
+        (mean and max distance the foot-lock IK left a planted joint from its target on fully
+        locked frames; None without foot locking), ``effector_path_error_pct`` (per
+        effector, mean and 95th percentile of |d - mean(d)| x 100, d = p_T/L_T - p_S/L_S in
+        the source's heading frame, p the effector relative to the pelvis,
         L its limb's length (hip-knee-ankle, shoulder-elbow-wrist, pelvis to head); the mean
         offset removed is the rigs' constant difference in proportions, reported as
         ``uncentred_mean``), ``joint_limits`` (per knee and elbow, frames bent backwards
@@ -404,6 +426,7 @@ def _transfer(
     bT: Body,
     user_map: Mapping[str, str | None] | None,
     map_name: str,
+    match_reach: bool = True,
 ) -> tuple[Motion, dict[str, Any]]:
     skS, skT = source.skeleton, target.skeleton
     refS_p, refS_g, _ = _reference(source, bS)
@@ -466,10 +489,10 @@ def _transfer(
             G[:, j] = rot.quat_identity(F) if bT.ground_root == j else refT_l[j]
         else:
             G[:, j] = rot.quat_mul(G[:, p], refT_l[j])
-    L = G.copy()
-    nonroot = skT.parents >= 0
-    L[:, nonroot] = rot.quat_mul(rot.quat_inv(G[:, skT.parents[nonroot]]), G[:, nonroot])
-    L = rot.quat_unroll(rot.quat_normalize(L), axis=0)
+    L = _local(G, skT)
+    if match_reach:
+        G = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf)
+        L = _local(G, skT)
 
     # the pelvis path
     pel = rot.quat_apply(Uf, posS[:, bS.pelvis]) * k
@@ -500,6 +523,97 @@ def _transfer(
         "B_T": dict(zip(order, B_T, strict=True)),
     }
     return out, info
+
+
+def _local(G: np.ndarray, sk: Any) -> np.ndarray:
+    """Local rotations (F, J, 4) from global ones."""
+    L = G.copy()
+    nonroot = sk.parents >= 0
+    L[:, nonroot] = rot.quat_mul(rot.quat_inv(G[:, sk.parents[nonroot]]), G[:, nonroot])
+    return rot.quat_unroll(rot.quat_normalize(L), axis=0)
+
+
+def _path_down(sk: Any, top: int, bottom: int) -> list[int] | None:
+    """Joints from ``top`` down to ``bottom``'s parent (``top`` included), or None when
+    ``top`` is not an ancestor of ``bottom``."""
+    path = []
+    for a in sk.ancestors(bottom):
+        path.append(a)
+        if a == top:
+            return path[::-1]
+    return None
+
+
+def _match_reach(
+    G: np.ndarray,
+    L: np.ndarray,
+    skT: Any,
+    bT: Body,
+    source: Motion,
+    posS: np.ndarray,
+    grotS: np.ndarray,
+    bS: Body,
+    Uf: np.ndarray,
+) -> np.ndarray:
+    """Global rotations (F, J, 4) with each two-bone limb (hip-knee-ankle, shoulder-elbow-
+    wrist) re-aimed so that its end effector sits where the source's does relative to the
+    limb root: the same direction, and the same reach as a fraction of the limb's length
+    (upper + lower segment). The hinge (knee, elbow) lies in the source's bending plane, on
+    the source's side of the root-to-end line, so a hinge bends the way the source's does
+    (never backwards unless the source's does). Only the two segments swing (the least
+    rotation that aims each); the end joint's own rotation (foot, hand) is untouched.
+
+    Relies on a limb's end effector position relative to the body being what the motion
+    means (a hand reaching a point, a foot under the body), whereas how the limb divides its
+    length between its two bones is the rig's: a bent limb whose bones copy the source's
+    directions reaches elsewhere when its upper/lower ratio differs."""
+    F = G.shape[0]
+    ltrans = np.broadcast_to(skT.offsets, (F, skT.num_joints, 3))
+    posT, _ = fk_arrays(skT.parents, L, ltrans)
+    G = G.copy()
+    for side in ("left", "right"):
+        for trio in _HINGES:
+            s = [bS.joint(f"{side}_{k}") for k in trio]
+            t = [bT.joint(f"{side}_{k}") for k in trio]
+            if None in s or None in t or len(set(t)) < 3 or len(set(s)) < 3:
+                continue
+            up_seg, lo_seg = _path_down(skT, t[0], t[1]), _path_down(skT, t[1], t[2])
+            if up_seg is None or lo_seg is None:
+                continue
+            # the source limb in the target's world axes (directions only; lengths relative)
+            eS = rot.quat_apply(Uf, posS[:, s[1]] - posS[:, s[0]])
+            rS = rot.quat_apply(Uf, posS[:, s[2]] - posS[:, s[0]])
+            lenS = np.linalg.norm(eS, axis=-1) + np.linalg.norm(
+                posS[:, s[2]] - posS[:, s[1]], axis=-1
+            )
+            dS = np.linalg.norm(rS, axis=-1)
+            if np.any(lenS < _EPS):
+                continue
+            rhat = rS / np.maximum(dS, _EPS)[:, None]
+            # the bending plane: the source hinge's offset from the root-to-end line; a straight
+            # limb leaves it undefined, so its hinge axis (majority flexion) breaks the tie
+            p = eS - np.einsum("fi,fi->f", eS, rhat)[:, None] * rhat
+            ax = hinge_axis(posS, grotS, *s)
+            axw = rot.quat_apply(Uf, rot.quat_apply(grotS[:, s[0]], np.broadcast_to(ax, (F, 3))))
+            p = p / lenS[:, None] + 1e-4 * np.cross(rhat, axw)
+            p = p - np.einsum("fi,fi->f", p, rhat)[:, None] * rhat
+            phat = p / np.maximum(np.linalg.norm(p, axis=-1), 1e-12)[:, None]
+            # the target limb: segment lengths as posed (rigid), reach the source's fraction
+            root, mid, end = posT[:, t[0]], posT[:, t[1]], posT[:, t[2]]
+            a = np.linalg.norm(mid - root, axis=-1)
+            b = np.linalg.norm(end - mid, axis=-1)
+            d = np.clip(dS / lenS * (a + b), np.abs(a - b) + 1e-9 * (a + b), a + b)
+            cos_al = np.clip((a * a + d * d - b * b) / np.maximum(2 * a * d, 1e-12), -1.0, 1.0)
+            sin_al = np.sqrt(1.0 - cos_al * cos_al)
+            mid_new = root + a[:, None] * (cos_al[:, None] * rhat + sin_al[:, None] * phat)
+            end_new = root + d[:, None] * rhat
+            q1 = rot.quat_between(mid - root, mid_new - root)
+            q2 = rot.quat_between(end - mid, end_new - mid_new)
+            for j in up_seg:
+                G[:, j] = rot.quat_mul(q1, G[:, j])
+            for j in lo_seg:
+                G[:, j] = rot.quat_mul(q2, G[:, j])
+    return G
 
 
 def _leg_length(body: Body, ref: np.ndarray) -> float:
@@ -655,6 +769,25 @@ def _measure(
     }
 
 
+def _planted(contacts: FootContacts, source: Motion, body: Body, drift: float) -> FootContacts:
+    """The contacts with each run kept only on frames where its joint is within ``drift``
+    metres (horizontally) of the run's median position; a run whose kept frames are apart
+    splits. Relies on a planted joint staying put: the detector's test (near the ground and
+    slower than a walking foot's swing) also passes a heel rolling off over the toe or a foot
+    sliding slowly, and one lock point for such a run drags the leg."""
+    pos, _ = forward_kinematics(source)
+    up = ground_frame(body.up)[1]
+    lim = drift / body.metres_per_unit
+    flags = np.zeros_like(contacts.contacts)
+    for k, j in enumerate(contacts.joints):
+        for a, b in true_runs(contacts.contacts[:, k]):
+            seg = pos[a : b + 1, j]
+            dev = seg - np.median(seg, axis=0)
+            dev = dev - (dev @ up)[:, None] * up
+            flags[a : b + 1, k] = np.linalg.norm(dev, axis=-1) <= lim
+    return replace(contacts, contacts=flags)
+
+
 def retarget(
     source: Motion,
     target: Motion,
@@ -682,8 +815,9 @@ def retarget(
         raise ValueError("the source motion has no frames")
     source.check_finite("source")
     bS, bT = body_of(source), body_of(target)
-    plain, info = _transfer(source, bS, target, bT, joint_map, map_name)
-    contacts = foot_contacts(source)
+    plain, info = _transfer(source, bS, target, bT, joint_map, map_name, cfg.match_reach)
+    detected = foot_contacts(source)
+    contacts = _planted(detected, source, bS, cfg.contact_drift)
     # the source's contacts on the target's feet (by body part)
     keyS = {p.joint: p.key for p in bS.parts if p.name in ("ankle", "toe")}
     featT: list[int] = []
@@ -701,13 +835,24 @@ def retarget(
         sides.append(contacts.sides[k])
     flagsT = np.stack(cols, axis=1) if cols else np.zeros((source.num_frames, 0), dtype=bool)
     out = plain
+    residual = None
     if cfg.foot_lock and featT:
         cT = FootContacts(tuple(featT), tuple(names), tuple(sides), flagsT, 0.0, 0.0)
-        out = lock_feet(plain, cT, cfg.lock, bT).motion
+        fl = lock_feet(plain, cT, cfg.lock, bT)
+        out = fl.motion
+        # how far the IK left a planted foot from its target, on fully locked frames
+        held = fl.residual[fl.weights >= 1.0] * bT.metres_per_unit * 100.0
+        residual = {
+            "mean": float(held.mean()) if held.size else None,
+            "max": float(held.max()) if held.size else None,
+        }
     figures = _measure(
         source, bS, out, plain, bT, info, contacts, flagsT, featT, cfg.hyperextension
     )
     figures["foot_lock"] = bool(cfg.foot_lock and featT)
+    figures["ik_residual_cm"] = residual
+    figures["contacts"]["detected_frames"] = int(detected.contacts.any(axis=1).sum())
+    figures["contacts"]["contact_drift_m"] = cfg.contact_drift
     if bT.ground_root is not None:
         out = ground_root_on_path(out, bT.up)
         plain = ground_root_on_path(plain, bT.up)
