@@ -327,8 +327,11 @@ def page_data(
         raise ValueError("nothing to view: give at least one motion")
     first = motions[0].motion
     up = up or detect_up_axis(first)
+    # where the scale came from: the file's own statement (ASF), a guess, or the user
+    units_source = "given"
     if units is None:
         units, mpu = detect_units(first)
+        units_source = "file" if first.skeleton.metres_per_unit is not None else "guessed"
     else:
         if units not in UNITS:
             raise ValueError(f"unknown units {units!r}; expected one of {', '.join(UNITS)}")
@@ -341,6 +344,7 @@ def page_data(
         "title": title or " vs ".join(Path(vm.name).name for vm in motions),
         "up": up,
         "units": units,
+        "unitsSource": units_source,
         "metresPerUnit": mpu,
         "motions": recs,
         "clean": clean_overlay(motions, clean_report, mdm),

@@ -527,7 +527,9 @@
     $('legend').appendChild(s);
     $('legend').appendChild(document.createTextNode(base(m.meta.name) + ' (' + m.meta.frames + ' frames, ' + m.meta.fps.toFixed(3).replace(/\.?0+$/, '') + ' fps, ' + m.meta.numJoints + ' joints)'));
   });
-  info('up axis ' + D.up + ' \u00b7 units ' + D.units + ' (grid ' + (cell === 1 ? '1 m' : '10 cm') + ' cells)');
+  const unit = D.units === 'file' ? (+D.metresPerUnit.toPrecision(4)) + ' m' : D.units;
+  const said = { file: ', from the file', guessed: ', guessed from the height', given: '' }[D.unitsSource] || '';
+  info('up axis ' + D.up + ' \u00b7 units ' + unit + said + ' (grid ' + (cell === 1 ? '1 m' : '10 cm') + ' cells)');
   motions.forEach(function (m) {
     var t = base(m.meta.name) + ': ' + (m.meta.stature || m.meta.height).toFixed(2) + ' m tall';
     if (m.gr >= 0) t += '; ground root ' + m.meta.names[m.gr] + ' drawn as the ring and arrow on the floor';
