@@ -90,15 +90,21 @@ def class_of(path: Path) -> str:
     return "locomotion" if any(w in c for w in LOCOMOTION_WORDS) else "gestures"
 
 
-def per_class(g, skate, classes: np.ndarray) -> dict:
+def per_class(g, skate, classes: np.ndarray, raw=None) -> dict:
     """Coverage and SCC foot skate (mean start-to-end over supported transitions, by source
-    clip) per class, and the mean over all the graph's transitions."""
+    clip) per class, and the mean over all the graph's transitions; ``raw``: the same skate
+    without foot locking (the blend alone)."""
     cov = g.coverage()
     out = {}
     for c in sorted(set(classes.tolist())):
         m = classes == c
         src = (classes[g.src_clip] == c) & skate.supported
         scc = src & g.in_scc
+        if raw is not None:
+            out.setdefault("raw", {})[c] = {
+                "skate_scc_cm": float(raw.start_to_end[scc].mean()) if scc.any() else None,
+                "skate_all_cm": float(raw.start_to_end[src].mean()) if src.any() else None,
+            }
         out[c] = {
             "clips": int(m.sum()),
             "frames": int(cov.frames[m].sum()),
@@ -216,15 +222,24 @@ def main() -> int:
     out["overlaps"] = g.stats["overlaps"]
     t = time.perf_counter()
     sk = transition_skate(g, motions)
-    out["classes"] = per_class(g, sk, classes)
+    raw = transition_skate(g, motions, foot_lock=False)
+    out["classes"] = per_class(g, sk, classes, raw)
+    out["raw"] = out["classes"].pop("raw")
+    out["skate_all_cm"] = {"locked": float(np.nanmean(sk.start_to_end)),
+                           "raw": float(np.nanmean(raw.start_to_end))}  # fmt: skip
     if knee is not None:
         ksk = transition_skate(knee, motions)
+        kraw = transition_skate(knee, motions, foot_lock=False)
+        kc = per_class(knee, ksk, classes, kraw)
         out["knee"] = {
             "transitions": knee.num_transitions,
             "transitions_in_scc": int(knee.in_scc.sum()),
             "coverage": knee.coverage().fraction,
-            "classes": per_class(knee, ksk, classes),
-        }
+            "raw": kc.pop("raw"),
+            "classes": kc,
+            "skate_all_cm": {"locked": float(np.nanmean(ksk.start_to_end)),
+                             "raw": float(np.nanmean(kraw.start_to_end))},
+        }  # fmt: skip
     out["skate_s"] = time.perf_counter() - t
     out["warning"] = cov.warning()
     if args.json:
@@ -275,6 +290,18 @@ def main() -> int:
                 f"{ratio}"
             )
         print(line)
+    print("  the same without foot locking (the blend alone, as synthesis rendered before):")
+    for c, r in out["raw"].items():
+        k = out.get("knee", {}).get("raw", {}).get(c, {})
+        fmt = lambda v: f"{v:.2f}" if v is not None else "-"  # noqa: E731
+        print(f"  {c:11s} skate SCC {fmt(r['skate_scc_cm']):>6s} cm; knee rule: skate all "
+              f"{fmt(k.get('skate_all_cm')):>6s} cm")  # fmt: skip
+    a = out["skate_all_cm"]
+    ka = out.get("knee", {}).get("skate_all_cm")
+    print(
+        f"  mean over all transitions: {a['locked']:.2f} cm locked, {a['raw']:.2f} cm raw"
+        + (f"; knee rule {ka['locked']:.2f} cm locked, {ka['raw']:.2f} cm raw" if ka else "")
+    )
     if out["warning"]:
         print(f"  warning: {out['warning']}")
     return 0

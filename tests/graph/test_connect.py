@@ -345,3 +345,47 @@ def test_take_that_repeats_itself():
         self_ov = [o for o in g.stats["overlaps"] if o["clip_a"] == o["clip_b"] == 0]
         assert self_ov and abs(self_ov[0]["offset"]) == w.num_frames, g.stats["overlaps"]
         assert np.all(g.cost > 1e-6)
+
+
+def test_ends_keep_the_least_sliding_frames_they_were_chosen_for(library):
+    """Ends are chosen for their slide on the stride grid; moving them to a cheaper frame
+    nearby (as the knee's transitions are) could land a foot in toe-off."""
+    from mocapkit.graph.select import refine
+
+    g, db, minima = build_graph(library, stride=2)
+    assert minima.stride == 2
+    end = g.kind == "end"
+    assert end.any()
+    src = db.starts[g.src_clip[end]] + g.src_frame[end]
+    dst = db.starts[g.dst_clip[end]] + g.dst_frame[end]
+    chosen = blend_slide(db, src, dst, g.blend)
+    moved = refine(db, Candidates(src, dst, g.cost[end]), 2)
+    after = blend_slide(db, moved.src, moved.dst, g.blend)
+    both = np.isfinite(chosen) & np.isfinite(after)
+    # the frames the rule chose, not the cost's local minimum next to them
+    assert np.sum(src != moved.src) + np.sum(dst != moved.dst) > 0
+    assert np.nansum(chosen[both]) <= np.nansum(after[both]) + 1e-12
+
+
+@pytest.mark.shared
+def test_ten_short_bandai1_runs_connect(shared_path):
+    """Ten 1-5 s bandai1 runs (the library where the knee rule found no transition between
+    clips): most of it is reachable, and a bridge that slides the feet less than marker noise
+    joins a piece whose own transitions do not slide at all."""
+    from mocapkit.io import read_motion
+
+    files = sorted(shared_path("bandai1/data").glob("*_run_*.bvh"))[:10]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        motions = [read_motion(f) for f in files]
+        g, _, _ = build_graph(motions, paths=[f.name for f in files])
+        knee, _, _ = build_graph(motions, transitions=g.T)
+    cov = g.coverage()
+    assert cov.fraction >= 0.7, cov.summary()  # the knee alone: 14 %
+    assert cov.clips_reached >= 7
+    assert knee.coverage().fraction < 0.5 * cov.fraction
+    # as the metric chose them (no foot locking): no worse than the knee's own transitions
+    sk = transition_skate(g, motions, foot_lock=False).subset(g.in_scc)
+    ks = transition_skate(knee, motions, foot_lock=False)
+    mean = sk.summary()["start_to_end_cm"]["mean"]
+    assert mean <= 1.2 * ks.summary()["start_to_end_cm"]["mean"], mean

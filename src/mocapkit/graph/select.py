@@ -656,6 +656,10 @@ BRIDGE_SECONDS = 5.0
 BRIDGE_RATIO = 3.0
 #: Components shorter than this (seconds) are left out.
 MIN_COMPONENT_SECONDS = 1.0
+#: A slide below this fraction of the character's height (about 1 cm on a 1.7 m person) is
+#: within marker noise and shoe compression: a bridge that slides no more is always
+#: acceptable, even into a component whose own transitions do not slide at all.
+UNSEEN_SLIDE = 0.006
 
 
 @dataclass(frozen=True, eq=False)
@@ -716,11 +720,14 @@ def _refined(
     trivial: float,
     overlaps: Sequence[Overlap],
     blend: int,
+    by_cost: bool = True,
 ) -> Candidates:
-    """Refined to full resolution, without trivial loops, overlaps, or blends off the clip."""
+    """Refined to full resolution (``by_cost``: moved to the nearest local minimum of the cost;
+    else kept where they are: exact frames chosen for another reason), without trivial loops,
+    overlaps, or blends off the clip."""
     if len(cand) == 0:
         return cand
-    out = refine(db, cand, stride if stride > 1 else 0)
+    out = refine(db, cand, stride if stride > 1 else 0) if by_cost else cand
     out = out.take(_nontrivial(db, out, trivial))
     keep = ~on_overlaps(db, out.src, out.dst, overlaps) & fits_blend(db, out, blend)
     return out.take(np.flatnonzero(keep))
@@ -794,8 +801,9 @@ def select_connected(
        per style or performer, walks apart from gestures). Each component of at least
        ``min_component_seconds`` gets the least-sliding candidate from the largest component
        into it and back; the pair is added when the component lasts ``bridge_seconds`` or its
-       bridges slide at most ``bridge_ratio`` x the median slide of its own transitions (a
-       short piece is not worth a bad transition). Repeated until nothing joins.
+       bridges slide at most ``bridge_ratio`` x the median slide of its own transitions, or
+       no more than :data:`UNSEEN_SLIDE` of the character's height (a short piece is not
+       worth a bad transition). Repeated until nothing joins.
 
     All chosen transitions are refined to full-resolution local minima (as
     :func:`select_transitions`) and merged.
@@ -822,7 +830,9 @@ def select_connected(
     knee = pool.take(chosen_idx[0])
     ends = pool.take(np.unique(np.concatenate(chosen_idx[1:])))
     parts = [(_refined(db, knee, stride, trivial, overlaps, blend), "knee")]
-    parts.append((_refined(db, ends, stride, trivial, overlaps, blend), "end"))
+    # ends are chosen for their slide: moving them to a cheaper frame nearby could land a foot
+    # in toe-off (a 30 cm swing read as skate), so they stay on the frames that were chosen
+    parts.append((_refined(db, ends, stride, trivial, overlaps, blend, by_cost=False), "end"))
 
     def combine(parts):
         src = np.concatenate([p.src for p, _ in parts])
@@ -835,6 +845,7 @@ def select_connected(
 
     chosen, kind = combine(parts)
     bridged = skipped = 0
+    unseen = UNSEEN_SLIDE * character_height(db)
     min_frames = min_component_seconds * db.fps
     for _ in range(max_rounds):
         lab = frame_components(db, chosen.src, chosen.dst, blend)
@@ -863,6 +874,7 @@ def select_connected(
                 continue
             typ = own[own_lab == comp]
             typical = float(np.median(typ)) if len(typ) else float(np.median(own))
+            typical = max(typical, unseen)
             if n >= bridge_seconds * db.fps or max(slide0[pair]) <= bridge_ratio * typical:
                 add += pair
                 bridged += 1
@@ -870,7 +882,7 @@ def select_connected(
                 skipped += 1
         if not add:
             break
-        parts.append((_refined(db, pool.take(np.array(add)), stride, trivial, overlaps, blend),
-                      "bridge"))  # fmt: skip
+        parts.append((_refined(db, pool.take(np.array(add)), stride, trivial, overlaps, blend,
+                               by_cost=False), "bridge"))  # fmt: skip
         chosen, kind = combine(parts)
     return Selection(chosen, kind.astype(str), merged, T, overlaps, int(bridged), int(skipped))
