@@ -55,11 +55,12 @@ from mocapkit.viz.viewer import view_files
     "folder, never beside the input).",
 )
 @click.option("--open", "open_page", is_flag=True, help="Open the page in the web browser.")
-@up_option("Up axis (Y, Z, -Y, ...; default: detected from the first FILE).")
+@up_option("Up axis (Y, Z, -Y, ...) of every FILE (default: detected for each FILE).")
 @click.option(
     "--units",
     type=click.Choice(["m", "cm", "mm", "inch"]),
-    help="Length unit of the files (default: detected from the first FILE).",
+    help="Length unit of every FILE (default: each FILE's own: the unit its file states, as an "
+    "ASF does, else guessed from the character's height).",
 )
 @LENIENT
 @friendly_errors

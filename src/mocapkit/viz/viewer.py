@@ -4,7 +4,8 @@ The page needs no server and no network: three.js (vendored, MIT, see ``static/R
 viewer script and style, and every motion's joint positions are written into one HTML file.
 
 Positions are computed here by forward kinematics (End Sites included), turned to three.js'
-Y-up frame from the detected (or given) up axis, scaled to metres, and stored per motion as
+Y-up frame from each motion's own detected (or given) up axis, scaled to metres by its own unit
+(the file's statement, else a guess from the height, or given), and stored per motion as
 uint16 quantised to the motion's bounding box (base64; < 0.2 mm error for a 10 m box).
 Overlays (cleaning report + MDM, stitch result, motion graph transitions) are JSON.
 """
@@ -310,6 +311,23 @@ def graph_overlay(
     }
 
 
+def _scale_of(m: Motion, up: str | None, units: str | None) -> tuple[str, str, float, str]:
+    """``(up axis, unit name, metres per unit, where the unit came from)`` of one motion: the
+    given ``up``/``units``, else the file's statement (ASF ``:units``), else the guess."""
+    from mocapkit.features import UNITS, detect_units, detect_up_axis
+
+    up = up or detect_up_axis(m)
+    if units is not None:
+        return up, units, float(UNITS[units]), "given"
+    name, mpu = detect_units(m)
+    return up, name, float(mpu), "file" if m.skeleton.metres_per_unit is not None else "guessed"
+
+
+def _shared(recs: Sequence[dict[str, Any]], key: str) -> Any:
+    vals = {json.dumps(r[key]) for r in recs}
+    return recs[0][key] if len(vals) == 1 else None
+
+
 def page_data(
     motions: Sequence[ViewMotion],
     up: str | None = None,
@@ -320,32 +338,29 @@ def page_data(
     graph: dict[str, Any] | None = None,
     title: str | None = None,
 ) -> dict[str, Any]:
-    """Everything the page shows, JSON-ready."""
-    from mocapkit.features import UNITS, detect_units, detect_up_axis
+    """Everything the page shows, JSON-ready.
+
+    Each motion is drawn in metres and Y up by its own file's scale and up axis (``units`` and
+    ``up``, where given, apply to all): its record holds ``up``, ``units``, ``unitsSource``
+    (``"file"``: stated by the file, ``"guessed"``: from the height, ``"given"``) and
+    ``metresPerUnit``. The same top-level keys hold the value every motion shares, or None."""
+    from mocapkit.features import UNITS
 
     if not motions:
         raise ValueError("nothing to view: give at least one motion")
-    first = motions[0].motion
-    up = up or detect_up_axis(first)
-    # where the scale came from: the file's own statement (ASF), a guess, or the user
-    units_source = "given"
-    if units is None:
-        units, mpu = detect_units(first)
-        units_source = "file" if first.skeleton.metres_per_unit is not None else "guessed"
-    else:
-        if units not in UNITS:
-            raise ValueError(f"unknown units {units!r}; expected one of {', '.join(UNITS)}")
-        mpu = float(UNITS[units])
-    recs = [
-        _motion_record(vm, vm.color or PALETTE[i % len(PALETTE)], up, mpu)
-        for i, vm in enumerate(motions)
-    ]
+    if units is not None and units not in UNITS:
+        raise ValueError(f"unknown units {units!r}; expected one of {', '.join(UNITS)}")
+    recs = []
+    for i, vm in enumerate(motions):
+        m_up, m_units, m_mpu, m_source = _scale_of(vm.motion, up, units)
+        rec = _motion_record(vm, vm.color or PALETTE[i % len(PALETTE)], m_up, m_mpu)
+        recs.append(
+            {**rec, "up": m_up, "units": m_units, "unitsSource": m_source, "metresPerUnit": m_mpu}
+        )
     return {
         "title": title or " vs ".join(Path(vm.name).name for vm in motions),
-        "up": up,
-        "units": units,
-        "unitsSource": units_source,
-        "metresPerUnit": mpu,
+        # the value all motions share, else None (each motion has its own: see "motions")
+        **{k: _shared(recs, k) for k in ("up", "units", "unitsSource", "metresPerUnit")},
         "motions": recs,
         "clean": clean_overlay(motions, clean_report, mdm),
         "stitch": stitch_overlay(motions, stitch),

@@ -3,8 +3,10 @@
  * Bones are solid (Lambert-shaded tubes + sphere sprites at the joints); a ground root (the
  * body's projection on the floor, e.g. Bandai's joint_Root) is a ring + arrow on the floor; the
  * camera targets the (smoothed) pelvis path and follows it while the user orbits.
+ * Each motion comes in metres (its own unit applied in Python: meta.units, unitsSource,
+ * metresPerUnit), so one grid and one camera fit them all.
  * Test hook: window.mocapkitViewer (frame, play(), pause(), seek(f), jointColor(m, j),
- * boneColor(m, k), screenPoint(j, m), bones(m), groundMarker(m), ...). */
+ * boneColor(m, k), screenPoint(j, m), bones(m), groundMarker(m), timelineLabels(), ...). */
 (function () {
   'use strict';
   var D = JSON.parse(document.getElementById('mocapkit-data').textContent);
@@ -380,13 +382,23 @@
   }
 
   // ---------------------------------------------------------------- timeline
+  // Rows, top to bottom: the marker band (transition / take-off / landing markers, their labels
+  // in up to LABEL_ROWS rows, laid out so that no two overlap: a label with no room is left out
+  // and its details are on hover and in the list), the MDM heat map (one row per joint, names
+  // in a left gutter where the rows are tall enough) or a thin bar, and a time axis in seconds.
+  // Hidden when there is nothing to show on it.
   var tl = $('timeline'), tctx = tl.getContext('2d');
-  var BAND = 22; // marker band height (css px)
+  var graphTrans = graph ? graph.transitions : [];
+  var hasTimeline = !!(clean || stitch || graphTrans.length);
+  if (!hasTimeline) $('timeline-wrap').hidden = true;
+  var MARK_H = 9, LABEL_H = 11, AXIS = 16, LABEL_FONT = '10px sans-serif';
+  var LABEL_ROWS = graphTrans.length ? 3 : (stitch ? 2 : 0);
+  var BAND = Math.max(22, MARK_H + LABEL_ROWS * LABEL_H + 3); // marker band height (css px)
   var heat = null; // offscreen canvas: MDM, one column per frame (scaled when drawn)
-  var rowH = 0, nRows = 0;
+  var rowH = 0, nRows = 0, gutter = 0, nameFont = null;
   if (mdm) {
     nRows = clean.joints;
-    rowH = Math.max(2, Math.min(8, Math.floor(260 / nRows)));
+    rowH = Math.max(2, Math.min(10, Math.floor(260 / nRows)));
     var cols = Math.min(clean.frames, 4096), step = clean.frames / cols;
     heat = document.createElement('canvas'); heat.width = cols; heat.height = nRows;
     var hctx = heat.getContext('2d'), img = hctx.createImageData(cols, nRows);
@@ -400,27 +412,97 @@
       }
     }
     hctx.putImageData(img, 0, 0);
+    if (rowH >= 8) { // joint names fit beside the rows
+      nameFont = (rowH - 1) + 'px sans-serif';
+      tctx.font = nameFont;
+      var jn = motions[clean.motion].meta.names, widest = 0;
+      for (var jj = 0; jj < nRows; jj++) widest = Math.max(widest, tctx.measureText(String(jn[jj])).width);
+      gutter = Math.ceil(Math.min(130, widest + 8));
+    }
+    $('tl-cap').textContent = 'MDM of ' + base(motions[clean.motion].meta.name) + ', a row per joint over time: blue 0 = like its neighbours \u2192 red 1 = distinct; ' +
+      'white boxes: flagged segments';
+    $('tl-cap').hidden = false;
   }
-  function tlHeight() { return BAND + (heat ? nRows * rowH : 18); }
+  function bodyH() { return heat ? nRows * rowH : 18; }
+  function tlHeight() { return BAND + bodyH() + AXIS; }
+  var labels = [], labelsHidden = 0; // the placed labels ({x, y, w, text, color}, css px)
+  function shortCost(c) { // 3 significant digits or more, no exponent: 0.253, 12.5, 1569
+    var a = Math.abs(c);
+    return c.toFixed(a >= 100 ? 0 : a >= 10 ? 1 : a >= 1 ? 2 : 3);
+  }
+  function layoutLabels(w) {
+    // stitch labels first, then the transitions' costs left to right, each in the first row
+    // where it overlaps no label already placed (4 px apart); no room: left out
+    var items = [];
+    if (stitch) {
+      items.push({ x: mfx(stitch.motion, stitch.takeoff, w), text: 'take-off', color: '#4fc3f7' });
+      items.push({ x: mfx(stitch.motion, stitch.landing, w), text: 'landing', color: '#81c784' });
+    }
+    var costs = graphTrans.filter(function (t) { return t.cost !== null; }).map(function (t) {
+      return { x: mfx(graph.motion, t.frame, w), text: shortCost(t.cost), color: '#ff8a65' };
+    }).sort(function (a, b) { return a.x - b.x; });
+    items = items.concat(costs);
+    tctx.font = LABEL_FONT;
+    var rows = [];
+    for (var r = 0; r < LABEL_ROWS; r++) rows.push([]);
+    labels = []; labelsHidden = 0;
+    items.forEach(function (it) {
+      var tw = Math.ceil(tctx.measureText(it.text).width);
+      var lx = Math.max(gutter, Math.min(it.x + 3, w - tw - 1));
+      for (var r2 = 0; r2 < LABEL_ROWS; r2++) {
+        var clash = rows[r2].some(function (b) { return lx < b[1] + 4 && b[0] < lx + tw + 4; });
+        if (!clash) {
+          rows[r2].push([lx, lx + tw]);
+          labels.push({ x: lx, y: MARK_H + 1 + r2 * LABEL_H, w: tw, h: LABEL_H - 1, text: it.text, color: it.color, at: it.x });
+          return;
+        }
+      }
+      labelsHidden++;
+    });
+    var note = '';
+    if (labelsHidden) note = labelsHidden + ' of ' + items.length + ' labels left out where the markers crowd: hover a marker for its details';
+    $('tl-note').textContent = note;
+  }
   function sizeTimeline() {
+    if (!hasTimeline) return;
     var w = tl.parentNode.clientWidth || 800, dpr = window.devicePixelRatio || 1;
     tl.style.height = tlHeight() + 'px';
     tl.width = Math.round(w * dpr); tl.height = Math.round(tlHeight() * dpr);
     tctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    layoutLabels(w);
     drawTimeline();
   }
-  function fx(f, w) { return (f / Math.max(1, nFrames - 1)) * (w - 1); }
+  function fx(f, w) { return gutter + (f / Math.max(1, nFrames - 1)) * (w - gutter - 1); }
   function mfx(mi, f, w) { // a frame of motion mi on the timeline
     return fx(f / motions[mi].meta.fps * fps, w);
   }
+  var axisTicks = 0;
+  function drawAxis(w, y) { // seconds, a tick every 1, 2 or 5 x 10^k s, labels >= 60 px apart
+    var secs = (nFrames - 1) / fps, span = w - gutter - 1, stepS = 0.01;
+    var steps = [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 1200, 1800, 3600];
+    for (var i = 0; i < steps.length; i++) { stepS = steps[i]; if (secs <= 0 || stepS / secs * span >= 60) break; }
+    tctx.fillStyle = '#16171d'; tctx.fillRect(0, y, w, AXIS);
+    tctx.strokeStyle = '#667'; tctx.fillStyle = '#aab'; tctx.font = LABEL_FONT; tctx.lineWidth = 1;
+    tctx.beginPath(); tctx.moveTo(gutter, y + 0.5); tctx.lineTo(w, y + 0.5); tctx.stroke();
+    axisTicks = 0;
+    for (var ti = 0; ti * stepS <= secs + 1e-9; ti++) {
+      var t = ti * stepS;
+      axisTicks++;
+      var x = fx(t * fps, w), s = +t.toFixed(2) + ' s', tw = tctx.measureText(s).width;
+      tctx.beginPath(); tctx.moveTo(Math.round(x) + 0.5, y); tctx.lineTo(Math.round(x) + 0.5, y + 4); tctx.stroke();
+      tctx.fillText(s, Math.max(gutter, Math.min(x - tw / 2, w - tw - 1)), y + AXIS - 3);
+    }
+    if (gutter) { tctx.fillText('time', 2, y + AXIS - 3); }
+  }
   function drawTimeline() {
-    var w = tl.clientWidth || 800, h = tlHeight();
+    if (!hasTimeline) return;
+    var w = tl.clientWidth || 800, h = tlHeight(), bh = bodyH();
     tctx.clearRect(0, 0, w, h);
-    tctx.fillStyle = '#262833'; tctx.fillRect(0, 0, w, BAND);
+    tctx.fillStyle = '#262833'; tctx.fillRect(gutter, 0, w - gutter, BAND);
     if (heat) {
       tctx.imageSmoothingEnabled = false;
       var x1 = mfx(clean.motion, clean.frames - 1, w) + 1;
-      tctx.drawImage(heat, 0, BAND, x1, nRows * rowH);
+      tctx.drawImage(heat, gutter, BAND, x1 - gutter, nRows * rowH);
       tctx.strokeStyle = '#ffffff'; tctx.lineWidth = 1;
       clean.segments.forEach(function (s) {
         var a = mfx(clean.motion, s.start, w), b = mfx(clean.motion, s.end + 1, w);
@@ -430,8 +512,14 @@
         tctx.fillStyle = 'rgba(255,255,255,0.25)';
         tctx.fillRect(0, BAND + selJoint.j * rowH, w, rowH);
       }
+      if (nameFont) {
+        var jn = motions[clean.motion].meta.names;
+        tctx.font = nameFont; tctx.fillStyle = '#aab'; tctx.textBaseline = 'middle';
+        for (var j = 0; j < nRows; j++) tctx.fillText(String(jn[j]), 2, BAND + (j + 0.5) * rowH, gutter - 6);
+        tctx.textBaseline = 'alphabetic';
+      }
     } else {
-      tctx.fillStyle = '#30323d'; tctx.fillRect(0, BAND + 4, w, 10);
+      tctx.fillStyle = '#30323d'; tctx.fillRect(gutter, BAND + 4, w - gutter, 10);
       if (clean) { // a report without its MDM: the flagged segments as red bars
         tctx.fillStyle = '#e53935';
         clean.segments.forEach(function (s) {
@@ -440,63 +528,66 @@
         });
       }
     }
+    var top = BAND + bh; // markers span the band and the body, not the axis
     if (stitch) {
       var mi = stitch.motion;
       var g0 = mfx(mi, stitch.generated[0], w), g1 = mfx(mi, stitch.generated[1], w);
-      tctx.fillStyle = 'rgba(255,235,59,0.45)'; tctx.fillRect(g0, 0, Math.max(2, g1 - g0), h);
-      mark(mfx(mi, stitch.takeoff, w), '#4fc3f7', 'take-off');
-      mark(mfx(mi, stitch.landing, w), '#81c784', 'landing');
+      tctx.fillStyle = 'rgba(255,235,59,0.45)'; tctx.fillRect(g0, 0, Math.max(2, g1 - g0), top);
+      tctx.fillStyle = '#4fc3f7'; tctx.fillRect(mfx(mi, stitch.takeoff, w) - 1, 0, 2, top);
+      tctx.fillStyle = '#81c784'; tctx.fillRect(mfx(mi, stitch.landing, w) - 1, 0, 2, top);
     }
-    if (graph) {
-      graph.transitions.forEach(function (t) {
-        var a = mfx(graph.motion, t.frame, w), b = mfx(graph.motion, t.end, w);
-        tctx.fillStyle = 'rgba(255,138,101,0.35)'; tctx.fillRect(a, 0, Math.max(2, b - a), h);
-        tctx.fillStyle = '#ff8a65';
-        tctx.beginPath(); tctx.moveTo(a - 5, 0); tctx.lineTo(a + 5, 0); tctx.lineTo(a, 9); tctx.fill();
-        if (t.cost !== null) {
-          tctx.font = '10px sans-serif'; tctx.fillText(t.cost.toFixed(2), a + 4, 19);
-        }
-      });
-    }
+    graphTrans.forEach(function (t) {
+      var a = mfx(graph.motion, t.frame, w), b = mfx(graph.motion, t.end, w);
+      tctx.fillStyle = 'rgba(255,138,101,0.35)'; tctx.fillRect(a, 0, Math.max(2, b - a), top);
+      tctx.fillStyle = '#ff8a65';
+      tctx.beginPath(); tctx.moveTo(a - 5, 0); tctx.lineTo(a + 5, 0); tctx.lineTo(a, MARK_H); tctx.fill();
+    });
+    tctx.font = LABEL_FONT; tctx.textBaseline = 'top';
+    labels.forEach(function (l) {
+      tctx.fillStyle = 'rgba(38,40,51,0.85)'; tctx.fillRect(l.x - 1, l.y, l.w + 2, l.h);
+      tctx.fillStyle = l.color; tctx.fillText(l.text, l.x, l.y);
+    });
+    tctx.textBaseline = 'alphabetic';
+    drawAxis(w, top);
     moveCursor();
   }
   var cursor = $('tl-cursor');
   function moveCursor() { // a positioned div: moving it costs no canvas redraw
+    if (!hasTimeline) return;
     var w = tl.clientWidth || 800;
-    cursor.style.height = tlHeight() + 'px';
+    cursor.style.height = (BAND + bodyH()) + 'px';
     cursor.style.transform = 'translateX(' + (fx(frame, w) - 1).toFixed(1) + 'px)';
-  }
-  function mark(x, color, label) {
-    tctx.fillStyle = color; tctx.fillRect(x - 1, 0, 2, tlHeight());
-    tctx.font = '10px sans-serif'; tctx.fillText(label, x + 3, 10);
   }
   function tlHit(ev) {
     var r = tl.getBoundingClientRect(), x = ev.clientX - r.left, y = ev.clientY - r.top;
-    var f = Math.round(x / Math.max(1, r.width - 1) * (nFrames - 1));
+    var f = Math.round((x - gutter) / Math.max(1, r.width - gutter - 1) * (nFrames - 1));
     var j = null;
-    if (heat && y >= BAND) j = Math.min(nRows - 1, Math.floor((y - BAND) / rowH));
-    return { frame: Math.max(0, Math.min(nFrames - 1, f)), joint: j };
+    if (heat && y >= BAND && y < BAND + nRows * rowH) j = Math.min(nRows - 1, Math.floor((y - BAND) / rowH));
+    return { frame: Math.max(0, Math.min(nFrames - 1, f)), joint: j, x: x };
   }
   tl.addEventListener('click', function (ev) {
     var h = tlHit(ev);
     pause();
     if (h.joint !== null) selectJoint(clean.motion, h.joint);
-    seek(h.frame);
+    if (h.x >= gutter) seek(h.frame);
   });
   tl.addEventListener('mousemove', function (ev) {
-    var h = tlHit(ev), s = 'frame ' + h.frame;
+    var h = tlHit(ev), s = 'frame ' + h.frame + ' \u00b7 ' + (h.frame / fps).toFixed(2) + ' s';
     if (h.joint !== null) {
       var mi = clean.motion, mf = motionFrame(motions[mi], h.frame);
       s += ' \u00b7 ' + motions[mi].meta.names[h.joint] + ' \u00b7 MDM ' + mdmAt(mf, h.joint).toFixed(2);
     }
-    var w = tl.clientWidth || 800, x = fx(h.frame, w);
-    if (graph) {
-      graph.transitions.forEach(function (t) {
-        if (Math.abs(mfx(graph.motion, t.frame, w) - x) <= 4) {
-          s += ' \u00b7 transition ' + t.src_name + ' @' + t.src_frame + ' \u2192 ' + t.dst_name + ' @' + t.dst_frame +
-            (t.cost !== null ? ', cost ' + t.cost.toFixed(3) : '');
-        }
+    var w = tl.clientWidth || 800;
+    if (graphTrans.length) { // the nearest transition marker within 6 px, and how many more
+      var best = null, bd = 7, near = 0;
+      graphTrans.forEach(function (t) {
+        var d = Math.abs(mfx(graph.motion, t.frame, w) - h.x);
+        if (d <= 6) { near++; if (d < bd) { bd = d; best = t; } }
       });
+      if (best) {
+        s += ' \u00b7 transition at frame ' + best.frame + ': ' + best.src_name + ' @' + best.src_frame + ' \u2192 ' + best.dst_name + ' @' + best.dst_frame +
+          (best.cost !== null ? ', cost ' + best.cost.toFixed(3) : '') + (near > 1 ? ' (' + (near - 1) + ' more nearby: see the list below)' : '');
+      }
     }
     if (stitch) {
       var mi2 = stitch.motion, mf2 = motionFrame(motions[mi2], h.frame);
@@ -527,13 +618,20 @@
     $('legend').appendChild(s);
     $('legend').appendChild(document.createTextNode(base(m.meta.name) + ' (' + m.meta.frames + ' frames, ' + m.meta.fps.toFixed(3).replace(/\.?0+$/, '') + ' fps, ' + m.meta.numJoints + ' joints)'));
   });
-  const unit = D.units === 'file' ? (+D.metresPerUnit.toPrecision(4)) + ' m' : D.units;
-  const said = { file: ', from the file', guessed: ', guessed from the height', given: '' }[D.unitsSource] || '';
-  info('up axis ' + D.up + ' \u00b7 units ' + unit + said + ' (grid ' + (cell === 1 ? '1 m' : '10 cm') + ' cells)');
+  // each motion is drawn in metres by its own unit: say which, and where it came from
+  function unitText(mm) {
+    var m = (+mm.metresPerUnit.toPrecision(4)) + ' m';
+    var u = mm.units === 'file' ? m : /^(m|cm|mm|inch)$/.test(mm.units) ? mm.units : mm.units + ' = ' + m;
+    var said = { file: 'from the file', guessed: 'guessed from the height', given: 'given' }[mm.unitsSource];
+    return 'units ' + u + (said ? ' (' + said + ')' : '');
+  }
+  info((D.up ? 'up axis ' + D.up + ' \u00b7 ' : '') + 'drawn in metres (grid ' + (cell === 1 ? '1 m' : '10 cm') + ' cells)');
   motions.forEach(function (m) {
-    var t = base(m.meta.name) + ': ' + (m.meta.stature || m.meta.height).toFixed(2) + ' m tall';
+    var t = base(m.meta.name) + ': ' + (m.meta.stature || m.meta.height).toFixed(2) + ' m tall \u00b7 ' + unitText(m.meta);
+    if (!D.up) t += ' \u00b7 up axis ' + m.meta.up;
     if (m.gr >= 0) t += '; ground root ' + m.meta.names[m.gr] + ' drawn as the ring and arrow on the floor';
-    info(t);
+    var d = info(t);
+    d.className = 'info-motion'; d.style.borderLeft = '3px solid ' + m.meta.color; d.style.paddingLeft = '5px';
   });
   info('', 'info-sel');
   if (clean) {
@@ -656,6 +754,16 @@
     timelinePoint: function (f, j) { // client coordinates of (frame, joint) on the timeline
       var r = tl.getBoundingClientRect();
       return { x: r.left + fx(f, r.width), y: r.top + (j === null || j === undefined ? BAND / 2 : BAND + (j + 0.5) * rowH) };
+    },
+    timelineLayout: function () {
+      return { band: BAND, rowH: rowH, gutter: gutter, names: !!nameFont, axis: hasTimeline ? AXIS : 0, ticks: axisTicks };
+    },
+    timelineShown: function () { return hasTimeline && !$('timeline-wrap').hidden; },
+    timelineLabels: function () { // the labels drawn on the timeline, client coordinates
+      var r = tl.getBoundingClientRect();
+      return { hidden: labelsHidden, labels: labels.map(function (l) {
+        return { x: r.left + l.x, y: r.top + l.y, width: l.w, height: l.h, text: l.text, at: r.left + l.at };
+      }) };
     },
     fpsStats: function () {
       var el = stats.last - stats.t0;
