@@ -69,7 +69,15 @@ SIDED_PARTS = (
 SIDES = ("left", "right")
 
 #: Candidate length units and their size in metres.
-UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254}
+UNITS: dict[str, float] = {
+    "m": 1.0,
+    "cm": 0.01,
+    "mm": 0.001,
+    "inch": 0.0254,
+    # the CMU database's ASF unit (":units length 0.45": one unit is 1/0.45 inch), kept by
+    # the many BVH conversions of CMU takes, which cannot say so
+    "cmu": 0.0254 / 0.45,
+}
 
 #: Nominal head-to-ankle chain of an adult (metres): ~0.85 of a 1.7 m stature. The unit guess
 #: compares a file's chain with it.

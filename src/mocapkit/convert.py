@@ -103,10 +103,12 @@ def convert_file(
         from mocapkit.body import UNITS
 
         mpu = motion.skeleton.metres_per_unit
-        if not any(abs(mpu / v - 1) < 1e-9 for v in UNITS.values()) and scale is None:
+        common = ("m", "cm", "mm", "inch")  # what BVH readers assume; CMU's unit is not one
+        if not any(abs(mpu / UNITS[u] - 1) < 1e-9 for u in common) and scale is None:
             warnings.warn(
-                f"{source}: its unit ({mpu:g} m) cannot be stated in a BVH file, which readers "
-                "will guess as inch or cm; pass --units cm (or m, inch) to rescale",
+                f"{source}: its unit ({mpu:g} m) cannot be stated in a BVH file, which other "
+                "tools will read as inch or cm (mocapkit guesses it back from the height); "
+                "pass --units cm (or m, inch) to rescale",
                 UserWarning,
                 stacklevel=2,
             )

@@ -34,3 +34,22 @@ def test_cmu_to_bvh_without_units_warns_that_the_unit_is_lost(shared_path, tmp_p
         main, ["convert", str(amc), str(tmp_path / "x.bvh"), "--units", "cm", "--scale", "2"]
     )
     assert bad.exit_code == 2 and "not both" in bad.output
+
+
+@pytest.mark.shared
+def test_bvh_in_cmu_units_is_guessed_back_at_its_height(shared_path, tmp_path) -> None:
+    """A BVH kept in the CMU ASF unit (mocapkit's own convert without --units, and the BVH
+    conversions of CMU takes in the wild) reads back at the person's height, not as inches."""
+    from mocapkit.features import detect_units
+
+    amc = shared_path("cmu-asfamc/01/01_01.amc")
+    out = tmp_path / "raw.bvh"
+    assert CliRunner().invoke(main, ["convert", str(amc), str(out)]).exit_code == 0
+    src = body_of(read_motion(amc)).height_m
+    for path in (out, shared_path("bvh-corpus/facebookresearch__fairmotion__01_01.bvh"),
+                 shared_path("bvh-corpus/BartekkPL__bvh-parser__walk_01.bvh")):  # fmt: skip
+        m = read_motion(path)
+        name, _ = detect_units(m)
+        assert name == "cmu", path
+        assert 1.4 <= body_of(m).height_m <= 2.0, path
+    assert body_of(read_motion(out)).height_m == pytest.approx(src, rel=1e-6)
