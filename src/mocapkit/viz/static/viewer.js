@@ -465,13 +465,16 @@
   }
   function sizeTimeline() {
     if (!hasTimeline) return;
-    var w = tl.parentNode.clientWidth || 800, dpr = window.devicePixelRatio || 1;
     tl.style.height = tlHeight() + 'px';
+    var w = tl.clientWidth || tl.parentNode.clientWidth || 800, dpr = window.devicePixelRatio || 1;
+    if (tl.width === Math.round(w * dpr) && tl.height === Math.round(tlHeight() * dpr) && labels.w === w) return;
     tl.width = Math.round(w * dpr); tl.height = Math.round(tlHeight() * dpr);
     tctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    layoutLabels(w);
+    layoutLabels(w); labels.w = w;
     drawTimeline();
   }
+  // the page may gain or lose a scroll bar after the first layout: follow the strip's width
+  if (hasTimeline && window.ResizeObserver) new ResizeObserver(function () { sizeTimeline(); }).observe($('timeline-wrap'));
   function fx(f, w) { return gutter + (f / Math.max(1, nFrames - 1)) * (w - gutter - 1); }
   function mfx(mi, f, w) { // a frame of motion mi on the timeline
     return fx(f / motions[mi].meta.fps * fps, w);
