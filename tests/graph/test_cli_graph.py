@@ -183,3 +183,21 @@ def test_build_and_report_print_coverage_per_clip_and_warn(clip_dir: Path, tmp_p
 
 def shares_to_fractions(shares: list[float]) -> list[float]:
     return pytest.approx(sorted(s / 100 for s in shares), abs=1e-3)
+
+
+def test_the_plots_comparison_graph_never_warns(clip_dir: Path) -> None:
+    """compare_metrics builds the other metric's graph with the user's T: its coverage is not
+    the user's graph's, so it raises no CoverageWarning (graph build --plot printed one)."""
+    import warnings
+
+    from mocapkit.graph.graph import CoverageWarning, build_graph, compare_metrics
+
+    motions = [read_motion(p) for p in sorted(clip_dir.glob("*.bvh"))]
+    with warnings.catch_warnings(record=True) as built:
+        warnings.simplefilter("always")
+        g, db, _ = build_graph(motions, transitions=2)  # two transitions cannot join 3 clips
+    assert any(issubclass(w.category, CoverageWarning) for w in built)
+    with warnings.catch_warnings(record=True) as compared:
+        warnings.simplefilter("always")
+        compare_metrics(motions, g, db)
+    assert not any(issubclass(w.category, CoverageWarning) for w in compared)
