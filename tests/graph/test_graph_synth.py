@@ -194,3 +194,52 @@ def test_stride_refinement_reaches_full_resolution_minima(clips, built):
                     and not (db.clip_of(a2) == db.clip_of(b2) and abs(a2 - b2) < 2 * db.half + 1)
                 ):
                     assert pair_costs(db, np.array([a2]), np.array([b2]))[0] >= c - 1e-9
+
+
+def test_random_walk_wanders_without_loops(built, clips):
+    from mocapkit.graph.synth import MIN_PLAY_S
+
+    syn = Synthesizer(built[0], clips)
+    fps = clips[0].fps
+    for seed in range(3):
+        steps = syn.random_walk(20.0, seed=seed)
+        assert len({s.clip for s in steps}) >= min(2, len({c for c, _ in syn.nodes}))
+        at, seen = 0, {}
+        for s in steps:  # no ping-pong: the same transition never again within 2 s
+            if s.kind == "transition":
+                assert at - seen.get(s.index, -1e9) > 2.0 * fps, (seed, s.index)
+                seen[s.index] = at
+            at += s.frames
+        assert steps == syn.random_walk(20.0, seed=seed)
+    # dwell: a walk started where its clip goes on plays MIN_PLAY_S of it before leaving
+    start = next(n for n, outs in enumerate(syn.out) if any(e["kind"] == "clip" for e in outs))
+    steps = syn.random_walk(5.0, seed=0, start=start)
+    k = next(i for i, s in enumerate(steps) if s.kind == "transition")
+    c0 = syn.nodes[start][0]
+    ahead = syn.motions[c0].num_frames - syn.nodes[start][1]
+    assert sum(s.frames for s in steps[:k]) >= min(round(MIN_PLAY_S * fps), ahead - 30)
+
+
+def test_follow_path_axes_and_error_report(built, clips):
+    from mocapkit.graph.synth import path_error
+
+    g = built[0]
+    path = np.array([[0.0, 0.0], [3.0, 0.0], [6.0, 0.0]])  # along +x (side axis)
+    m = follow_path(g, clips, path, seed=1)
+    err = path_error(m, path)
+    assert err.followed and err.max * err.cm_per_unit < 50.0, err.line()
+    assert root_trajectory(m)[-1, 0] > 5.0  # it went along the path, not standing at its start
+    js = err.to_json()
+    assert set(js) >= {"mean_cm", "max_cm", "miss_cm", "end_cm", "followed", "tolerance_m"}
+
+
+def test_path_error_sees_a_walk_that_stays_at_the_start(clips):
+    from mocapkit.graph.synth import path_error
+
+    idle = clips[3]
+    tr = root_trajectory(idle)
+    path = np.array([tr[0], tr[0] + [0.0, 5.0]])
+    err = path_error(idle, path)
+    assert err.max * err.cm_per_unit < 20.0  # near the path ...
+    assert err.miss * err.cm_per_unit > 400.0 and not err.followed  # ... but misses most of it
+    assert "does not follow" in err.warning()

@@ -20,6 +20,7 @@ the fit's residual there would otherwise become foot skate over the blend. Then 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -40,6 +41,7 @@ from mocapkit.features import (
     foot_contacts,
     ground_root_on_path,
     heading_angles,
+    metres_per_unit,
     root_trajectory,
 )
 from mocapkit.graph.graph import MotionGraph
@@ -47,14 +49,124 @@ from mocapkit.ik import lock_feet
 
 __all__ = [
     "BLENDS",
+    "FOLLOW_TOLERANCE_M",
+    "PathError",
+    "PathNotFollowedWarning",
     "Step",
     "Synthesizer",
     "follow_path",
+    "path_error",
     "random_walk",
     "render",
 ]
 
 BLENDS = ("crossfade", "inertialize")
+
+#: A walk "follows" a path when no pelvis frame is further than this from the path, no part of the
+#: path further than this from the pelvis' ground track, and the walk ends this close to the
+#: path's end: half a metre is about a stride, beyond which the character is visibly off its path.
+FOLLOW_TOLERANCE_M = 0.5
+#: Below this mean ground speed a clip stands (gestures, idles): pelvis sway is a few cm/s, the
+#: slowest walks about 0.5 m/s.
+STANDING_SPEED_MPS = 0.3
+#: A random walk plays at least this much of a clip after arriving in it before it takes another
+#: transition: about one gait cycle (a stride takes ~1 s walking, ~0.7 s running), so a clip is
+#: seen as a motion and not as a blend of blends.
+MIN_PLAY_S = 1.0
+#: A random walk does not take a transition landing within the frames it played this recently
+#: (while another way exists): a landing on just-played frames replays them, a visible loop.
+RECENT_S = 4.0
+
+
+class PathNotFollowedWarning(UserWarning):
+    """A synthesised walk stays further than :data:`FOLLOW_TOLERANCE_M` from its path."""
+
+
+@dataclass(frozen=True)
+class PathError:
+    """How far a walk's pelvis ground track is from the path it was asked to follow, in file
+    units (``*_cm``: in centimetres).
+
+    ``mean``/``max``: distance of each output frame's pelvis from the path (polyline);
+    ``miss``: the largest distance of a point of the path from the pelvis track (a walk that
+    stays at the path's start is near the path but misses most of it); ``end``: the last frame's
+    distance from the path's end. ``followed``: all of ``max``, ``miss`` and ``end`` within
+    ``tolerance_m`` metres."""
+
+    mean: float
+    max: float
+    miss: float
+    end: float
+    cm_per_unit: float
+    tolerance_m: float = FOLLOW_TOLERANCE_M
+
+    @property
+    def followed(self) -> bool:
+        worst = max(self.max, self.miss, self.end) * self.cm_per_unit / 100.0
+        return bool(worst <= self.tolerance_m)
+
+    def to_json(self) -> dict:
+        c = self.cm_per_unit
+        return {
+            "mean": self.mean, "max": self.max, "miss": self.miss, "end": self.end,
+            "mean_cm": self.mean * c, "max_cm": self.max * c, "miss_cm": self.miss * c,
+            "end_cm": self.end * c, "tolerance_m": self.tolerance_m, "followed": self.followed,
+        }  # fmt: skip
+
+    def line(self) -> str:
+        c = self.cm_per_unit
+        return (
+            f"path error: mean {self.mean * c:.0f} cm, max {self.max * c:.0f} cm, path missed by "
+            f"up to {self.miss * c:.0f} cm, ends {self.end * c:.0f} cm from the path's end"
+        )
+
+    def warning(self) -> str | None:
+        """A one-line warning when the walk did not follow its path, else None."""
+        if self.followed:
+            return None
+        worst = max(self.max, self.miss, self.end) * self.cm_per_unit
+        return (
+            f"the walk does not follow the path ({worst:.0f} cm off it > {self.tolerance_m:g} m):"
+            " the graph may lack the clips that travel, or the turns, this path needs"
+        )
+
+
+def _polyline_distance(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """(N,) distance of each 2-D point from the polyline ``line`` (M, 2)."""
+    a, d = line[:-1], np.diff(line, axis=0)
+    dd = np.maximum((d * d).sum(-1), 1e-300)
+    t = np.clip(((points[:, None] - a[None]) * d[None]).sum(-1) / dd[None], 0.0, 1.0)
+    q = a[None] + t[..., None] * d[None]
+    return np.linalg.norm(points[:, None] - q, axis=-1).min(axis=1)
+
+
+def path_error(
+    motion: Motion,
+    path: np.ndarray,
+    up: str | None = None,
+    units: str | float | None = None,
+    tolerance_m: float = FOLLOW_TOLERANCE_M,
+) -> PathError:
+    """:class:`PathError` of ``motion``'s pelvis ground track against the 2-D ground ``path``
+    (M, 2) (file units; ``units``: the file's, guessed from the body's height when None)."""
+    path = np.asarray(path, dtype=np.float64)
+    track = root_trajectory(motion, up)
+    if len(track) == 0:
+        raise ValueError("the motion has no frames")
+    dev = _polyline_distance(track, path)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    s = np.linspace(0.0, arc[-1], 200)
+    samples = np.stack([np.interp(s, arc, path[:, 0]), np.interp(s, arc, path[:, 1])], 1)
+    miss = (
+        _polyline_distance(samples, track)
+        if len(track) > 1
+        else np.linalg.norm(samples - track[0], axis=1)
+    )
+    return PathError(
+        float(dev.mean()), float(dev.max()), float(miss.max()),
+        float(np.linalg.norm(track[-1] - path[-1])),
+        100.0 * metres_per_unit(motion, units), float(tolerance_m),
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -126,6 +238,7 @@ class Synthesizer:
         # per column of FootContacts.by_side (left, right): the ankle the skate is measured at
         self._ankles = list(ankle.values())[:2]
         self.start_transform: GroundTransform | None = None  # set by follow_path
+        self._pieces: dict[int, tuple] = {}
 
     # ---- pieces --------------------------------------------------------------------------
     def _positions(self, c: int) -> np.ndarray:
@@ -195,26 +308,116 @@ class Synthesizer:
         return [*reversed(sk.ancestors(pelvis)), pelvis]
 
     # ---- walks ---------------------------------------------------------------------------
-    def random_walk(self, seconds: float, seed: int = 0, start: int | None = None) -> list[Step]:
-        """A seeded random walk of at least ``seconds`` (uniform choice among out-edges)."""
+    def random_walk(
+        self,
+        seconds: float,
+        seed: int = 0,
+        start: int | None = None,
+        min_play: float = MIN_PLAY_S,
+        recent: float = RECENT_S,
+    ) -> list[Step]:
+        """A seeded random walk of at least ``seconds`` that wanders the library.
+
+        At each node of the pruned graph the next edge is drawn (``numpy`` generator seeded by
+        ``seed``: the same graph, clips and arguments give the same walk) under three rules:
+
+        * **dwell**: after arriving in a clip (a transition's landing, or the start) its own
+          continuation is taken until ``min_play`` seconds of it have played (where the clip
+          goes on): a motion is recognised over about a gait cycle, and a walk that hops every
+          few frames is a chain of blends (:data:`MIN_PLAY_S`);
+        * **no return**: a transition whose landing (its blend, then ``min_play`` seconds) falls
+          on frames of the same clip played in the last ``recent`` seconds is not taken while
+          another way out exists: it would replay them, a visible loop (:data:`RECENT_S`);
+        * **choice**: the remaining edges are weighted ``exp(-cost / median cost)`` (a
+          transition's cost is the pose difference its blend must hide; the graph's median
+          transition is the reference, a continuation costs 0) times ``1 / (1 + t)``, ``t`` the
+          seconds already played of the clip the edge leads into, so the walk drifts towards the
+          clips it has seen least.
+        """
         if not seconds > 0:
             raise ValueError(f"seconds must be > 0, got {seconds}")
+        if not (min_play >= 0 and recent >= 0):
+            raise ValueError(f"min_play and recent must be >= 0, got {min_play}, {recent}")
         rng = np.random.default_rng(seed)
         fps = self.motions[0].fps
         need = math.ceil(seconds * fps)
+        dwell = round(min_play * fps)
+        window = round(recent * fps)
+        g = self.graph
+        scc_costs = [float(g.cost[e["index"]]) for e in self.edges if e["kind"] != "clip"]
+        ref = max(float(np.median(scc_costs)), 1e-300) if scc_costs else 1.0
         node = int(rng.integers(len(self.nodes))) if start is None else int(start)
+        if not 0 <= node < len(self.nodes):
+            raise ValueError(
+                f"start node {node} is not in the pruned graph (0..{len(self.nodes) - 1})"
+            )
+        played = np.zeros(len(self.motions))  # frames played per clip
+        history: list[tuple[int, int, int, int]] = []  # (clip, first, stop, output frame at stop)
         steps: list[Step] = []
-        total = 0
+        total = since = 0  # output frames; frames since arriving in the current clip
+
+        def returns(e: dict) -> bool:
+            c1, f1 = self.nodes[e["v"]]
+            lo, hi = f1 - g.blend, f1 + dwell
+            return any(
+                c == c1 and a < hi and lo < b and total - end < window for c, a, b, end in history
+            )
+
         while total < need:
             choices = self.out[node]
             if not choices:  # cannot happen inside a strongly connected component
                 raise RuntimeError(f"dead end at node {self.nodes[node]}")
-            e = choices[int(rng.integers(len(choices)))]
+            onward = [e for e in choices if e["kind"] == "clip"]
+            if onward and since < dwell:
+                e = onward[0]
+            else:
+                allowed = [e for e in choices if e["kind"] == "clip" or not returns(e)] or choices
+                w = np.array([
+                    (1.0 if e["kind"] == "clip" else math.exp(-float(g.cost[e["index"]]) / ref))
+                    / (1.0 + played[self.nodes[e["v"]][0]] / fps)
+                    for e in allowed
+                ])  # fmt: skip
+                w = w / w.sum() if w.sum() > 0 else np.full(len(allowed), 1.0 / len(allowed))
+                e = allowed[int(rng.choice(len(allowed), p=w))]
             s = self.step_of(e)
             steps.append(s)
             total += s.frames
+            since = since + s.frames if s.kind == "clip" else s.frames
+            played[s.clip] += s.frames
+            history.append((s.clip, s.start, s.stop, total))
             node = e["v"]
         return steps
+
+    def _edge_piece(self, e: dict) -> tuple[np.ndarray, tuple[float, float, float] | None]:
+        """Pelvis ground points (n, 2) an edge plays, in its clip's frame, and the transform
+        (angle, tx, tz) a transition applies first (None for a continuation)."""
+        key = id(e)
+        if key not in self._pieces:
+            s = self.step_of(e)
+            T = None
+            if s.kind == "transition":
+                A = self.alignment(s.index)
+                T = (A.angle, *(float(v) for v in A.translation_2d))
+            self._pieces[key] = (self._traj[s.clip][s.start : s.stop], T)
+        return self._pieces[key]
+
+    def nominal_speed(self) -> float:
+        """Ground speed (file units / s) a path-following walk is asked to keep: half the median
+        mean pelvis speed of the clips that travel (mean speed above
+        :data:`STANDING_SPEED_MPS`); half, so that turning and slow walks still qualify."""
+        fps = self.motions[0].fps
+        speeds = np.array([
+            np.linalg.norm(np.diff(t, axis=0), axis=1).sum() / max(len(t) - 1, 1) * fps
+            for t in self._traj
+        ])  # fmt: skip
+        mpu = metres_per_unit(self.motions[0], None)
+        moving = speeds[speeds * mpu > STANDING_SPEED_MPS]
+        if len(moving) == 0:
+            raise ValueError(
+                f"no clip of the graph travels (every mean pelvis speed is under "
+                f"{STANDING_SPEED_MPS} m/s): a path needs walking or running clips"
+            )
+        return 0.5 * float(np.median(moving))
 
     def follow_path(
         self,
@@ -223,20 +426,36 @@ class Synthesizer:
         horizon: float = 2.0,
         max_branches: int = 3000,
         max_seconds: float | None = None,
+        beam: int = 48,
     ) -> list[Step]:
-        """A walk whose pelvis follows the ground path (M, 2) (ground coordinates, file units).
+        """A walk whose pelvis follows the ground path (M, 2): ground coordinates
+        ``(side, forward)`` in file units, ``(x, z)`` for Y-up (:func:`root_trajectory`).
 
-        Bounded search (Kovar et al. 2002): from the current node, every edge sequence up to
-        ``horizon`` seconds (at most ``max_branches`` sequences) is scored by the summed squared
-        distance between the character's pelvis after travelling arc length s and the path's
-        point at arc length s; the first edge of the best sequence is taken, until the
+        Bounded search (after Kovar et al. 2002): from the current node, edge sequences up to
+        ``horizon`` seconds are scored and the first edge of the best one is taken, until the
         character has travelled the path's length (or ``max_seconds``, default 3 x the path's
-        length at the clips' mean speed, at least 10 s). The walk starts at a seeded random node
-        placed at the path's first point, facing along it: render it with
-        ``start=self.start_transform``."""
+        length at :meth:`nominal_speed`, at least 10 s). The score of a sequence is
+
+        * the mean squared distance between the pelvis after travelling arc length s and the
+          path's point at arc length s (Kovar's correspondence: on the path, in order), plus
+        * the square of its shortfall from :meth:`nominal_speed` x its duration in arc length
+          travelled (capped by what is left of the path): under the correspondence alone a clip
+          that stands still stays on the path's first point with no error at all, and a
+          gesture loop beats any walk.
+
+        The search is a beam search: sequences grow an edge at a time, every extension is scored
+        (at most ``max_branches`` per decision) and the ``beam`` best unfinished ones by the same
+        score so far (and the best for every first edge, so that every choice is compared) are
+        grown further. The walk starts at a seeded random node of a clip that travels, placed at
+        the path's first point, facing along it: render it with ``start=self.start_transform``;
+        :func:`path_error` measures the rendered result."""
         path = np.asarray(path, dtype=np.float64)
         if path.ndim != 2 or path.shape[1] != 2 or len(path) < 2:
             raise ValueError("path must be (M >= 2, 2) ground points")
+        if not np.isfinite(path).all():
+            raise ValueError("the path has non-finite points")
+        if not (horizon > 0 and max_branches >= 1 and beam >= 1):
+            raise ValueError("horizon, max_branches and beam must be positive")
         seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
         arc = np.concatenate([[0.0], np.cumsum(seg)])
         L = float(arc[-1])
@@ -244,12 +463,8 @@ class Synthesizer:
             raise ValueError("the path has zero length")
         fps = self.motions[0].fps
         H = max(1, round(horizon * fps))
-        speeds = [
-            np.linalg.norm(np.diff(t, axis=0), axis=1).sum() / max(len(t) - 1, 1) * fps
-            for t in self._traj
-        ]
-        mean_speed = max(float(np.mean(speeds)), 1e-9)
-        limit = max_seconds if max_seconds is not None else max(10.0, 3.0 * L / mean_speed)
+        v = self.nominal_speed() / fps  # file units per frame
+        limit = max_seconds if max_seconds is not None else max(10.0, 3.0 * L / (2 * v * fps))
         rng = np.random.default_rng(seed)
 
         def at(s: np.ndarray) -> np.ndarray:
@@ -258,15 +473,24 @@ class Synthesizer:
 
         def piece(e: dict, G: tuple[float, float, float]):
             """Ground pelvis points of an edge under G=(angle, tx, tz), and the G after it."""
-            s = self.step_of(e)
-            if s.kind == "transition":
-                T = self.alignment(s.index)
-                G = _compose(G, (T.angle, *T.translation_2d))
-            p = _apply2(G, self._traj[s.clip][s.start : s.stop])
-            return p, G
+            pts, T = self._edge_piece(e)
+            if T is not None:
+                G = _compose(G, T)
+            return _apply2(G, pts), G
 
-        # start: a random node, placed at the path's start facing along it
-        node = int(rng.integers(len(self.nodes)))
+        def score(err: float, fr: int, s0: float, s: float) -> float:
+            shortfall = max(0.0, min(v * fr, L - s0) - (s - s0))
+            return err / max(fr, 1) + shortfall * shortfall
+
+        # start: a random node of a travelling clip, at the path's start facing along it
+        mpu = metres_per_unit(self.motions[0], None)
+        travels = [
+            n for n, (c, _f) in enumerate(self.nodes)
+            if np.linalg.norm(np.diff(self._traj[c], axis=0), axis=1).mean() * fps * mpu
+            > STANDING_SPEED_MPS
+        ]  # fmt: skip
+        pool = travels or list(range(len(self.nodes)))
+        node = pool[int(rng.integers(len(pool)))]
         c, f = self.nodes[node]
         d = path[1] - path[0]
         ang = math.atan2(d[0], d[1]) - float(self._head[c][f])
@@ -278,29 +502,41 @@ class Synthesizer:
         frames = 0
         while s_done < L - 1e-9 and frames < limit * fps:
             best = (np.inf, None)
-            stack = [(node, G, last, s_done, 0, 0.0, None)]
+            frontier = [(node, G, last, s_done, 0, 0.0, None)]
             count = 0
-            while stack:
-                n, g, lp, sd, fr, err, first = stack.pop()
-                outs = self.out[n]
-                for e in outs:
-                    count += 1
-                    p, g2 = piece(e, g)
-                    if len(p) == 0:
-                        continue
-                    pts = np.concatenate([lp[None], p])
-                    sarr = sd + np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
-                    take = min(len(p), H - fr)
-                    e_err = err + float(np.sum((p[:take] - at(sarr[:take])) ** 2))
-                    f0 = first if first is not None else e
-                    if fr + len(p) >= H or count >= max_branches or sarr[-1] >= L:
-                        score = e_err / max(min(fr + len(p), H), 1)
-                        if score < best[0]:
-                            best = (score, f0)
-                    else:
-                        stack.append((e["v"], g2, p[-1], float(sarr[-1]), fr + len(p), e_err, f0))
-                if count >= max_branches:
-                    stack.clear()
+            while frontier and count < max_branches:
+                grown = []
+                for n, g, lp, sd, fr, err, first in frontier:
+                    for e in self.out[n]:
+                        if count >= max_branches:
+                            break
+                        count += 1
+                        p, g2 = piece(e, g)
+                        if len(p) == 0:
+                            continue
+                        pts = np.concatenate([lp[None], p])
+                        sarr = sd + np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
+                        take = min(len(p), H - fr)
+                        e_err = err + float(np.sum((p[:take] - at(sarr[:take])) ** 2))
+                        f0 = first if first is not None else e
+                        fr2 = fr + take
+                        sc = score(e_err, fr2, s_done, float(sarr[take - 1]))
+                        if fr2 >= H or sarr[take - 1] >= L:
+                            if sc < best[0]:
+                                best = (sc, f0)
+                        else:
+                            grown.append((sc, (e["v"], g2, p[-1], float(sarr[-1]), fr2, e_err, f0)))
+                grown.sort(key=lambda x: x[0])
+                keep = grown[:beam]
+                firsts = {id(st[6]) for _, st in keep}
+                for sc, st in grown[beam:]:  # the best unfinished sequence of every first edge
+                    if id(st[6]) not in firsts:
+                        firsts.add(id(st[6]))
+                        keep.append((sc, st))
+                for sc, st in keep:  # a sequence cut short by the budget is scored as it is
+                    if count >= max_branches and sc < best[0]:
+                        best = (sc, st[6])
+                frontier = [st for _, st in keep]
             e = best[1] if best[1] is not None else self.out[node][0]
             p, G = piece(e, G)
             pts = np.concatenate([last[None], p])
@@ -467,10 +703,15 @@ def follow_path(
     blend: str = "crossfade",
     horizon: float = 2.0,
 ) -> Motion:
-    """A rendered walk following the 2-D ground path (see :meth:`Synthesizer.follow_path`)."""
+    """A rendered walk following the 2-D ground path (see :meth:`Synthesizer.follow_path`);
+    warns (:class:`PathNotFollowedWarning`) when :func:`path_error` says it did not follow."""
     syn = Synthesizer(graph, motions)
     steps = syn.follow_path(path, seed, horizon)
-    return syn.render(steps, blend, start=syn.start_transform)
+    m = syn.render(steps, blend, start=syn.start_transform)
+    msg = path_error(m, path, syn.up).warning()
+    if msg:
+        warnings.warn(msg, PathNotFollowedWarning, stacklevel=2)
+    return m
 
 
 def render(
