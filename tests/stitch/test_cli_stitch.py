@@ -150,3 +150,18 @@ def test_stitch_cli_reads_frames_and_seconds_alike(clips, tmp_path) -> None:
             assert reps[a][key] == reps[b][key], key
     assert 50 <= reps[0]["takeoff"] < 60 and reps[0]["landing"] == 30
     assert reps[2]["takeoff"] == 60
+
+
+def test_a_library_folder_holding_the_query_leaves_the_query_out(clips, tmp_path) -> None:
+    """The query's own next frames would be its best continuation: a folder that holds it
+    searches the other clips; the query alone as DATA (to loop it) is still searched."""
+    folder = clips["walk"].parent
+    code, so, se = run("stitch", str(clips["walk"]), str(folder), "--takeoff", "40:80",
+                       "--json", str(tmp_path / "r.json"))  # fmt: skip
+    assert code == 0, so + se
+    assert "left out of the library" in se
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert Path(r["data"]).name != "walk.bvh", r
+    code, so, se = run("stitch", str(clips["walk"]), str(clips["walk"]), "--takeoff", "40",
+                       "--json", str(tmp_path / "loop.json"))  # fmt: skip
+    assert code == 0 and "left out" not in se
