@@ -362,3 +362,23 @@ def test_usage_errors_are_one_line(walk_bvh: Path) -> None:
     for args in (["info", "--bogus", str(walk_bvh)], ["convert"], ["clean", str(walk_bvh.parent)]):
         code, _out, err = run(*args)
         assert code == 2 and err.count("\n") == 1 and err.startswith("mocapkit: error: "), err
+
+
+def test_info_notes_a_height_no_person_has(walk_bvh: Path, tmp_path: Path) -> None:
+    """A guessed unit that leaves the body outside a person's height range is said to be a
+    guess; a plausible height, or a unit given or stated by the file, gets no note."""
+    from mocapkit.io import read_motion, write_motion
+
+    r = CliRunner().invoke(main, ["info", "--json", str(walk_bvh)])
+    assert "units_note" not in json.loads(r.stdout)
+    m = read_motion(walk_bvh)  # the procedural humanoid, in metres: x 6 reads as 10 m tall
+    giant = write_motion(m.with_skeleton(m.skeleton.scaled(6.0)), tmp_path / "giant.bvh")
+    big = read_motion(giant)
+    big = big.__class__(big.skeleton, big.rotations, big.root_positions * 6.0, big.frame_time)
+    write_motion(big, giant)
+    data = json.loads(CliRunner().invoke(main, ["info", "--json", str(giant)]).stdout)
+    assert "not a person's" in data["units_note"] and "--units" in data["units_note"]
+    text = CliRunner().invoke(main, ["info", str(giant)]).stdout
+    assert "not a person's" in text
+    given = CliRunner().invoke(main, ["info", "--json", "--units", "m", str(giant)])
+    assert "units_note" not in json.loads(given.stdout)

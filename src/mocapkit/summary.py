@@ -52,6 +52,10 @@ class ContactSummary:
     segments: int
 
 
+#: The range of people's heights (metres; children from about 3 years to the tallest adults).
+PERSON_HEIGHT_M = (0.9, 2.3)
+
+
 @dataclass(frozen=True)
 class MotionSummary:
     """A motion's skeleton, timing, axes, extent and foot contacts.
@@ -82,6 +86,7 @@ class MotionSummary:
     offsets: tuple[tuple[float, float, float], ...] = ()
     body: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+    units_note: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The JSON-ready dict ``mocapkit info --json`` prints (keys in this order)."""
@@ -101,6 +106,8 @@ class MotionSummary:
             "units_guess": self.units_guess,
             "metres_per_unit": self.metres_per_unit,
         }
+        if self.units_note is not None:
+            out["units_note"] = self.units_note
         if self.bounding_box is not None:
             lo, hi = self.bounding_box
             out["bounding_box"] = {"min": list(lo), "max": list(hi)}
@@ -135,11 +142,21 @@ def summarize(
     sk = motion.skeleton
     body = body_of(motion)
     up = up.upper() if up else features.detect_up_axis(motion)
+    guessed = not units and sk.metres_per_unit is None
     if units:
         metres = features.metres_per_unit(motion, units)
         units = next(k for k, v in features.UNITS.items() if v == metres)
     else:
         units, metres = features.detect_units(motion)
+    note = None
+    h = body.stature * metres
+    if guessed and not (PERSON_HEIGHT_M[0] <= h <= PERSON_HEIGHT_M[1]):
+        # the guess picks the unit that makes the body closest to an adult's size: a height
+        # outside a person's range means no unit fits, so the guess is no more than a guess
+        note = (
+            f"a height of {h:.2f} m is not a person's: the unit guess ({units}) may be wrong, "
+            "or the rig is not a human; give --units"
+        )
     box = contacts = error = None
     if motion.num_frames:
         pos, _ = forward_kinematics(motion)
@@ -180,6 +197,7 @@ def summarize(
         parents=tuple(int(p) for p in sk.parents),
         offsets=tuple((float(x), float(y), float(z)) for x, y, z in sk.offsets),
         body=body.to_json(),
+        units_note=note,
     )
 
 

@@ -80,6 +80,8 @@ def print_info(info: dict[str, Any]) -> None:
     row(f"units ({how})", f"{info['units_guess']} ({num(info['metres_per_unit'], 'g')} m per unit)")
     if body:
         row("height", f"{num(body.get('height_m'), '.2f')} m")
+        if info.get("units_note"):
+            row("note", str(info["units_note"]))
         if body.get("ground_root"):
             row("ground root", str(body["ground_root"]))
     if "bounding_box" in info:
@@ -93,7 +95,8 @@ def print_info(info: dict[str, Any]) -> None:
             row(
                 "contacts",
                 ", ".join(
-                    f"{k}: {v['fraction'] * 100:.0f}% in {v['segments']} steps"
+                    f"{k}: {v['fraction'] * 100:.0f}% in {v['segments']} "
+                    f"step{'' if v['segments'] == 1 else 's'}"
                     for k, v in c.items()
                 ),
             )
