@@ -1,10 +1,12 @@
 """Retargeting figures, CMU ASF/AMC <-> Bandai, on takes not used while tuning.
 
-Tuning used CMU 03_01/03_02 and the Bandai walk_normal_001 takes; this script measures others.
+Tuning used CMU 03_01/03_02/01_01 and the Bandai walk_normal_001 takes (both sets), bandai2
+wave-both-hands_normal_005 and bandai1 walk-right_normal_001; this script measures others.
 Per take: foot slide during the source's detected contacts (mean / max, cm) for the source, the
 output without IK and the output with IK; the IK's residual on fully locked frames (cm mean /
 max); effector path error (% of limb length, pelvis-relative,
-mean offset removed; and uncentred); knee/elbow frames bent backwards (source -> output).
+mean offset removed; and uncentred); knee/elbow frames bent backwards (source -> output); the
+largest shortfall of an effector goal out of reach (cm).
 
     .venv/bin/python bench/eval_retarget.py
 """
@@ -20,7 +22,9 @@ from mocapkit.io import read_motion
 
 SHARED = Path(os.environ.get("MOCAPKIT_SHARED", Path(__file__).resolve().parents[2] / "shared"))
 DATA = SHARED / "data"
-# the last two per direction were added later, picked before any run on them
+# the last two per direction were added later, picked before any run on them, and the two
+# after those (01_04, 01_14; raise-up-right-hand_active_005, bye_happy_001) likewise, for the
+# per-effector head/wrist work (tuned on 03_01/03_02/01_01 and the tuning Bandai takes)
 CMU_TAKES = [
     "03/03_03.amc",
     "03/03_04.amc",
@@ -28,6 +32,8 @@ CMU_TAKES = [
     "01/01_05.amc",
     "01/01_07.amc",
     "01/01_11.amc",
+    "01/01_04.amc",
+    "01/01_14.amc",
 ]
 BANDAI_TAKES = [
     "bandai2/data/dataset-2_walk_active_005.bvh",
@@ -36,6 +42,8 @@ BANDAI_TAKES = [
     "bandai1/data/dataset-1_run_normal_001.bvh",
     "bandai1/data/dataset-1_dash_happy_001.bvh",
     "bandai2/data/dataset-2_walk-turn-right_feminine_013.bvh",
+    "bandai2/data/dataset-2_raise-up-right-hand_active_005.bvh",
+    "bandai1/data/dataset-1_bye_happy_001.bvh",
 ]
 BANDAI_RIG = "bandai2/data/dataset-2_walk_masculine_005.bvh"
 CMU_RIG = "cmu-asfamc/03/03.asf"
@@ -55,10 +63,12 @@ def _row(direction: str, take: str, res, secs: float) -> str:
     out_v = sum(v["output_frames_bent_backwards"] for v in lim.values())
     res_ik = j["ik_residual_cm"] or {"mean": None}
     worst = max(e["per_effector"].items(), key=lambda kv: kv[1]["mean"])
+    # the largest distance an effector goal (head, wrists) was out of reach
+    short = max((v["max_shortfall_cm"] for v in j["effector_goals"]["clamped"].values()), default=0)
     return (
         f"{direction:12s} {take:44s} {mm(fs['source'])}  {mm(fs['output_without_ik'])}  "
         f"{mm(fs['output'])}  {mm(res_ik)}  {e['mean']:5.2f}  {worst[1]['mean']:5.2f} "
-        f"{worst[0]:11s} {unc:5.1f}  {src_v:4d}->{out_v:<4d} {secs:5.2f}"
+        f"{worst[0]:11s} {unc:5.1f}  {src_v:4d}->{out_v:<4d} {short:5.2f}  {secs:5.2f}"
     )
 
 
@@ -66,7 +76,7 @@ def main() -> None:
     print(
         f"{'direction':12s} {'take':44s} {'src slide':11s}  {'no-IK':11s}  {'IK':11s}  "
         f"{'IK resid':11s}  {'path%':5s}  {'worst effector %':17s} {'unc%':5s}  "
-        f"{'bent-back':9s} {'s':>5s}"
+        f"{'bent-back':9s} {'short':5s}  {'s':>5s}"
     )
     print(f"{'':57s}(cm mean/max for the slides)")
     bandai = read_motion(DATA / BANDAI_RIG)

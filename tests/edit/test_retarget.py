@@ -91,7 +91,7 @@ def test_arms_match_source_reach_and_bend_side(pair, shared_path, direction):
         src, tgt = cmu, ban
     else:
         src, tgt = ban, read_target(shared_path(CMU) / "03.asf")
-    res = retarget(src, tgt)
+    res = retarget(src, tgt, RetargetConfig(effector_goals=()))  # the reach matching alone
     bS, bT = body_of(src), body_of(res.motion)
     U = rot.quat_between(ground_frame(bS.up)[1], ground_frame(bT.up)[1])
     posS, _ = forward_kinematics(src)
@@ -202,3 +202,35 @@ def test_retargeted_clip_in_bandai_graph_and_clean(pair, shared_path):
     # and serves as context for cleaning a Bandai take
     rep = clean_run(walks[0][:90], [clip[:150]])
     assert rep.to_json()
+
+
+@pytest.mark.parametrize("direction", ["cmu_to_bandai", "bandai_to_cmu"])
+def test_effector_goals_follow_source_paths(pair, shared_path, direction):
+    """With the head and wrist goals, those effectors' pelvis-relative paths (scaled by limb
+    length) follow the source's: each below 1 % here (without them the shoulders' and head's
+    offsets from the pelvis turn with the torso and leave 1-2.5 %); elbows never bend
+    backwards; reach shortfalls are reported."""
+    from mocapkit.edit.retarget import RetargetConfig, read_target
+
+    cmu, ban = pair
+    if direction == "cmu_to_bandai":
+        src, tgt = cmu, ban
+    else:
+        src, tgt = ban, read_target(shared_path(CMU) / "03.asf")
+    on = retarget(src, tgt).to_json()
+    off = retarget(src, tgt, RetargetConfig(effector_goals=())).to_json()
+    e_on = on["effector_path_error_pct"]["per_effector"]
+    e_off = off["effector_path_error_pct"]["per_effector"]
+    for k in ("head", "left_wrist", "right_wrist"):
+        assert e_on[k]["mean"] < 1.0
+        assert e_on[k]["mean"] < e_off[k]["mean"]
+    assert on["joint_limits"]["all_kept"]
+    for v in on["joint_limits"]["per_joint"].values():
+        assert v["output_frames_bent_backwards"] == 0
+    cl = on["effector_goals"]["clamped"]
+    assert set(cl) == {"head", "left_wrist", "right_wrist"}
+    # the head is reached by bending the spine within a centimetre or two (its length is rigid)
+    assert cl["head"]["max_shortfall_cm"] < 2.0
+    # feet untouched by the goals: slide and IK residual as without them
+    for key in ("foot_slide_cm", "ik_residual_cm"):
+        assert on[key] == off[key]

@@ -18,7 +18,15 @@ rotations. Joints between mapped ones keep their reference pose relative to thei
 Then each two-bone limb (hip-knee-ankle, shoulder-elbow-wrist) is re-aimed so that its end
 sits in the source's direction from the limb root at the source's reach as a fraction of the
 limb's length, the hinge in the source's bending plane (rigs divide a limb between its two
-bones differently; see :func:`_match_reach`).
+bones differently; see :func:`_match_reach`). Last, the effector goals
+(``RetargetConfig.effector_goals``, head and wrists by default): the effector's path relative
+to the pelvis, scaled by its limb's length, is the source's plus the clip's mean offset of the
+bone-copied pose (the rig's own proportions); the spine joints bend to bring the head there
+(:func:`_aim_spine`), each arm re-aims its wrist there from the shoulder, the elbow bending
+about the source's plane normal and never backwards, the reach clamped and the shortfall
+reported. Without them the head's and shoulders' offsets from the pelvis, which differ between
+rigs relative to the spine's and arm's lengths, turn with the torso and carry the effector
+along a path that is not the source's.
 
 The pelvis path is scaled by the ratio of leg lengths (hip to ankle), units converted
 (``metres_per_unit``) and the up axis turned (``U``). Then, optionally, the feet are locked over
@@ -91,6 +99,17 @@ class RetargetConfig:
     #: differently (CMU upper arm / forearm 1.63, Bandai 1.09), so copying each bone's
     #: direction alone moves a bent limb's end to another place relative to the body.
     match_reach: bool = True
+    #: Effectors whose path relative to the pelvis, scaled by their limb's length, is a goal
+    #: (``"head"``, ``"wrist"``, ``"ankle"``): the effector is aimed at the source's pelvis-
+    #: relative position times (target limb / source limb), plus the clip's mean offset of the
+    #: bone-copied pose (the rig's own proportions). Copying bone directions leaves the head and
+    #: shoulders where the rig's spine and torso put them: their offset from the pelvis,
+    #: relative to the arm's (or spine's) length, differs between rigs (CMU's shoulders sit
+    #: wider and higher for its arm), and that offset turns with the torso, so the wrist's path
+    #: relative to the pelvis turns with it. The head is reached by bending the spine joints
+    #: (spread over them), a wrist or ankle by its two-bone limb from the shoulder or hip;
+    #: beyond the limb's reach the goal is clamped and reported (``effector_goals``).
+    effector_goals: tuple[str, ...] = ("head", "wrist")
     #: A source foot joint counts as planted only within this distance (metres, horizontal) of
     #: where its contact run holds it (the run's median position); frames further away leave
     #: the run, which may split it. A planted joint moves by marker noise and shoe compression
@@ -403,7 +422,9 @@ class Retargeted:
         the source's heading frame, p the effector relative to the pelvis,
         L its limb's length (hip-knee-ankle, shoulder-elbow-wrist, pelvis to head); the mean
         offset removed is the rigs' constant difference in proportions, reported as
-        ``uncentred_mean``), ``joint_limits`` (per knee and elbow, frames bent backwards
+        ``uncentred_mean``), ``effector_goals`` (the effectors aimed at goals, and per goal
+        how far it was out of reach: frames clamped, mean and max shortfall in cm),
+        ``joint_limits`` (per knee and elbow, frames bent backwards
         beyond the margin in the source and in the output, and whether the output kept every
         limit the source kept)."""
         return {
@@ -427,6 +448,7 @@ def _transfer(
     user_map: Mapping[str, str | None] | None,
     map_name: str,
     match_reach: bool = True,
+    goals: tuple[str, ...] = (),
 ) -> tuple[Motion, dict[str, Any]]:
     skS, skT = source.skeleton, target.skeleton
     refS_p, refS_g, _ = _reference(source, bS)
@@ -489,9 +511,45 @@ def _transfer(
             G[:, j] = rot.quat_identity(F) if bT.ground_root == j else refT_l[j]
         else:
             G[:, j] = rot.quat_mul(G[:, p], refT_l[j])
+    free = [j for j in range(JT) if j not in mapped and skT.parents[j] >= 0]
+    face = rot.rotvec_to_quat(-heading_angles(source, bS.up)[:, None] * upT)
+    goals_on = set(goals)
+    clamped: dict[str, Any] = {}
+    refS_l = source.skeleton.rest_positions()
+    refT_r = skT.rest_positions()
+
+    def goal(Gc: np.ndarray, key: str) -> np.ndarray | None:
+        """Where ``key`` should be relative to the target pelvis (F, 3): the source's
+        pelvis-relative path times LT / LS in the source's heading frame, plus the mean
+        offset of the pose ``Gc`` from it (the rig's own proportions)."""
+        js, jt = bS.joint(key), bT.joint(key)
+        if js is None or jt is None:
+            return None
+        LS, LT = _limb_len(bS, refS_l, key), _limb_len(bT, refT_r, key)
+        if LS < _EPS or LT < _EPS:
+            return None
+        pc = _positions(Gc, skT)
+        hS = rot.quat_apply(face, rot.quat_apply(Uf, posS[:, js] - posS[:, bS.pelvis])) / LS
+        hT = rot.quat_apply(face, pc[:, jt] - pc[:, bT.pelvis]) / LT
+        c = (hT - hS).mean(axis=0)
+        return rot.quat_apply(rot.quat_inv(face), (hS + c) * LT)
+
+    if "head" in goals_on and bT.joint("head") is not None:
+        want = goal(G, "head")
+        if want is not None:
+            G = _aim_spine(G, skT, bT, want, free, refT_l, clamped)
     L = _local(G, skT)
     if match_reach:
-        G = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf)
+        G1 = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf)
+        limb_goals = {}
+        for key in ("left_wrist", "right_wrist", "left_ankle", "right_ankle"):
+            if key.split("_")[1] in goals_on:
+                w = goal(G1, key)
+                if w is not None:
+                    limb_goals[key] = w
+        if limb_goals:
+            G1 = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf, limb_goals, clamped)
+        G = G1
         L = _local(G, skT)
 
     # the pelvis path
@@ -521,6 +579,7 @@ def _transfer(
         "U": U,
         "B_S": dict(zip(order, B_S, strict=True)),
         "B_T": dict(zip(order, B_T, strict=True)),
+        "clamped": clamped,
     }
     return out, info
 
@@ -531,6 +590,53 @@ def _local(G: np.ndarray, sk: Any) -> np.ndarray:
     nonroot = sk.parents >= 0
     L[:, nonroot] = rot.quat_mul(rot.quat_inv(G[:, sk.parents[nonroot]]), G[:, nonroot])
     return rot.quat_unroll(rot.quat_normalize(L), axis=0)
+
+
+def _positions(G: np.ndarray, sk: Any) -> np.ndarray:
+    """Joint positions (F, J, 3) of global rotations (F, J, 4) on the skeleton's offsets, the
+    root at its offset (only positions relative to one another are meant)."""
+    F, J = G.shape[:2]
+    pos = np.empty((F, J, 3))
+    for j in range(J):
+        p = int(sk.parents[j])
+        pos[:, j] = sk.offsets[j] if p < 0 else pos[:, p] + rot.quat_apply(G[:, p], sk.offsets[j])
+    return pos
+
+
+def _aim_spine(
+    G: np.ndarray,
+    sk: Any,
+    body: Body,
+    want: np.ndarray,
+    free: list[int],
+    ref_local: np.ndarray,
+    clamped: dict[str, Any],
+) -> np.ndarray:
+    """Global rotations with the joints between the pelvis and the head swung so that the
+    head sits at ``want`` relative to the pelvis (F, 3): bottom-up, each joint takes its share
+    (1 / joints left) of the swing that aims the head from it, the joints above it swung with
+    it; the head's own rotation and every other mapped joint's (clavicles) stay, unmapped
+    joints (``free``) follow their parents. A head distance the rigid chain cannot reach is
+    left short (``clamped["head"]``, target units)."""
+    head = body.joint("head")
+    chain = _between(body, "pelvis", "head")[1:-1]
+    if not chain:
+        return G
+    G = G.copy()
+    n = len(chain)
+    for i, j in enumerate(chain):
+        pos = _positions(G, sk)
+        goal = pos[:, body.pelvis] + want
+        q = rot.quat_between(pos[:, head] - pos[:, j], goal - pos[:, j])
+        q = rot.rotvec_to_quat(rot.quat_to_rotvec(q) / (n - i))
+        for k in chain[i:]:
+            G[:, k] = rot.quat_mul(q, G[:, k])
+    for j in free:
+        G[:, j] = rot.quat_mul(G[:, int(sk.parents[j])], ref_local[j])
+    pos = _positions(G, sk)
+    miss = np.linalg.norm(pos[:, head] - pos[:, body.pelvis] - want, axis=-1)
+    clamped["head"] = {"mean_shortfall": float(miss.mean()), "max_shortfall": float(miss.max())}
+    return G
 
 
 def _path_down(sk: Any, top: int, bottom: int) -> list[int] | None:
@@ -554,6 +660,8 @@ def _match_reach(
     grotS: np.ndarray,
     bS: Body,
     Uf: np.ndarray,
+    goals: Mapping[str, np.ndarray] | None = None,
+    clamped: dict[str, Any] | None = None,
 ) -> np.ndarray:
     """Global rotations (F, J, 4) with each two-bone limb (hip-knee-ankle, shoulder-elbow-
     wrist) re-aimed so that its end effector sits where the source's does relative to the
@@ -566,7 +674,12 @@ def _match_reach(
     Relies on a limb's end effector position relative to the body being what the motion
     means (a hand reaching a point, a foot under the body), whereas how the limb divides its
     length between its two bones is the rig's: a bent limb whose bones copy the source's
-    directions reaches elsewhere when its upper/lower ratio differs."""
+    directions reaches elsewhere when its upper/lower ratio differs.
+
+    ``goals``: end effector key (``"left_wrist"``) -> where the limb's end should be relative
+    to the target's pelvis (F, 3); that limb then aims its end there instead (reach clamped to
+    the limb's, ``clamped`` receives per key the frames clamped and the largest shortfall in
+    target units), the hinge still in the source's bending plane."""
     F = G.shape[0]
     ltrans = np.broadcast_to(skT.offsets, (F, skT.num_joints, 3))
     posT, _ = fk_arrays(skT.parents, L, ltrans)
@@ -602,7 +715,36 @@ def _match_reach(
             root, mid, end = posT[:, t[0]], posT[:, t[1]], posT[:, t[2]]
             a = np.linalg.norm(mid - root, axis=-1)
             b = np.linalg.norm(end - mid, axis=-1)
-            d = np.clip(dS / lenS * (a + b), np.abs(a - b) + 1e-9 * (a + b), a + b)
+            key = f"{side}_{trio[2]}"
+            if goals is not None and key in goals:
+                want = posT[:, bT.pelvis] + goals[key] - root
+                dw = np.linalg.norm(want, axis=-1)
+                ok = dw > _EPS
+                new = np.where(ok[:, None], want / np.maximum(dw, _EPS)[:, None], rhat)
+                # the source's bending plane normal kept (the hinge bends about the same
+                # axis, so never backwards where the source's does not), the elbow or knee
+                # on its side of the new root-to-end line
+                nrm = np.cross(rhat, phat)
+                p2 = np.cross(nrm, new)
+                n2 = np.linalg.norm(p2, axis=-1)
+                alt = phat - np.einsum("fi,fi->f", phat, new)[:, None] * new
+                alt = alt / np.maximum(np.linalg.norm(alt, axis=-1), 1e-12)[:, None]
+                phat = np.where((n2 > 1e-3)[:, None], p2 / np.maximum(n2, 1e-12)[:, None], alt)
+                # a source limb straight or bent backwards within marker noise gives no side
+                # to a target limb that must bend further to reach its goal: bend it forwards
+                fwd = np.cross(new, axw)
+                phat = np.where((np.einsum("fi,fi->f", phat, fwd) < 0)[:, None], -phat, phat)
+                rhat = new
+                if clamped is not None:
+                    over = dw - (a + b)
+                    clamped[key] = {
+                        "frames": int((over > 1e-9 * (a + b)).sum()),
+                        "mean_shortfall": float(np.maximum(over, 0.0).mean()),
+                        "max_shortfall": float(max(over.max(initial=0.0), 0.0)),
+                    }
+                d = np.clip(dw, np.abs(a - b) + 1e-9 * (a + b), a + b)
+            else:
+                d = np.clip(dS / lenS * (a + b), np.abs(a - b) + 1e-9 * (a + b), a + b)
             cos_al = np.clip((a * a + d * d - b * b) / np.maximum(2 * a * d, 1e-12), -1.0, 1.0)
             sin_al = np.sqrt(1.0 - cos_al * cos_al)
             mid_new = root + a[:, None] * (cos_al[:, None] * rhat + sin_al[:, None] * phat)
@@ -815,7 +957,9 @@ def retarget(
         raise ValueError("the source motion has no frames")
     source.check_finite("source")
     bS, bT = body_of(source), body_of(target)
-    plain, info = _transfer(source, bS, target, bT, joint_map, map_name, cfg.match_reach)
+    plain, info = _transfer(
+        source, bS, target, bT, joint_map, map_name, cfg.match_reach, cfg.effector_goals
+    )
     detected = foot_contacts(source)
     contacts = _planted(detected, source, bS, cfg.contact_drift)
     # the source's contacts on the target's feet (by body part)
@@ -851,6 +995,18 @@ def retarget(
     )
     figures["foot_lock"] = bool(cfg.foot_lock and featT)
     figures["ik_residual_cm"] = residual
+    cm = bT.metres_per_unit * 100.0
+    figures["effector_goals"] = {
+        "effectors": list(cfg.effector_goals),
+        "clamped": {
+            k: {
+                **({"frames": v["frames"]} if "frames" in v else {}),
+                "mean_shortfall_cm": v["mean_shortfall"] * cm,
+                "max_shortfall_cm": v["max_shortfall"] * cm,
+            }
+            for k, v in info["clamped"].items()
+        },
+    }
     figures["contacts"]["detected_frames"] = int(detected.contacts.any(axis=1).sum())
     figures["contacts"]["contact_drift_m"] = cfg.contact_drift
     if bT.ground_root is not None:
