@@ -43,3 +43,27 @@ def shared_subpath(subpath: str = "") -> Path:
     root = shared_dir()
     inside = root / "data" / subpath
     return inside if inside.exists() else root / subpath
+
+
+def require_tool(found: bool, flag: str, missing: str) -> None:
+    """Skip with ``missing`` (the reason) where a consumer program is absent, unless the
+    environment sets ``flag`` to 1 (CI), where the test fails instead."""
+    if found:
+        return
+    import pytest
+
+    if os.environ.get(flag) == "1":
+        pytest.fail(f"{flag}=1 but {missing}", pytrace=False)
+    pytest.skip(missing)
+
+
+def require_chromium() -> None:
+    """Skip (or, under MOCAPKIT_REQUIRE_BROWSER=1, fail) where no Chromium is found."""
+    from mocapkit.viz.browser import find_chromium
+
+    require_tool(
+        find_chromium() is not None,
+        "MOCAPKIT_REQUIRE_BROWSER",
+        "no Chromium found: install the Debian packages chromium and chromium-driver, or set "
+        "MOCAPKIT_CHROMIUM to the binary",
+    )

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from testsupport import require_tool
 
 import mocapkit as mk
 from mocapkit.body import body_of
@@ -128,11 +129,11 @@ def _load(source: Path) -> Motion:
 def blender_cases(tmp_path_factory) -> dict[str, Case]:
     """Every case written (GLB, BVH) and imported by one Blender process."""
     blender = find_blender()
-    if blender is None:
-        msg = "blender is not installed (apt-get install blender python3-numpy)"
-        if os.environ.get("MOCAPKIT_REQUIRE_BLENDER") == "1":
-            pytest.fail(f"MOCAPKIT_REQUIRE_BLENDER=1 but {msg}", pytrace=False)
-        pytest.skip(msg)
+    require_tool(
+        blender is not None,
+        "MOCAPKIT_REQUIRE_BLENDER",
+        "blender is not installed (apt-get install blender python3-numpy)",
+    )
     from conftest import require_shared
 
     tmp = tmp_path_factory.mktemp("blender")

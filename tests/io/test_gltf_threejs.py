@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import base64
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -68,13 +67,11 @@ window.ready = true;
 
 @pytest.fixture(scope="module")
 def page_browser(tmp_path_factory):
-    from mocapkit.viz.browser import Browser, BrowserError, find_chromium
+    from testsupport import require_chromium
 
-    if find_chromium() is None:
-        msg = "no Chromium found (set MOCAPKIT_CHROMIUM or install chromium)"
-        if os.environ.get("MOCAPKIT_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"MOCAPKIT_REQUIRE_BROWSER=1 but {msg}", pytrace=False)
-        pytest.skip(msg)
+    from mocapkit.viz.browser import Browser, BrowserError
+
+    require_chromium()
     page = tmp_path_factory.mktemp("threejs") / "gltf.html"
     page.write_text(
         PAGE.format(

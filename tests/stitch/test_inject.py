@@ -82,4 +82,4 @@ def test_error_quotes_close(clips, tmp_path) -> None:
     r = CliRunner().invoke(main, ["stitch", str(q), str(d), "--takeoff", "80:40"])
     assert r.exit_code == 2
     line = r.output.strip()
-    assert line.count("\n") == 0 and line.endswith("'80:40'")
+    assert line.count("\n") == 0 and "'80:40'" in line and line.count("'") % 2 == 0

@@ -10,13 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from testsupport import require_chromium
 
 from mocapkit import datasets
 from mocapkit.clean import inject
 from mocapkit.core.motion import concatenate
 from mocapkit.io import write_motion
 from mocapkit.viz import ViewMotion, write_page
-from mocapkit.viz.browser import Browser, decode_png, find_chromium
+from mocapkit.viz.browser import Browser, decode_png
 
 from .helpers import random_motion
 
@@ -26,14 +27,7 @@ SHOTS = os.environ.get("MOCAPKIT_VIEW_SHOTS")  # keep the screenshots here, if s
 
 @pytest.fixture(scope="module")
 def browser():
-    if not find_chromium():
-        msg = (
-            "no Chromium found: install the Debian packages chromium and chromium-driver, or "
-            "set MOCAPKIT_CHROMIUM to the binary"
-        )
-        if os.environ.get("MOCAPKIT_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"MOCAPKIT_REQUIRE_BROWSER=1 but {msg}")
-        pytest.skip(msg)
+    require_chromium()
     with Browser(width=1200, height=860) as b:
         yield b
 

@@ -5,15 +5,15 @@ comment in it, and the page still loads (headless Chromium, when found)."""
 from __future__ import annotations
 
 import json
-import os
 import re
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from testsupport import require_chromium
 
 from mocapkit.viz import ViewMotion, write_page
-from mocapkit.viz.browser import Browser, find_chromium
+from mocapkit.viz.browser import Browser
 from mocapkit.viz.viewer import script_json
 
 from .helpers import random_motion
@@ -62,11 +62,7 @@ def test_inline_data_cannot_end_its_script(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def browser():
-    if not find_chromium():
-        msg = "no Chromium found (install chromium or set MOCAPKIT_CHROMIUM)"
-        if os.environ.get("MOCAPKIT_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"MOCAPKIT_REQUIRE_BROWSER=1 but {msg}")
-        pytest.skip(msg)
+    require_chromium()
     with Browser(width=900, height=700) as b:
         yield b
 

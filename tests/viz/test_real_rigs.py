@@ -15,10 +15,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from testsupport import require_chromium
 
 from mocapkit.body import body_of
 from mocapkit.io import read_motion
-from mocapkit.viz.browser import Browser, decode_png, find_chromium
+from mocapkit.viz.browser import Browser, decode_png
 from mocapkit.viz.viewer import view_files
 
 READY = "window.mocapkitViewer && window.mocapkitViewer.ready"
@@ -35,11 +36,7 @@ pytestmark = pytest.mark.shared
 
 @pytest.fixture(scope="module")
 def browser():
-    if not find_chromium():
-        msg = "no Chromium found: install chromium, or set MOCAPKIT_CHROMIUM to the binary"
-        if os.environ.get("MOCAPKIT_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"MOCAPKIT_REQUIRE_BROWSER=1 but {msg}")
-        pytest.skip(msg)
+    require_chromium()
     with Browser(width=1280, height=900) as b:
         yield b
 

@@ -11,13 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from testsupport import require_chromium
 
 from mocapkit import datasets
 from mocapkit.core.motion import Motion
 from mocapkit.io import read_motion, write_motion
 from mocapkit.provenance import Provenance, Segment, TransitionTaken
 from mocapkit.viz import ViewMotion, page_data, write_page
-from mocapkit.viz.browser import Browser, find_chromium
+from mocapkit.viz.browser import Browser
 from mocapkit.viz.viewer import view_files
 
 from .helpers import random_motion
@@ -28,11 +29,7 @@ SHOTS = os.environ.get("MOCAPKIT_VIEW_SHOTS")
 
 @pytest.fixture(scope="module")
 def browser():
-    if not find_chromium():
-        msg = "no Chromium found: install chromium, or set MOCAPKIT_CHROMIUM to the binary"
-        if os.environ.get("MOCAPKIT_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"MOCAPKIT_REQUIRE_BROWSER=1 but {msg}")
-        pytest.skip(msg)
+    require_chromium()
     with Browser(width=1280, height=900) as b:
         yield b
 
