@@ -1,0 +1,413 @@
+"""In-betweening from a library (issue #18) on Bandai data, with the LaFAN1 benchmark protocol.
+
+Usage::
+
+    python bench/bench_inbetween.py [--shared DIR] [--tune] [--max-takes N] [--json]
+
+Protocol (Harvey et al., "Robust Motion In-betweening", SIGGRAPH 2020, and its published
+benchmark code for LaFAN1), on Bandai-Namco data (30 fps, cm, Y up):
+
+* **Split.** Library: ``bandai2`` less a tenth of its takes (every tenth take in name order,
+  kept out for tuning). Test windows: the walks (forward, back, left, right), runs and dashes of
+  ``bandai1`` — no test take is in the library. ``--tune`` instead evaluates on the tuning
+  tenth's walks and runs (library unchanged), which is what the defaults of
+  :class:`mocapkit.stitch.inbetween.InbetweenConfig` were chosen on.
+* **Windows** of 65 frames every 40 frames; context = the 10 past frames and the first future
+  frame (frame 10 + n); transition lengths n = 5, 15, 30, 45 (frames 10 .. 10+n-1 replaced).
+* **Metrics** on the n transition frames, over the 21 body joints (the static ``joint_Root``
+  left out: it is not a body part):
+
+  - **L2Q**: global quaternions (w >= 0 made continuous in time from the context frames, which
+    prediction and truth share), ``mean over windows and frames of sqrt(sum over joints and
+    the 4 components of (q_pred - q_true)^2)``;
+  - **L2P**: global positions, the window centred on the pelvis' ground position at the last
+    context frame and turned to face +X there (facing from the body model,
+    :func:`mocapkit.features.heading_angles`), normalised per coordinate by the mean and
+    standard deviation of the library's windows (50 frames every 20, as the LaFAN1 code takes
+    its training statistics), ``mean of sqrt(sum over joints x 3 coordinates of the squared
+    normalised difference)``;
+  - **NPSS** (:func:`npss`): normalized power spectrum similarity of the global quaternions.
+
+* **Baselines**, as the LaFAN1 benchmark code defines them: zero-velocity (the last context
+  frame held) and interpolation (root position and animated translations lerped, local
+  rotations slerped, between the last context frame and the target frame); plus today's Kalman
+  transition (:func:`mocapkit.stitch.inbetween.kalman_fill`, 5 past frames, the 1 future
+  frame). Every method sees the same context: 10 past frames and 1 future frame.
+* **Foot skate** (cm/s): ankles and toes, horizontal speed weighted by ``clip(2 - 2^(h/H), 0,
+  1)`` with h the joint's height above its ground (5th percentile over the take) and H = 5 cm
+  (the weighting of Zhang et al. 2018), averaged over the transition frames; the test takes'
+  own (the true frames) for reference.
+* **Search time**: one gap against a 100,000-frame library (bandai2, then non-test bandai1
+  takes to fill), against ``mocapkit.stitch.search_features`` (stitch's library search, one
+  take-off, k = 0..30) on the same library, both warm, in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+LENGTHS = (5, 15, 30, 45)
+N_PAST = 10
+WINDOW, OFFSET = 65, 40
+STATS_WINDOW, STATS_OFFSET = 50, 20
+TEST_CLASSES = ("walk", "walk-back", "walk-left", "walk-right", "run", "dash")
+TUNE_CLASSES = ("walk", "walk-turn-left", "walk-turn-right", "run")
+METHODS = ("zerov", "interp", "kalman", "library")
+SKATE_H_CM = 5.0
+
+
+def shared_root(arg: Path | None) -> Path:
+    if arg is not None:
+        return arg
+    env = os.environ.get("MOCAPKIT_SHARED")
+    return Path(env).expanduser() if env else REPO_ROOT.parent / "shared"
+
+
+def _mocapkit():
+    try:
+        import mocapkit  # noqa: F401
+    except ImportError:
+        sys.path.insert(0, str(REPO_ROOT / "src"))
+
+
+def take_class(path: Path) -> str:
+    """``dataset-1_walk-back_active_001.bvh`` -> ``walk-back``."""
+    return path.stem.split("_")[1]
+
+
+# ------------------------------------------------------------------------------------ metrics
+
+
+def npss(truth: np.ndarray, pred: np.ndarray) -> float:
+    """Normalized Power Spectrum Similarity (Gopalakrishnan et al., CVPR 2019), as the LaFAN1
+    benchmark code computes it (``fast_npss``): ``truth``, ``pred`` (batch, time, channels).
+
+    Per sequence and channel: the power spectrum over time ``|Re FFT|^2``, normalised to sum 1,
+    its cumulative sum (a distribution over frequencies), and the earth mover's distance between
+    the two cumulative spectra (L1 norm of their difference); the result is the average of these
+    distances weighted by the true channel's total power. 0 = identical spectra.
+    """
+    gt_power = np.square(np.real(np.fft.fft(truth, axis=1)))
+    pred_power = np.square(np.real(np.fft.fft(pred, axis=1)))
+    gt_total = gt_power.sum(axis=1)
+    pred_total = pred_power.sum(axis=1)
+    gt_norm = gt_power / np.maximum(gt_total[:, None, :], 1e-300)
+    pred_norm = pred_power / np.maximum(pred_total[:, None, :], 1e-300)
+    emd = np.abs(np.cumsum(pred_norm, axis=1) - np.cumsum(gt_norm, axis=1)).sum(axis=1)
+    return float(np.average(emd, weights=gt_total))
+
+
+def _continuous(q: np.ndarray) -> np.ndarray:
+    """Quaternions (T, J, 4) with each frame in the hemisphere of the previous one."""
+    q = q.copy()
+    for t in range(1, q.shape[0]):
+        flip = np.sum(q[t] * q[t - 1], axis=-1) < 0
+        q[t, flip] *= -1
+    return q
+
+
+class Frames:
+    """Global quaternions and canonical positions of a window (body joints)."""
+
+    def __init__(self, motion, body_idx, ref_frame: int, frame_of_ref=None):
+        from mocapkit.core import rotations as rot
+        from mocapkit.core.kinematics import forward_kinematics
+        from mocapkit.features import heading_angles, root_trajectory
+
+        pos, grot = forward_kinematics(motion)
+        ref = frame_of_ref if frame_of_ref is not None else motion
+        centre = root_trajectory(ref[ref_frame : ref_frame + 1], "Y")[0]  # (x, z)
+        h = heading_angles(ref[ref_frame : ref_frame + 1], "Y")[0]
+        # turn about +Y by (pi/2 - h): the facing (sin h, cos h) in (x, z) goes to +X
+        a = np.pi / 2 - h
+        q = np.array([np.cos(a / 2), 0.0, np.sin(a / 2), 0.0])
+        p = pos[:, body_idx] - np.array([centre[0], 0.0, centre[1]])
+        self.pos = rot.quat_apply(q, p)
+        self.quat = _continuous(np.where(grot[..., :1] < 0, -grot, grot))[:, body_idx]
+
+
+def foot_skate(pos: np.ndarray, ground: np.ndarray, fps: float) -> float:
+    """Mean weighted horizontal speed (cm/s) of the foot joints ``pos`` (T, n, 3); the first
+    frame is the one before the measured frames."""
+    v = np.linalg.norm(np.diff(pos[..., [0, 2]], axis=0), axis=-1) * fps
+    h = pos[1:, :, 1] - ground[None]
+    w = np.clip(2.0 - np.power(2.0, h / SKATE_H_CM), 0.0, 1.0)
+    return float((v * w).mean())
+
+
+# ------------------------------------------------------------------------------------ data
+
+
+def split_bandai2(folder: Path) -> tuple[list[Path], list[Path]]:
+    files = sorted(folder.glob("*.bvh"))
+    tune = files[5::10]
+    keep = set(tune)
+    return [f for f in files if f not in keep], tune
+
+
+def windows_of(n_frames: int) -> list[int]:
+    return list(range(0, n_frames - WINDOW + 1, OFFSET))
+
+
+def library_stats(lib_motions, body_idx) -> tuple[np.ndarray, np.ndarray]:
+    """Per-coordinate mean and std (21 x 3) of the library's canonical window positions."""
+    chunks = []
+    for m in lib_motions:
+        for s in range(0, m.num_frames - STATS_WINDOW + 1, STATS_OFFSET):
+            w = m[s : s + STATS_WINDOW]
+            chunks.append(Frames(w, body_idx, N_PAST - 1).pos)
+    allp = np.concatenate(chunks)
+    return allp.mean(axis=0), allp.std(axis=0)
+
+
+def interpolation(win, n: int):
+    """The LaFAN1 interpolation baseline on frames N_PAST..N_PAST+n-1 of ``win``."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.motion import Motion
+
+    a, b = N_PAST - 1, N_PAST + n
+    u = np.linspace(0.0, 1.0, n + 2)[1:-1]
+    q0 = win.rotations[a]
+    q1 = rot.quat_fix_hemisphere(win.rotations[b], q0)
+    J = win.num_joints
+    rots = rot.quat_slerp(
+        np.broadcast_to(q0, (n, J, 4)), np.broadcast_to(q1, (n, J, 4)), u[:, None]
+    )
+    tr = win.local_translations()
+    t = tr[a][None] * (1 - u[:, None, None]) + tr[b][None] * u[:, None, None]
+    return Motion(win.skeleton, rots, t[:, 0], win.frame_time, t)
+
+
+def zero_velocity(win, n: int):
+    from mocapkit.core.motion import Motion
+
+    a = N_PAST - 1
+    tr = np.repeat(win.local_translations()[a : a + 1], n, axis=0)
+    rots = np.repeat(win.rotations[a : a + 1], n, axis=0)
+    return Motion(win.skeleton, rots, tr[:, 0], win.frame_time, tr)
+
+
+# ------------------------------------------------------------------------------------ run
+
+
+def evaluate(test_files, lib, stats, body_idx, feet_idx, config, max_takes=None, log=print):
+    """Per (class, method, n): lists of per-window L2Q, L2P and the quaternion sequences."""
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.core.motion import concatenate
+    from mocapkit.io import read_motion
+    from mocapkit.stitch.inbetween import inbetween
+
+    mean, std = stats
+    rec: dict = {}
+    fallbacks: dict = {}
+    times = []
+    files = test_files[:max_takes] if max_takes else test_files
+    for ti, f in enumerate(files):
+        take = read_motion(f)
+        cls = take_class(f)
+        Pt, _ = forward_kinematics(take)
+        ground = np.percentile(Pt[:, feet_idx, 1], 5, axis=0)
+        for s in windows_of(take.num_frames):
+            for n in LENGTHS:
+                win = take[s : s + N_PAST + n + 1]
+                truth = Frames(win, body_idx, N_PAST - 1)
+                sl = slice(N_PAST, N_PAST + n)
+                t0 = time.perf_counter()
+                res = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
+                                future_frames=1)  # fmt: skip
+                times.append(time.perf_counter() - t0)
+                kal = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
+                                future_frames=1, method="kalman")  # fmt: skip
+                fallbacks.setdefault((cls, n), []).append(res.fell_back)
+                outs = {
+                    "zerov": concatenate([win[:N_PAST], zero_velocity(win, n), win[N_PAST + n :]]),
+                    "interp": concatenate([win[:N_PAST], interpolation(win, n), win[N_PAST + n :]]),
+                    "kalman": kal.motion,
+                    "library": res.motion,
+                }
+                for meth, out in outs.items():
+                    fr = Frames(out, body_idx, N_PAST - 1, frame_of_ref=win)
+                    dp = ((fr.pos[sl] - truth.pos[sl]) / std).reshape(n, -1)
+                    dq = (fr.quat[sl] - truth.quat[sl]).reshape(n, -1)
+                    Po, _ = forward_kinematics(out[N_PAST - 1 : N_PAST + n])
+                    keys = ("l2p", "l2q", "qp", "qt", "skate", "skate_true")
+                    r = rec.setdefault((cls, meth, n), {k: [] for k in keys})
+                    r["l2p"].append(float(np.sqrt((dp**2).sum(-1)).mean()))
+                    r["l2q"].append(float(np.sqrt((dq**2).sum(-1)).mean()))
+                    r["qp"].append(fr.quat[sl].reshape(n, -1))
+                    r["qt"].append(truth.quat[sl].reshape(n, -1))
+                    r["skate"].append(foot_skate(Po[:, feet_idx], ground, take.fps))
+                    r["skate_true"].append(
+                        foot_skate(
+                            Pt[s + N_PAST - 1 : s + N_PAST + n][:, feet_idx], ground, take.fps
+                        )
+                    )
+        log(f"  [{ti + 1}/{len(files)}] {f.name}")
+    del mean
+    return rec, fallbacks, times
+
+
+def summarise(rec, fallbacks, classes):
+    rows = []
+    for cls in [*classes, "all"]:
+        for n in LENGTHS:
+            for meth in METHODS:
+                keys = [(c, meth, n) for c in classes] if cls == "all" else [(cls, meth, n)]
+                parts = [rec[k] for k in keys if k in rec]
+                if not parts:
+                    continue
+                l2p = np.concatenate([p["l2p"] for p in parts])
+                l2q = np.concatenate([p["l2q"] for p in parts])
+                qp = np.stack([x for p in parts for x in p["qp"]])
+                qt = np.stack([x for p in parts for x in p["qt"]])
+                sk = np.concatenate([p["skate"] for p in parts])
+                skt = np.concatenate([p["skate_true"] for p in parts])
+                fb = [
+                    x
+                    for c in (classes if cls == "all" else [cls])
+                    for x in fallbacks.get((c, n), [])
+                ]
+                rows.append({
+                    "class": cls, "n": n, "method": meth, "windows": len(l2p),
+                    "l2q": float(l2q.mean()), "l2p": float(l2p.mean()), "npss": npss(qt, qp),
+                    "skate": float(sk.mean()), "skate_true": float(skt.mean()),
+                    "fallbacks": int(sum(fb)) if meth == "library" else None,
+                })  # fmt: skip
+    for r in rows:
+        ref = next(x for x in rows if x["class"] == r["class"] and x["n"] == r["n"]
+                   and x["method"] == "interp")  # fmt: skip
+        for k in ("l2q", "l2p", "npss"):
+            r[f"{k}_ratio"] = r[k] / ref[k] if ref[k] > 0 else float("nan")
+    return rows
+
+
+def print_table(rows, title):
+    print(f"\n{title}")
+    print("| class | windows | n | method | L2Q | L2P | NPSS | L2Q/interp | L2P/interp | "
+          "NPSS/interp | skate cm/s (true) | fallbacks |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        fb = "" if r["fallbacks"] is None else str(r["fallbacks"])
+        print(
+            f"| {r['class']} | {r['windows']} | {r['n']} | {r['method']} | {r['l2q']:.3f} | "
+            f"{r['l2p']:.3f} | {r['npss']:.4f} | {r['l2q_ratio']:.2f} | {r['l2p_ratio']:.2f} | "
+            f"{r['npss_ratio']:.2f} | {r['skate']:.2f} ({r['skate_true']:.2f}) | {fb} |"
+        )
+
+
+def search_timing(lib_files, extra_files, reference, config):
+    """(inbetween search s, stitch search s, frames) on a 100,000-frame library."""
+    from mocapkit.features import ground_root_on_path
+    from mocapkit.io import read_motion
+    from mocapkit.stitch import search_features
+    from mocapkit.stitch.inbetween import _context, prepare_library, search_inbetween
+
+    motions, total = [], 0
+    for f in [*lib_files, *extra_files]:
+        m = read_motion(f)
+        m = m[: 100_000 - total]
+        motions.append(m)
+        total += m.num_frames
+        if total >= 100_000:
+            break
+    lib = prepare_library(motions, reference, up="Y", config=config)
+    feats = [w for w in lib.warped if w.rate == 1.0]
+    if not feats:
+        raise SystemExit("the timing needs the warp 1.0 in the config")
+    W = feats[0]
+    clips = [W.feats[W.clip == i] for i in range(len(motions))]
+    from mocapkit.stitch import motion_features
+
+    qf = motion_features(reference, "Y")
+    a, b = 60, 90
+    ctx = _context(ground_root_on_path(reference, "Y"), a, b, 5, "Y", None)
+    for _ in range(2):  # warm-up (numba compile), then timed
+        t0 = time.perf_counter()
+        search_features(qf, a - 1, clips, k_max=30)
+        t_stitch = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        search_inbetween(ctx, b - a, lib, w=5, config=config)
+        t_inb = time.perf_counter() - t0
+    return t_inb, t_stitch, total
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--shared", type=Path, default=None)
+    ap.add_argument("--tune", action="store_true", help="evaluate on the tuning takes")
+    ap.add_argument("--max-takes", type=int, default=None)
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="override an InbetweenConfig field (tuning)")  # fmt: skip
+    ap.add_argument("--no-timing", action="store_true")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    _mocapkit()
+    from dataclasses import replace
+
+    from mocapkit.io import read_motion
+    from mocapkit.stitch import body_joints
+    from mocapkit.stitch.inbetween import DEFAULT_CONFIG, prepare_library
+
+    config = DEFAULT_CONFIG
+    for s in args.set:
+        k, v = s.split("=", 1)
+        cur = getattr(config, k)
+        val = tuple(float(x) for x in v.split(",")) if isinstance(cur, tuple) else type(cur)(v)
+        config = replace(config, **{k: val})
+    root = shared_root(args.shared) / "data"
+    lib_files, tune_files = split_bandai2(root / "bandai2" / "data")
+    b1 = sorted((root / "bandai1" / "data").glob("*.bvh"))
+    if args.tune:
+        classes = TUNE_CLASSES
+        test_files = [f for f in tune_files if take_class(f) in classes]
+    else:
+        classes = TEST_CLASSES
+        test_files = [f for f in b1 if take_class(f) in classes]
+    t0 = time.perf_counter()
+    lib_motions = [read_motion(f) for f in lib_files]
+    reference = read_motion(test_files[0])
+    lib = prepare_library(lib_motions, reference, [str(f) for f in lib_files], up="Y",
+                          config=config)  # fmt: skip
+    body_idx = body_joints(reference.skeleton)
+    feet_idx = _feet(reference)
+    stats = library_stats(lib.motions, body_idx)
+    print(f"library: {len(lib_files)} bandai2 takes, {lib.frames} frames "
+          f"(tuning takes kept out: {len(tune_files)}); prepared in "
+          f"{time.perf_counter() - t0:.1f} s; test: {len(test_files)} takes "
+          f"({'tuning' if args.tune else 'bandai1'}); config {config}")  # fmt: skip
+    rec, fallbacks, times = evaluate(
+        test_files, lib, stats, body_idx, feet_idx, config, args.max_takes,
+        log=lambda s: print(s, file=sys.stderr),
+    )  # fmt: skip
+    rows = summarise(rec, fallbacks, classes)
+    print_table([r for r in rows if r["class"] == "all"], "All classes")
+    print_table([r for r in rows if r["class"] != "all"], "Per class")
+    print(f"\nin-betweening per gap (search + fill): median {np.median(times):.3f} s")
+    timing = None
+    if not args.no_timing:
+        extra = [f for f in b1 if take_class(f) not in TEST_CLASSES]
+        t_inb, t_st, frames = search_timing(lib_files, extra, reference, config)
+        timing = {"inbetween_s": t_inb, "stitch_s": t_st, "ratio": t_inb / t_st, "frames": frames}
+        print(f"search over {frames} frames: inbetween {t_inb:.3f} s, stitch {t_st:.3f} s, "
+              f"ratio {t_inb / t_st:.2f} (target <= 2)")  # fmt: skip
+    if args.json:
+        print(json.dumps({"rows": rows, "timing": timing}, indent=1))
+    return 0
+
+
+def _feet(motion) -> list[int]:
+    from mocapkit.body import body_of
+
+    return [j for _, j in body_of(motion).feet]
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,790 @@
+"""In-betweening from a library of real motion: fill frames ``A..B-1`` of a clip with the library
+segment that best continues the frames before ``A`` (the past context) and leads into the frames
+from ``B`` on (the future context).
+
+A smoother cannot invent a step: over 30 frames the Kalman transition of the elastic L-score
+(:func:`kalman_fill`) is a smooth glide between two poses. A library of captured motion holds
+the steps, so the gap is filled with one of its segments, found by the same effort score that
+stitching uses. The fact relied on: a captured segment whose first frames continue the past
+context with little effort, whose last frames lead into the future context with little effort
+and whose body travels over the ground like the context's does over the gap, is a plausible
+motion for the gap; its remaining pose differences at both ends are small and are blended away.
+
+**Candidates.** A candidate is a library clip, a frame ``s`` and a time warp ``r`` (a speed
+factor from :attr:`InbetweenConfig.warps`): the library clip resampled at times ``s + i r``,
+i = 0..g+1 (g = B - A), so segments of nearby lengths ``r g`` are time-warped to fit. Its frame
+i = 0 takes the place of the last past frame A-1, frames 1..g fill the gap, and frame g+1 takes
+the place of the first future frame B.
+
+**Score** (lower is better), in the body-local features of stitching
+(:func:`mocapkit.stitch.search.motion_features`: joint positions with the pelvis' ground
+position and heading removed):
+
+* ``L_start``: the L-score (Li et al., Eq. 2; :mod:`mocapkit.stitch.lscore`) of the window
+  ``w_p`` past frames ``A-w_p..A-1`` then the candidate's first ``w`` gap frames — how much
+  effort the constant-acceleration smoother spends going from the past into the candidate;
+* ``L_end``: the L-score of the candidate's last ``w`` gap frames then the ``w_f`` future
+  frames ``B..``;
+* ``travel``: the ground path: the pelvis' ground displacement and heading change from frame
+  A-1 to B, in the body frame at A-1, against the candidate's from i = 0 to g+1, and the pelvis'
+  ground velocity at the last past frame against the candidate's at i = 0
+  (:attr:`InbetweenConfig.travel_tolerance_m`, :attr:`InbetweenConfig.turn_tolerance_deg`,
+  weighted by :attr:`InbetweenConfig.travel_weight`). The body-local features cannot see it.
+
+The two L-scores are plain L (k = 0 injected frames), not L*: the candidate's own frames are the
+transition, and the elastic freedom of the length is the time warp ``r`` (a candidate
+continuing the past too slowly scores high at r = 1 and low at a faster r). Windows are
+asymmetric when the context is short (``w_p`` = min(w, A), ``w_f`` = min(w, frames after B),
+``w_f`` may be 1: the smoother's first three observed frames, which set its prior, are always
+the window's first side). Every window uses the same Kalman model as stitching.
+
+**Search** (:func:`search_inbetween`): for each warp, both L-scores of every library frame are
+computed by the batched numba kernel of the stitching search
+(:func:`mocapkit.stitch.lscore.search_landings`' kernel: one side of the window fixed, the other
+sliding along the concatenated library), the ground-path term is vectorised, and candidates
+whose frames would cross a clip boundary are discarded. The readable twin is
+``inbetween_search_reference`` in tests/stitch/naive.py.
+
+**Fill** (:func:`library_fill`): the segment is sampled from the library motion (slerp of
+rotations, lerp of translations) and moved over the ground by a transform that varies along the
+gap: at i = 0 it puts the segment's pelvis ground position and facing on the context's at A-1,
+at i = g+1 on the context's at B, in between the heading and position corrections grow linearly
+with i. The remaining differences of every joint's local rotation (``log(q_ctx q_seg⁻¹)``) and
+local translation at both ends are then blended in (inertialization: each end's offset decays to
+zero over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights), so
+frames A-1 and B of the result are the context's exactly and the frames between are the
+library's motion. On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the
+root on the body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are
+written back in the clip's own convention (its root interpolated between A-1 and B, the joint
+below re-expressed), so the context frames are untouched.
+
+**Fallback.** The Kalman transition's own score is its L-score with the g gap frames injected
+(``L_g`` of the window past, g unobserved, future; :func:`kalman_lscore`). When the best
+candidate's ``L_start + L_end`` is higher, the gap is filled by :func:`kalman_fill` instead and
+the result says so (:attr:`Inbetween.fell_back`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mocapkit.core import rotations as rot
+from mocapkit.core.motion import Motion
+from mocapkit.provenance import Provenance, Segment, TransitionTaken
+from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
+from mocapkit.stitch.lscore import _search_kernel
+from mocapkit.stitch.search import conform, motion_features
+
+__all__ = [
+    "DEFAULT_CONFIG",
+    "METHODS",
+    "Candidate",
+    "Inbetween",
+    "InbetweenConfig",
+    "InbetweenLibrary",
+    "check_gap",
+    "inbetween",
+    "kalman_fill",
+    "kalman_lscore",
+    "library_fill",
+    "prepare_library",
+    "search_inbetween",
+    "window_lscores",
+]
+
+
+@dataclass(frozen=True)
+class InbetweenConfig:
+    """Every tunable of in-betweening, in physical units (converted to frames with the clip's
+    frame time). Tuned on the held-out tenth of bandai2 (bench/bench_inbetween.py --tune)."""
+
+    window_seconds: float = 1 / 6
+    """L-score half window w (5 frames at 30 fps, stitching's default): enough frames for the
+    smoother to see a velocity and an acceleration on each side of a junction."""
+    warps: tuple[float, ...] = (0.8, 0.9, 1.0, 1.12, 1.25)
+    """Speed factors of candidate segments (library time per clip time): people walk and run
+    at speeds within about ±25% of one another's for the same gait."""
+    travel_tolerance_m: float = 0.1
+    """Ground-path difference (pelvis displacement over the gap, velocity at its start) that
+    costs as much as ``travel_weight``: a tenth of a stride."""
+    turn_tolerance_deg: float = 10.0
+    """Heading-change difference over the gap that costs as much as ``travel_weight``."""
+    travel_weight: float = 1.0
+    """Weight of the ground-path term against the L-scores (in L-score units per squared
+    tolerance)."""
+    blend_seconds: float = 0.5
+    """How long each end's pose offset takes to fade (inertialization; capped by the gap): long
+    enough that removing the offset adds no visible acceleration, short enough that the middle
+    of a long gap is the library's own motion."""
+    fallback: bool = True
+    """Fill with the Kalman transition when the best candidate's two-sided L-score is higher
+    than the Kalman transition's own."""
+
+    def __post_init__(self) -> None:
+        if not (self.window_seconds > 0 and self.blend_seconds >= 0):
+            raise ValueError("window_seconds must be > 0 and blend_seconds >= 0")
+        if not self.warps or any(not (0.25 <= r <= 4.0) for r in self.warps):
+            raise ValueError(f"warps must be speed factors in [0.25, 4], got {self.warps}")
+        if not (self.travel_tolerance_m > 0 and self.turn_tolerance_deg > 0):
+            raise ValueError("travel and turn tolerances must be > 0")
+        if not self.travel_weight >= 0:
+            raise ValueError(f"travel_weight must be >= 0, got {self.travel_weight}")
+
+
+DEFAULT_CONFIG = InbetweenConfig()
+
+METHODS = ("auto", "library", "kalman")
+"""How :func:`inbetween` fills the gap (see there)."""
+
+
+# --------------------------------------------------------------------------------- checks
+
+
+def check_gap(gap, num_frames: int, name: str = "clip") -> tuple[int, int]:
+    """``(A, B)`` of a gap given as ``(A, B)`` or ``"A:B"`` (frames A..B-1 replaced), or a
+    ValueError saying what is expected: 3 <= A < B < num_frames (three past frames set the
+    smoother's prior, and at least one future frame is needed to lead into)."""
+    if isinstance(gap, str):
+        from mocapkit.core.ranges import RangeSpec
+
+        a, b = RangeSpec.parse(gap, "gap").frames(1.0, None)
+    else:
+        try:
+            a, b = (int(x) for x in gap)
+        except (TypeError, ValueError):
+            raise ValueError(f"gap must be (A, B) or 'A:B', got {gap!r}") from None
+    if not 3 <= a < b < num_frames:
+        raise ValueError(
+            f"gap {a}:{b} on a {name} of {num_frames} frames: expected 3 <= A < B < {num_frames} "
+            "(at least 3 context frames before the gap and 1 after it)"
+        )
+    return a, b
+
+
+# --------------------------------------------------------------------------------- library
+
+
+@dataclass(frozen=True, eq=False)
+class _Warped:
+    """The library resampled at one speed factor: arrays over the concatenated clips."""
+
+    rate: float
+    feats: np.ndarray  # (N, m) float32 body-local features
+    ground: np.ndarray  # (N, 2) pelvis ground position
+    heading: np.ndarray  # (N,) heading, unwrapped within each clip
+    clip: np.ndarray  # (N,) clip index
+    time: np.ndarray  # (N,) fractional frame of the clip
+
+
+@dataclass(frozen=True, eq=False)
+class InbetweenLibrary:
+    """Library motions prepared for :func:`search_inbetween`: on the clip's skeleton and frame
+    time, ground root on the body's path, features and ground paths per warp."""
+
+    motions: tuple[Motion, ...]
+    names: tuple[str, ...]
+    up: str
+    warped: tuple[_Warped, ...]
+    frames: int
+
+    def warp(self, rate: float) -> _Warped:
+        for w in self.warped:
+            if math.isclose(w.rate, rate):
+                return w
+        raise KeyError(rate)
+
+
+def _interp_rows(x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Rows of ``x`` (F, ...) linearly interpolated at fractional frames ``t`` (n,)."""
+    i0 = np.clip(np.floor(t).astype(np.int64), 0, x.shape[0] - 1)
+    i1 = np.minimum(i0 + 1, x.shape[0] - 1)
+    f = (t - i0).reshape((-1,) + (1,) * (x.ndim - 1))
+    return x[i0] * (1.0 - f) + x[i1] * f
+
+
+def prepare_library(
+    motions: Sequence[Motion],
+    reference: Motion,
+    names: Sequence[str] | None = None,
+    *,
+    up: str | None = None,
+    config: InbetweenConfig = DEFAULT_CONFIG,
+) -> InbetweenLibrary:
+    """The library of ``motions`` for in-betweening clips like ``reference``: each conformed to
+    its skeleton and frame time (:func:`mocapkit.stitch.search.conform`; ValueError naming the
+    clip when the joints differ), ground root put on the body's path, body-local features,
+    pelvis ground path and heading computed, then resampled at every warp of ``config``."""
+    from mocapkit import features
+
+    if not motions:
+        raise ValueError("the library is empty")
+    names = [f"library{i}" for i in range(len(motions))] if names is None else list(names)
+    if len(names) != len(motions):
+        raise ValueError(f"{len(names)} names for {len(motions)} library motions")
+    up = up or features.detect_up_axis(reference)
+    prepped, feats, ground, heading = [], [], [], []
+    for m, n in zip(motions, names, strict=True):
+        m = features.ground_root_on_path(conform(m, reference, n), up)
+        prepped.append(m)
+        feats.append(motion_features(m, up).astype(np.float32))
+        ground.append(features.root_trajectory(m, up))
+        heading.append(features.heading_angles(m, up, unwrap=True))
+    warped = []
+    for r in config.warps:
+        parts = []
+        for i, (x, gp, hd) in enumerate(zip(feats, ground, heading, strict=True)):
+            n_out = math.floor((x.shape[0] - 1) / r) + 1
+            t = np.arange(n_out) * r
+            parts.append(
+                (
+                    _interp_rows(x, t).astype(np.float32),
+                    _interp_rows(gp, t),
+                    _interp_rows(hd, t),
+                    np.full(n_out, i, np.int32),
+                    t,
+                )
+            )
+        cols = [np.concatenate(c) for c in zip(*parts, strict=True)]
+        warped.append(_Warped(float(r), np.ascontiguousarray(cols[0]), *cols[1:]))
+    return InbetweenLibrary(
+        tuple(prepped), tuple(names), up, tuple(warped), sum(m.num_frames for m in prepped)
+    )
+
+
+# --------------------------------------------------------------------------------- scores
+
+
+@functools.lru_cache(maxsize=256)
+def _window_operators(model: ConstantAccelerationModel, w_before: int, k: int, w_after: int):
+    """(D, A), each (T-1, w_before + w_after): smoothed position steps and accelerations of the
+    window ``w_before`` observed, ``k`` unobserved, ``w_after`` observed frames."""
+    mask = np.r_[np.ones(w_before, bool), np.zeros(k, bool), np.ones(w_after, bool)]
+    M = smoother_matrix(model, mask)
+    P, Acc = M[:, 0, :], M[:, 2, :]
+    D, A = np.ascontiguousarray(P[1:] - P[:-1]), np.ascontiguousarray(Acc[:-1])
+    D.setflags(write=False)
+    A.setflags(write=False)
+    return D, A
+
+
+def window_lscores(
+    before, after, k: int = 0, model: ConstantAccelerationModel = DEFAULT_MODEL
+) -> np.ndarray:
+    """L-scores of windows ``before`` (N, w_b, m) then ``k`` unobserved frames then ``after``
+    (N, w_a, m): ``Σ_d Σ_n |(p̂_{n+1} - p̂_n) â_n|`` (N,) float64; w_b >= 3."""
+    B = np.asarray(before, float)
+    Af = np.asarray(after, float)
+    if B.ndim == 2:
+        B, Af = B[None], Af[None]
+    D, A = _window_operators(model, B.shape[1], int(k), Af.shape[1])
+    Y = np.concatenate([B, Af], axis=1)
+    Y = Y - Y[:, B.shape[1] - 1 : B.shape[1]]
+    return np.abs(np.einsum("rt,ntm->nrm", D, Y) * np.einsum("rt,ntm->nrm", A, Y)).sum((1, 2))
+
+
+def kalman_lscore(
+    past, future, gap: int, model: ConstantAccelerationModel = DEFAULT_MODEL
+) -> float:
+    """The Kalman transition's own L-score: ``L_g`` of the window ``past`` (w_p, m), ``gap``
+    injected frames, ``future`` (w_f, m)."""
+    return float(window_lscores(past, future, gap, model)[0])
+
+
+def _sliding_lscores(fixed, X: np.ndarray, fixed_first: bool, w: int, model) -> np.ndarray:
+    """L-scores of ``fixed`` (w_fixed, m) joined to every run of ``w`` consecutive rows of
+    ``X`` (N, m): ``fixed`` then ``X[b:b+w]`` (fixed_first) or ``X[b:b+w]`` then ``fixed``, for
+    b = 0..N-w, by the stitching search's numba kernel (float32; both sides are centred on the
+    fixed side's frame nearest the junction, which the L-score cannot see)."""
+    fixed = np.asarray(fixed, float)
+    wf = fixed.shape[0]
+    if fixed_first:
+        D, A = _window_operators(model, wf, 0, w)
+        cols_f, cols_x = slice(0, wf), slice(wf, wf + w)
+        centre = fixed[-1]
+    else:
+        D, A = _window_operators(model, w, 0, wf)
+        cols_x, cols_f = slice(0, w), slice(w, w + wf)
+        centre = fixed[0]
+    fc = fixed - centre
+    cD = np.ascontiguousarray((D[:, cols_f] @ fc).T, dtype=np.float32)  # (m, R)
+    cA = np.ascontiguousarray((A[:, cols_f] @ fc).T, dtype=np.float32)
+    Dx = np.ascontiguousarray(D[:, cols_x], dtype=np.float32)
+    Ax = np.ascontiguousarray(A[:, cols_x], dtype=np.float32)
+    Xc = np.ascontiguousarray((X - centre.astype(np.float32)).T, dtype=np.float32)
+    n = X.shape[0] - w + 1
+    out = np.zeros((1, n), np.float32)
+    rows = np.array([D.shape[0]], np.int64)
+    _search_kernel(w)(Xc, cD, cA, Dx, Ax, np.zeros(1, np.int64), rows, out, 512)
+    return out[0].astype(float)
+
+
+# --------------------------------------------------------------------------------- search
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A library segment for the gap: library clip ``clip``, its fractional frame ``start``
+    taking the place of the last past frame A-1, ``rate`` library frames per clip frame (the
+    segment covers library frames ``start .. start + rate (g+1)``), and its scores."""
+
+    clip: int
+    start: float
+    rate: float
+    score: float
+    lscore_start: float
+    lscore_end: float
+    travel: float
+
+    @property
+    def lscore(self) -> float:
+        """The two-sided L-score ``L_start + L_end``."""
+        return self.lscore_start + self.lscore_end
+
+    def source_frames(self, gap: int) -> tuple[int, int]:
+        """Library frames (rounded, stop excluded) that fill the gap's ``gap`` frames."""
+        return round(self.start + self.rate), round(self.start + self.rate * gap) + 1
+
+
+@dataclass(frozen=True, eq=False)
+class _Context:
+    """What the search needs from the clip around the gap."""
+
+    past: np.ndarray  # (w_p, m) features A-w_p..A-1
+    future: np.ndarray  # (w_f, m) features B..
+    travel: np.ndarray  # (2,) pelvis ground displacement A-1 -> B in the body frame at A-1
+    turn: float  # heading change A-1 -> B (rad)
+    velocity: np.ndarray  # (2,) pelvis ground step A-2 -> A-1 in the body frame at A-1
+
+
+def _rotate2(v: np.ndarray, angle) -> np.ndarray:
+    """Ground vectors (..., 2) turned by ``-angle`` (into the frame of that heading).
+
+    Ground coordinates are (side, forward) and headings turn right-handed about up."""
+    c, s = np.cos(angle), np.sin(angle)
+    x, z = v[..., 0], v[..., 1]
+    return np.stack([c * x - s * z, s * x + c * z], axis=-1)
+
+
+def _context(clip: Motion, a: int, b: int, w: int, up: str, future_frames: int | None):
+    from mocapkit import features
+
+    wp = min(w, a)
+    wf = min(w, clip.num_frames - b)
+    if future_frames is not None:
+        wf = min(wf, int(future_frames))
+    part = clip[a - wp : b + wf]
+    f = motion_features(part, up)
+    g = b - a
+    past, future = f[:wp], f[wp + g :]
+    gp = features.root_trajectory(part, up)
+    hd = features.heading_angles(part, up, unwrap=True)
+    i0, i1 = wp - 1, wp + g
+    return _Context(
+        past,
+        future,
+        _rotate2(gp[i1] - gp[i0], hd[i0]),
+        float(hd[i1] - hd[i0]),
+        _rotate2(gp[i0] - gp[i0 - 1], hd[i0]),
+    )
+
+
+def _travel_costs(
+    W: _Warped, ctx: _Context, g: int, config: InbetweenConfig, mpu: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(cost, valid) per warped frame s (the frame on A-1): the ground-path term."""
+    N = W.feats.shape[0]
+    s = np.arange(N)
+    valid = np.zeros(N, bool)
+    lo, hi = 1, N - g - 1
+    if hi <= lo:
+        return np.full(N, np.inf), valid
+    idx = s[lo:hi]
+    same = W.clip[idx - 1] == W.clip[idx + g + 1]
+    h0 = W.heading[idx]
+    d = _rotate2(W.ground[idx + g + 1] - W.ground[idx], h0)
+    v = _rotate2(W.ground[idx] - W.ground[idx - 1], h0) / W.rate
+    turn = W.heading[idx + g + 1] - W.heading[idx]
+    tol = config.travel_tolerance_m / mpu
+    c = (
+        np.sum((d - ctx.travel) ** 2, -1) / tol**2
+        + np.sum((v - ctx.velocity) ** 2, -1) * (g + 1) ** 2 / tol**2 / 4.0
+        + ((turn - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
+    )
+    cost = np.full(N, np.inf)
+    cost[idx] = config.travel_weight * c
+    valid[idx] = same
+    return cost, valid
+
+
+def search_inbetween(
+    ctx: _Context,
+    gap: int,
+    library: InbetweenLibrary,
+    *,
+    w: int = 5,
+    config: InbetweenConfig = DEFAULT_CONFIG,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    metres_per_unit: float = 0.01,
+) -> tuple[Candidate, int]:
+    """The best :class:`Candidate` for a gap of ``gap`` frames and the number scored."""
+    g = int(gap)
+    best, count = None, 0
+    wl = min(w, g)  # the gap frames seen by each junction's window
+    if wl < 3:
+        wl = 3
+    for W in library.warped:
+        N = W.feats.shape[0]
+        if g + 2 + wl > N:
+            continue
+        travel, valid = _travel_costs(W, ctx, g, config, metres_per_unit)
+        ls = np.full(N, np.inf)
+        le = np.full(N, np.inf)
+        start = _sliding_lscores(ctx.past, W.feats, True, wl, model)  # b = first gap frame
+        end = _sliding_lscores(ctx.future, W.feats, False, wl, model)  # b = last - wl + 1
+        s = np.arange(N)
+        ok = (s + 1 + wl <= N) & (s + g - wl + 1 >= 0) & (s + g + 1 < N)
+        ls[ok] = start[np.minimum(s[ok] + 1, start.shape[0] - 1)]
+        le[ok] = end[np.clip(s[ok] + g - wl + 1, 0, end.shape[0] - 1)]
+        # the windows must stay in the candidate's clip
+        first = np.clip(s + g - wl + 1, 0, N - 1)
+        last = np.clip(s + wl, 0, N - 1)
+        valid &= ok & (W.clip[first] == W.clip) & (W.clip[last] == W.clip)
+        total = np.where(valid, ls + le + travel, np.inf)
+        count += int(valid.sum())
+        i = int(np.argmin(total))
+        if np.isfinite(total[i]) and (best is None or total[i] < best.score):
+            best = Candidate(
+                int(W.clip[i]), float(W.time[i]), W.rate, float(total[i]),
+                float(ls[i]), float(le[i]), float(travel[i]),
+            )  # fmt: skip
+    if best is None:
+        raise ValueError(f"no library clip is long enough for a gap of {g} frames")
+    return best, count
+
+
+# --------------------------------------------------------------------------------- fills
+
+
+def _sample(motion: Motion, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations (n, J, 4) and translations (n, J, 3) at fractional frames ``t``."""
+    i0 = np.clip(np.floor(t).astype(np.int64), 0, motion.num_frames - 1)
+    i1 = np.minimum(i0 + 1, motion.num_frames - 1)
+    f = t - i0
+    q0, q1 = motion.rotations[i0], motion.rotations[i1]
+    q1 = np.where(np.sum(q0 * q1, -1, keepdims=True) < 0, -q1, q1)
+    rots = rot.quat_slerp(q0, q1, np.broadcast_to(f[:, None], q0.shape[:2]))
+    tr = motion.local_translations()
+    return rots, tr[i0] * (1 - f)[:, None, None] + tr[i1] * f[:, None, None]
+
+
+def _decay(n: int, length: int) -> np.ndarray:
+    """(n,) weights 1 at index 0 falling to 0 at index ``length`` (smoothstep), 0 after."""
+    x = np.clip(np.arange(n) / max(length, 1), 0.0, 1.0)
+    return 1.0 - x * x * (3.0 - 2.0 * x)
+
+
+def _offset_blend(rots, trans, r0, r1, t0, t1, blend: int):
+    """Rotations/translations (n, J, ·) with the end offsets to (r0, t0) at index 0 and (r1, t1)
+    at index n-1 blended in, each decaying over ``blend`` frames from its end."""
+    n = rots.shape[0]
+    w0 = _decay(n, blend)[:, None, None]
+    w1 = _decay(n, blend)[::-1][:, None, None]
+    d0 = rot.quat_mul(r0, rot.quat_inv(rots[0]))
+    d1 = rot.quat_mul(r1, rot.quat_inv(rots[-1]))
+    d0 = np.where(d0[..., :1] < 0, -d0, d0)
+    d1 = np.where(d1[..., :1] < 0, -d1, d1)
+    off = rot.quat_exp(rot.quat_log(d0)[None] * w0 + rot.quat_log(d1)[None] * w1)
+    out_r = rot.quat_normalize(rot.quat_mul(off, rots))
+    out_t = trans + (t0 - trans[0])[None] * w0 + (t1 - trans[-1])[None] * w1
+    out_r[0], out_r[-1], out_t[0], out_t[-1] = r0, r1, t0, t1
+    return out_r, out_t
+
+
+def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int, up: str) -> Motion:
+    """``seg`` (n frames) moved over the ground by a transform growing linearly from the one
+    putting its frame 0 on ``ctx[i_start]`` (pelvis ground position and facing) to the one
+    putting its frame n-1 on ``ctx[i_end]``."""
+    from mocapkit import features
+
+    n = seg.num_frames
+    T0 = features.ground_alignment(ctx, i_start, seg, 0, up=up)
+    moved = features.apply_ground_transform(seg, T0)
+    T1 = features.ground_alignment(ctx, i_end, moved, n - 1, up=up)
+    # T1 = rotation by dθ about the origin then a translation; spread it along the segment as a
+    # rotation by u·dθ about the start pelvis then the translation that makes u = 1 exact.
+    p0 = features.root_trajectory(moved[:1], up)[0]
+    side, _, fwd = features.ground_frame(up)
+    p0_3 = p0[0] * side + p0[1] * fwd
+    u = np.arange(n) / max(n - 1, 1)
+    resid = T1.apply(p0_3) - p0_3  # where T1 moves the start pelvis (rotation included)
+    out = moved.copy()
+    q = np.stack([features.GroundTransform(a, np.zeros(3), up).quaternion for a in u * T1.angle])
+    root = moved.root_positions - p0_3
+    out.root_positions = rot.quat_apply(q, root) + p0_3 + u[:, None] * resid[None]
+    out.rotations[:, 0] = rot.quat_mul(q, moved.rotations[:, 0])
+    if out.translations is not None:
+        out.translations[:, 0] = out.root_positions
+    return out
+
+
+def _back_to_clip(fill: Motion, clip: Motion, a: int, b: int, onpath: bool) -> Motion:
+    """The filled frames in the clip's own root convention (see the module docstring)."""
+    if not onpath:
+        return fill
+    sk = clip.skeleton
+    c = sk.children(0)[0]
+    g = fill.num_frames
+    u = (np.arange(g) + 1.0) / (g + 1.0)
+    q0 = clip.rotations[a - 1, 0]
+    q1 = rot.quat_fix_hemisphere(clip.rotations[b, 0], q0)
+    root_q = rot.quat_slerp(np.broadcast_to(q0, (g, 4)), np.broadcast_to(q1, (g, 4)), u)
+    p0, p1 = clip.root_positions[a - 1], clip.root_positions[b]
+    root_p = p0[None] * (1 - u[:, None]) + p1[None] * u[:, None]
+    tr = fill.local_translations()
+    world_q = rot.quat_mul(fill.rotations[:, 0], fill.rotations[:, c])
+    world_p = rot.quat_apply(fill.rotations[:, 0], tr[:, c]) + fill.root_positions
+    inv = rot.quat_inv(root_q)
+    out = fill.copy()
+    out.rotations[:, 0] = root_q
+    out.rotations[:, c] = rot.quat_normalize(rot.quat_mul(inv, world_q))
+    tr[:, 0] = root_p
+    tr[:, c] = rot.quat_apply(inv, world_p - root_p)
+    out.root_positions = root_p
+    out.translations = tr
+    return out
+
+
+def library_fill(
+    clip: Motion,
+    a: int,
+    b: int,
+    source: Motion,
+    candidate: Candidate,
+    *,
+    up: str,
+    config: InbetweenConfig = DEFAULT_CONFIG,
+) -> Motion:
+    """The ``b - a`` frames filling ``clip[a:b]`` from ``source`` (a library motion on the
+    clip's skeleton) as :class:`Candidate` says: sampled, ground-warped onto frames a-1 and b,
+    end offsets blended in (module docstring). Both motions in the same root convention."""
+    g = b - a
+    t = candidate.start + candidate.rate * np.arange(g + 2)
+    rots, trans = _sample(source, t)
+    has_t = source.translations is not None or clip.translations is not None
+    seg = Motion(clip.skeleton, rots, trans[:, 0], clip.frame_time, trans if has_t else None)
+    seg = _ground_warp(seg, clip, a - 1, b, up)
+    ct = clip.local_translations()
+    blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
+    r, tr = _offset_blend(
+        seg.rotations, seg.local_translations(), clip.rotations[a - 1], clip.rotations[b],
+        ct[a - 1], ct[b], blend,
+    )  # fmt: skip
+    return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
+
+
+def kalman_fill(
+    clip: Motion,
+    a: int,
+    b: int,
+    *,
+    window: int = 5,
+    future_frames: int | None = None,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+) -> Motion:
+    """Today's Kalman transition over the gap: every joint's rotation relative to frame a-1
+    (``log(q_{a-1}⁻¹ q)``) and every local translation, observed on ``min(window, a)`` past
+    frames and ``min(window, frames after b)`` future frames (at most ``future_frames``), the
+    ``b - a`` gap frames unobserved, smoothed with the L-score's constant-acceleration model
+    (as :func:`mocapkit.stitch.stitch_motions` makes a stitch's injected frames)."""
+    from mocapkit.stitch.transition import _relative_logs
+
+    g = b - a
+    wp = min(window, a)
+    wf = min(window, clip.num_frames - b)
+    if future_frames is not None:
+        wf = max(1, min(wf, int(future_frames)))
+    idx = np.r_[np.arange(a - wp, a), np.arange(b, b + wf)]
+    J = clip.num_joints
+    ref = clip.rotations[a - 1]
+    logs = _relative_logs(ref, clip.rotations[idx]).reshape(len(idx), 3 * J)
+    tr = clip.local_translations()[idx]
+    centre = tr[wp - 1].copy()
+    mask = np.r_[np.ones(wp, bool), np.zeros(g, bool), np.ones(wf, bool)]
+    P = smoother_matrix(model, mask)[wp : wp + g, 0, :]  # the gap's steps
+    gen_rots = rot.quat_normalize(
+        rot.quat_mul(ref[None], rot.quat_exp((P @ logs).reshape(g, J, 3)))
+    )
+    gen_tr = (P @ (tr - centre).reshape(len(idx), 3 * J)).reshape(g, J, 3) + centre
+    has_t = clip.translations is not None
+    return Motion(clip.skeleton, gen_rots, gen_tr[:, 0], clip.frame_time, gen_tr if has_t else None)
+
+
+# --------------------------------------------------------------------------------- result
+
+
+@dataclass(frozen=True, eq=False)
+class Inbetween:
+    """An in-betweened motion: ``motion`` is the clip with frames ``gap[0]..gap[1]-1`` replaced.
+
+    ``method``: "library" (filled from ``candidate``, library clip ``source``, frames
+    ``source_frames``) or "kalman" (the fallback; ``candidate`` is still the best library
+    candidate). ``kalman_lscore``: the Kalman transition's own L-score; ``candidates``: library
+    candidates scored; ``search_seconds``: wall time of the library search.
+    """
+
+    motion: Motion
+    gap: tuple[int, int]
+    method: str
+    candidate: Candidate
+    source: str
+    kalman_lscore: float
+    candidates: int
+    search_seconds: float
+    clip_name: str = "clip"
+    library_names: tuple[str, ...] = ()
+    output: str | None = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def fell_back(self) -> bool:
+        return self.method == "kalman"
+
+    @property
+    def source_frames(self) -> tuple[int, int]:
+        return self.candidate.source_frames(self.gap[1] - self.gap[0])
+
+    def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
+        """The sidecar (:mod:`mocapkit.provenance`): the clip's frames, the filled frames (kind
+        "inbetween", with the library clip and frames; "generated" for the Kalman fallback),
+        the clip's frames again, and the two junctions as transitions."""
+        a, b = self.gap
+        F = self.motion.num_frames
+        s0, s1 = self.source_frames
+        if self.fell_back:
+            mid = Segment(a, b, "generated", None, None, None)
+            trans = [
+                TransitionTaken(a, self.clip_name, a - 1, self.clip_name, b, self.kalman_lscore)
+            ]
+        else:
+            mid = Segment(a, b, "inbetween", self.source, s0, s1)
+            trans = [
+                TransitionTaken(
+                    a, self.clip_name, a - 1, self.source, s0, self.candidate.lscore_start
+                ),
+                TransitionTaken(
+                    b, self.source, s1 - 1, self.clip_name, b, self.candidate.lscore_end
+                ),
+            ]
+        segs = [
+            Segment(0, a, "clip", self.clip_name, 0, a),
+            mid,
+            Segment(b, F, "clip", self.clip_name, b, F),
+        ]
+        params = {"gap": [a, b], "method": self.method, **self.parameters, **(parameters or {})}
+        return Provenance(
+            "inbetween", str(output), float(self.motion.fps), F,
+            [self.clip_name, *self.library_names], params, segs, trans,
+        )  # fmt: skip
+
+    def to_json(self) -> dict[str, Any]:
+        c = self.candidate
+        a, b = self.gap
+        return {
+            "clip": self.clip_name,
+            "gap": [a, b],
+            "method": self.method,
+            "fell_back": self.fell_back,
+            "source": self.source,
+            "source_frames": list(self.source_frames),
+            "source_start": round(c.start, 4),
+            "rate": c.rate,
+            "score": c.score,
+            "lscore": c.lscore,
+            "lscore_start": c.lscore_start,
+            "lscore_end": c.lscore_end,
+            "travel": c.travel,
+            "kalman_lscore": self.kalman_lscore,
+            "candidates": self.candidates,
+            "search_seconds": round(self.search_seconds, 4),
+            "output": self.output,
+        }
+
+
+def _as_library(library, clip: Motion, names, up: str, config: InbetweenConfig) -> InbetweenLibrary:
+    if isinstance(library, InbetweenLibrary):
+        if library.up != up:
+            raise ValueError(
+                f"the library was prepared with up axis {library.up}, the clip uses {up}"
+            )
+        lib_sk = library.motions[0].skeleton
+        if list(lib_sk.names) != list(clip.skeleton.names):
+            raise ValueError("the library was prepared for another skeleton")
+        if tuple(w.rate for w in library.warped) != tuple(float(r) for r in config.warps):
+            raise ValueError("the library was prepared with other warps than the config's")
+        return library
+    motions = [library] if isinstance(library, Motion) else list(library)
+    return prepare_library(motions, clip, names, up=up, config=config)
+
+
+def inbetween(
+    clip: Motion,
+    gap,
+    library: InbetweenLibrary | Motion | Sequence[Motion],
+    *,
+    library_names: Sequence[str] | None = None,
+    config: InbetweenConfig = DEFAULT_CONFIG,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    up: str | None = None,
+    future_frames: int | None = None,
+    method: str = "auto",
+    clip_name: str = "clip",
+    output: str | None = None,
+) -> Inbetween:
+    """Replace frames ``A..B-1`` of ``clip`` (``gap`` = ``(A, B)`` or ``"A:B"``) by motion found
+    in ``library`` (motions, or an :class:`InbetweenLibrary` from :func:`prepare_library` to
+    reuse over many gaps); see the module docstring. ``future_frames`` limits how many frames
+    from B on the method may look at (default: the L-score window). Frames before A and from B
+    on are returned unchanged. ``method``: "auto" (the library, or the Kalman transition when
+    the best candidate's two-sided L-score is higher than the Kalman transition's own and
+    ``config.fallback``), "library" (never fall back) or "kalman" (the Kalman transition; the
+    search still runs, for the report). Returns :class:`Inbetween`."""
+    from mocapkit import features
+    from mocapkit.stitch.transition import _join
+
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    a, b = check_gap(gap, clip.num_frames, clip_name)
+    if future_frames is not None and int(future_frames) < 1:
+        raise ValueError(f"future_frames must be >= 1, got {future_frames}")
+    up = up or features.detect_up_axis(clip)
+    lib = _as_library(library, clip, library_names, up, config)
+    w = max(3, clip.seconds_to_frames(config.window_seconds))
+    onpath = features.ground_root_on_path(clip, up)
+    ctx = _context(onpath, a, b, w, up, future_frames)
+    mpu = features.metres_per_unit(clip, None)
+    t0 = time.perf_counter()
+    cand, count = search_inbetween(
+        ctx, b - a, lib, w=w, config=config, model=model, metres_per_unit=mpu
+    )
+    seconds = time.perf_counter() - t0
+    kal = kalman_lscore(ctx.past, ctx.future, b - a, model)
+    if method == "kalman" or (method == "auto" and config.fallback and cand.lscore > kal):
+        fill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
+        method = "kalman"
+    else:
+        fill = library_fill(onpath, a, b, lib.motions[cand.clip], cand, up=up, config=config)
+        method = "library"
+    fill = _back_to_clip(fill, clip, a, b, onpath is not clip)
+    motion = _join(clip[:a], fill, clip[b:])
+    return Inbetween(
+        motion, (a, b), method, cand, lib.names[cand.clip], kal, count, seconds,
+        str(clip_name), lib.names, None if output is None else str(output),
+        {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
+    )  # fmt: skip
