@@ -234,3 +234,27 @@ def test_effector_goals_follow_source_paths(pair, shared_path, direction):
     # feet untouched by the goals: slide and IK residual as without them
     for key in ("foot_slide_cm", "ik_residual_cm"):
         assert on[key] == off[key]
+
+
+def test_a_rig_without_legs_is_named_as_source_or_target(tmp_path):
+    """The error names the file whose rig cannot be retargeted, the target as well as the
+    source (a newcomer was told the source had no legs)."""
+    from mocapkit import datasets
+    from mocapkit.edit.joints import drop_joints
+    from mocapkit.edit.retarget import RigError
+    from mocapkit.io import write_motion
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion
+    legless = drop_joints(walk, r".*(UpLeg|Leg|Foot|Toe)$")
+    with pytest.raises(RigError) as e:
+        retarget(walk, legless)
+    assert e.value.role == "target"
+    with pytest.raises(RigError) as e:
+        retarget(legless, walk)
+    assert e.value.role == "source"
+    a, b = write_motion(walk, tmp_path / "walk.bvh"), write_motion(legless, tmp_path / "bust.bvh")
+    r = CliRunner().invoke(main, ["retarget", str(a), "--to", str(b), "--out",
+                                  str(tmp_path / "o.bvh")])  # fmt: skip
+    assert r.exit_code == 2 and r.output.count("\n") == 1
+    assert r.output.startswith(f"mocapkit: error: {b}: cannot retarget the target rig")
+    assert not (tmp_path / "o.bvh").exists()

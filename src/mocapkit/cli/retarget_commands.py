@@ -8,6 +8,7 @@ import click
 
 from mocapkit.cli.common import (
     LENIENT,
+    CLIError,
     check_input_file,
     echo_json,
     friendly_errors,
@@ -71,7 +72,7 @@ def retarget(
       mocapkit retarget walk.bvh --to 01.asf --out walk_cmu.bvh --json
       mocapkit retarget walk.bvh --to other.bvh --map map.json --out walk_other.bvh --fps 60
     """
-    from mocapkit.edit.retarget import RetargetConfig, load_map, read_target
+    from mocapkit.edit.retarget import RetargetConfig, RigError, load_map, read_target
     from mocapkit.edit.retarget import retarget as run
     from mocapkit.io import WRITABLE, find_asf, write_motion
     from mocapkit.provenance import Provenance, Segment, sidecar_path
@@ -95,7 +96,12 @@ def retarget(
         tgt = read_target(target, lenient=lenient)
     cfg = RetargetConfig(foot_lock=not no_foot_lock, fps=fps)
     with naming(source, target), all_or_nothing():
-        res = run(src, tgt, cfg, joint_map, str(map_file) if map_file else "joint map")
+        try:
+            res = run(src, tgt, cfg, joint_map, str(map_file) if map_file else "joint map")
+        except RigError as e:  # name the file whose rig it is
+            raise CLIError(
+                f"{source if e.role == 'source' else target}: cannot retarget {e}"
+            ) from None
         m = res.motion
         write_motion(m, out)
         plan = Provenance(

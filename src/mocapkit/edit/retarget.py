@@ -68,10 +68,20 @@ from mocapkit.ik import FootLockConfig, flexion_angles, hinge_axis, lock_feet
 __all__ = [
     "RetargetConfig",
     "Retargeted",
+    "RigError",
     "load_map",
     "read_target",
     "retarget",
 ]
+
+
+class RigError(ValueError):
+    """A rig that cannot take part in retargeting; ``role`` says which: "source" or "target"."""
+
+    def __init__(self, role: str, message: str):
+        super().__init__(f"the {role} rig: {message}")
+        self.role = role
+
 
 _LIMBS = (
     ("hip", "knee", "ankle", "toe"),
@@ -486,7 +496,7 @@ def _transfer(
     # world: source up axis -> target up axis, units, leg-length scale
     upS, upT = ground_frame(bS.up)[1], ground_frame(bT.up)[1]
     U = rot.quat_between(upS, upT)
-    legS, legT = _leg_length(bS, refS_p), _leg_length(bT, refT_p)
+    legS, legT = _leg_length(bS, refS_p, "source"), _leg_length(bT, refT_p, "target")
     scale = (legT * bT.metres_per_unit) / max(legS * bS.metres_per_unit, 1e-12)
     k = scale * bS.metres_per_unit / bT.metres_per_unit  # source units -> target units
 
@@ -758,14 +768,14 @@ def _match_reach(
     return G
 
 
-def _leg_length(body: Body, ref: np.ndarray) -> float:
+def _leg_length(body: Body, ref: np.ndarray, role: str) -> float:
     out = []
     for side in ("left", "right", "unknown"):
         hip, knee, ank = (body.joint(f"{side}_{k}") for k in ("hip", "knee", "ankle"))
         if None not in (hip, knee, ank):
             out.append(np.linalg.norm(ref[knee] - ref[hip]) + np.linalg.norm(ref[ank] - ref[knee]))
     if not out:
-        raise ValueError("cannot retarget: a rig without legs the body model can find")
+        raise RigError(role, "no legs the body model can find (hip, knee and ankle of a side)")
     return float(np.mean(out))
 
 
