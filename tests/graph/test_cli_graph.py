@@ -85,8 +85,21 @@ def test_build_report_synth(clip_dir: Path, tmp_path: Path) -> None:
         "inertialize",
     )
     assert code == 0, so + se
+    assert "path error: mean" in so
     tr = root_trajectory(read_motion(tmp_path / "f.bvh"))
     assert np.linalg.norm(tr[-1] - [0, 4]) < 1.0
+    code, so, se = run(
+        "graph", "synth", str(out), "--path", str(csv), "--out", str(tmp_path / "j.bvh"), "--json"
+    )
+    assert code == 0, so + se
+    pe = json.loads(so)["path_error"]
+    assert pe["followed"] is True and pe["end_cm"] < 100.0 and pe["tolerance_m"] == 0.5
+    one = tmp_path / "one.csv"
+    one.write_text("x,z\n0,0\n")
+    code, so, se = run(
+        "graph", "synth", str(out), "--path", str(one), "--out", str(tmp_path / "o.bvh")
+    )
+    assert code != 0 and "at least two points" in se, so + se
 
 
 def test_cli_errors(clip_dir: Path, tmp_path: Path) -> None:

@@ -4,6 +4,7 @@ and the motion-graph step of ``mocapkit demo``."""
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import click
@@ -221,8 +222,9 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
     show_default=True,
     help="How transitions are blended.",
 )
+@click.option("--json", "as_json", is_flag=True, help="Print JSON (with the path error).")
 @friendly_errors
-def synth(graph_file, seconds, path_csv, out, seed, blend):
+def synth(graph_file, seconds, path_csv, out, seed, blend, as_json):
     """Synthesise a continuous BVH from a motion graph: a seeded random walk (--seconds) or a
     walk following a 2-D path (--path).
 
@@ -232,6 +234,7 @@ def synth(graph_file, seconds, path_csv, out, seed, blend):
       mocapkit graph synth graph.json --path path.csv --out follow.bvh
     """
     from mocapkit.graph.graph import load_graph, load_path_csv, synthesize
+    from mocapkit.graph.synth import PathNotFollowedWarning
     from mocapkit.io import write_motion
     from mocapkit.provenance import sidecar_path
 
@@ -246,17 +249,27 @@ def synth(graph_file, seconds, path_csv, out, seed, blend):
     with naming(path_csv or graph_file):
         pts = load_path_csv(path_csv) if path_csv is not None else None
     with naming(graph_file, *clip_paths), all_or_nothing():  # the motion and its plan, or none
-        res = synthesize(g, motions, seconds=seconds, path=pts, seed=seed, blend=blend)
+        with warnings.catch_warnings():  # reported below, once, as the CLI's warning line
+            warnings.simplefilter("ignore", PathNotFollowedWarning)
+            res = synthesize(g, motions, seconds=seconds, path=pts, seed=seed, blend=blend)
         params = {"graph": str(graph_file), "seconds": seconds, "path": path_csv, "seed": seed,
                   "blend": blend}  # fmt: skip
         plan = res.provenance(g, str(out), params, [str(p) for p in clip_paths])
         write_motion(res.motion, out)
         side = plan.write(out)
     m = res.motion
-    click.echo(
-        f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {res.transitions} transitions)"
-        f" and its plan {side}"
-    )
+    err = res.path_error
+    if as_json:
+        echo_json({**res.to_json(), "out": str(out), "plan": str(side)})
+    else:
+        click.echo(
+            f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {res.transitions} "
+            f"transitions) and its plan {side}"
+        )
+        if err is not None:
+            click.echo(err.line())
+    if err is not None and err.warning():
+        click.echo(f"mocapkit: warning: {err.warning()}", err=True)
 
 
 @graph.command("report")

@@ -688,17 +688,23 @@ class Synthesis:
 
     motion: Motion
     steps: list
+    #: how far the walk is from the path it followed (:class:`~mocapkit.graph.synth.PathError`);
+    #: None for a random walk
+    path_error: Any = None
 
     @property
     def transitions(self) -> int:
         return sum(s.kind == "transition" for s in self.steps)
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        out = {
             "frames": self.motion.num_frames,
             "seconds": self.motion.duration,
             "transitions": self.transitions,
         }
+        if self.path_error is not None:
+            out["path_error"] = self.path_error.to_json()
+        return out
 
     def provenance(
         self,
@@ -754,8 +760,10 @@ def synthesize(
     """A seeded random walk of ``seconds`` (exactly that long, rounded to frames), or a walk
     following the 2-D ground ``path`` ((n, 2) x, z points, file units;
     :meth:`~mocapkit.graph.synth.Synthesizer.follow_path`), rendered with ``blend``
-    ("crossfade" or "inertialize")."""
-    from mocapkit.graph.synth import Synthesizer
+    ("crossfade" or "inertialize"). A path walk carries its
+    :func:`~mocapkit.graph.synth.path_error` and warns
+    (:class:`~mocapkit.graph.synth.PathNotFollowedWarning`) when it did not follow the path."""
+    from mocapkit.graph.synth import PathNotFollowedWarning, Synthesizer, path_error
 
     if (seconds is None) == (path is None):
         raise ValueError("give exactly one of --seconds or --path")
@@ -766,8 +774,13 @@ def synthesize(
         steps = syn.random_walk(seconds, seed)
         m = syn.render(steps, blend, max_frames=max(1, round(seconds * motions[0].fps)))
     else:
-        steps = syn.follow_path(np.asarray(path, dtype=float), seed)
+        pts = np.asarray(path, dtype=float)
+        steps = syn.follow_path(pts, seed)
         m = syn.render(steps, blend, start=syn.start_transform)
+        err = path_error(m, pts, syn.up)
+        if err.warning():
+            warnings.warn(err.warning(), PathNotFollowedWarning, stacklevel=2)
+        return Synthesis(m, list(steps), err)
     return Synthesis(m, list(steps))
 
 

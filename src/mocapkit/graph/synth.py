@@ -76,6 +76,28 @@ MIN_PLAY_S = 1.0
 #: A random walk does not take a transition landing within the frames it played this recently
 #: (while another way exists): a landing on just-played frames replays them, a visible loop.
 RECENT_S = 4.0
+#: The pelvis ground track a path is planned on is averaged over this window: the pelvis sways
+#: to the stance foot's side every step, a motion with the period of a stride (~1 s walking).
+SWAY_WINDOW_S = 1.0
+#: A clip's direction of travel at a frame is its smoothed pelvis displacement over this long, a
+#: stride: over a single step a side step or a turn does not point where the body goes.
+TRAVEL_S = 1.0
+#: Path-following looks this many metres of path ahead: a turning take walks a stride or two
+#: (~2 m) into its turn and ~1.5 m out of it, and the search must see the turn completed to
+#: prefer it to walking straight on.
+HORIZON_M = 4.0
+#: Path-following keeps this much of each best walk before it searches again: one stride, so the
+#: plan is corrected every stride while a search still sees its whole horizon.
+COMMIT_S = 1.0
+#: After each commit the arc length walked is re-read as the pelvis' projection on the path within
+#: this distance of it: a turning clip cuts a corner by tens of cm (a ~1 m turning radius), which
+#: by arc length alone would ask the walk to be that far ahead for the rest of the path; a metre
+#: keeps the projection off other parts of a path that come back near it.
+RESYNC_M = 1.0
+#: Path-following tries this many start nodes (drawn with the seed) and keeps the best: a
+#: library's walks enter its turns at a few frames only, so where the walk starts decides where
+#: it can turn.
+START_NODES = 200
 
 
 class PathNotFollowedWarning(UserWarning):
@@ -239,6 +261,8 @@ class Synthesizer:
         self._ankles = list(ankle.values())[:2]
         self.start_transform: GroundTransform | None = None  # set by follow_path
         self._pieces: dict[int, tuple] = {}
+        self._smooth: dict[int, np.ndarray] = {}
+        self._move_cache: dict[int, list] = {}
 
     # ---- pieces --------------------------------------------------------------------------
     def _positions(self, c: int) -> np.ndarray:
@@ -389,8 +413,9 @@ class Synthesizer:
         return steps
 
     def _edge_piece(self, e: dict) -> tuple[np.ndarray, tuple[float, float, float] | None]:
-        """Pelvis ground points (n, 2) an edge plays, in its clip's frame, and the transform
-        (angle, tx, tz) a transition applies first (None for a continuation)."""
+        """Smoothed pelvis ground points (n, 2) an edge plays (:meth:`plan_track`), in its clip's
+        frame, and the transform (angle, tx, tz) a transition applies first (None for a
+        continuation)."""
         key = id(e)
         if key not in self._pieces:
             s = self.step_of(e)
@@ -398,8 +423,49 @@ class Synthesizer:
             if s.kind == "transition":
                 A = self.alignment(s.index)
                 T = (A.angle, *(float(v) for v in A.translation_2d))
-            self._pieces[key] = (self._traj[s.clip][s.start : s.stop], T)
+            self._pieces[key] = (self.plan_track(s.clip)[s.start : s.stop], T)
         return self._pieces[key]
+
+    def plan_track(self, c: int) -> np.ndarray:
+        """(F, 2) the pelvis ground track of clip ``c`` averaged over :data:`SWAY_WINDOW_S`: the
+        pelvis swings a few cm to the side of the stance foot every step, a motion with the
+        period of a stride, so the average over a stride is where the body goes. The ends are
+        padded by point reflection (``2 p[0] - p[k]``), which keeps a steady walk straight up
+        to the clip's first and last frames."""
+        if c not in self._smooth:
+            p = self._traj[c]
+            h = min(round(SWAY_WINDOW_S * self.motions[0].fps) // 2, len(p) - 1)
+            if h < 1:
+                self._smooth[c] = p.copy()
+            else:
+                pad = np.concatenate([2 * p[0] - p[h:0:-1], p, 2 * p[-1] - p[-2 : -h - 2 : -1]])
+                k = np.ones(2 * h + 1) / (2 * h + 1)
+                self._smooth[c] = np.stack([np.convolve(pad[:, i], k, "valid") for i in (0, 1)], 1)
+        return self._smooth[c]
+
+    def _moves(self, n: int) -> list[tuple]:
+        """The ways on from node ``n``: each out edge, followed on through the nodes that have a
+        single way on until :data:`COMMIT_S` seconds have played (a choice-less chain is one
+        move of the search). Each move: (edges, end node, smoothed pelvis points (k, 2) and the
+        transform (angle, tx, tz) after it, both relative to the frame before its first edge)."""
+        if n not in self._move_cache:
+            cap = max(1, round(COMMIT_S * self.motions[0].fps))
+            moves = []
+            for e in self.out[n]:
+                chain, pts, G, frames = [e], [], (0.0, 0.0, 0.0), 0
+                while True:
+                    p, T = self._edge_piece(chain[-1])
+                    if T is not None:
+                        G = _compose(G, T)
+                    pts.append(_apply2(G, p))
+                    frames += len(p)
+                    on = self.out[chain[-1]["v"]]
+                    if len(on) != 1 or frames >= cap:
+                        break
+                    chain.append(on[0])
+                moves.append((chain, chain[-1]["v"], np.concatenate(pts), G))
+            self._move_cache[n] = moves
+        return self._move_cache[n]
 
     def nominal_speed(self) -> float:
         """Ground speed (file units / s) a path-following walk is asked to keep: half the median
@@ -423,130 +489,171 @@ class Synthesizer:
         self,
         path: np.ndarray,
         seed: int = 0,
-        horizon: float = 2.0,
-        max_branches: int = 3000,
+        horizon: float = HORIZON_M,
+        beam: int = 64,
         max_seconds: float | None = None,
-        beam: int = 48,
+        starts: int = START_NODES,
     ) -> list[Step]:
         """A walk whose pelvis follows the ground path (M, 2): ground coordinates
         ``(side, forward)`` in file units, ``(x, z)`` for Y-up (:func:`root_trajectory`).
 
-        Bounded search (after Kovar et al. 2002): from the current node, edge sequences up to
-        ``horizon`` seconds are scored and the first edge of the best one is taken, until the
-        character has travelled the path's length (or ``max_seconds``, default 3 x the path's
-        length at :meth:`nominal_speed`, at least 10 s). The score of a sequence is
+        Path synthesis after Kovar et al. 2002 (section 5): a search over graph walks whose
+        cost is the deviation of the pelvis from the path parametrised by arc length, repeated
+        from the end of the part it commits, until the walk has reached the path's end (or
+        ``max_seconds``, default 3 x the path's length at :meth:`nominal_speed`, at least 10 s).
 
-        * the mean squared distance between the pelvis after travelling arc length s and the
-          path's point at arc length s (Kovar's correspondence: on the path, in order), plus
-        * the square of its shortfall from :meth:`nominal_speed` x its duration in arc length
-          travelled (capped by what is left of the path): under the correspondence alone a clip
-          that stands still stays on the path's first point with no error at all, and a
-          gesture loop beats any walk.
+        * **track**: the pelvis ground track averaged over a stride (:meth:`plan_track`), whose
+          arc length is the distance the body travelled (the raw track's side-to-side sway
+          would add ~5 % and run the correspondence ahead of the body).
+        * **cost** of a walk from arc length ``s0``: the mean over its frames of the squared
+          distance between the pelvis after travelling arc length ``s`` and the path's point at
+          ``s`` (clamped to the path's end, so walking past it costs), plus the square of its
+          shortfall from :meth:`nominal_speed` x its duration in arc length (capped by what is
+          left of the path): standing still at the path's start would otherwise cost nothing.
+        * **horizon** in metres of path, not seconds: a walk is scored once it has travelled
+          ``horizon`` metres (or the path's end; or twice that at the nominal speed in time).
+          Turning is done by the library's turning clips, which walk a stride or two before and
+          after they turn; the search must see the turn completed to prefer it to walking on,
+          whatever the walking speed (:data:`HORIZON_M`).
+        * **search**: a beam search in time: every ``0.5 s`` the ``beam`` best partial walks by
+          the same cost are kept (one per node and 20 cm place), each grown by every way on
+          (a move follows nodes with a single way on, :meth:`_moves`).
+        * **commit**: the first :data:`COMMIT_S` seconds of the best walk are kept and the
+          search starts again from there (all of it once it reaches the path's end). The arc
+          length done is then re-read as the pelvis' projection on the path within
+          :data:`RESYNC_M`: a turning clip cuts the path's corner, and by arc length alone the
+          walk would be asked to be ahead of where it is for the rest of the path.
+        * **start**: up to ``starts`` nodes of clips that travel (drawn with ``seed``), each
+          placed at the path's first point with its direction of travel over the next
+          :data:`TRAVEL_S` (not its body's facing, which a side step or a turn does not go
+          along) along the path's first segment; the search picks among them.
+        * **end**: the walk is cut at the frame of its last plan closest to the path's end.
 
-        The search is a beam search: sequences grow an edge at a time, every extension is scored
-        (at most ``max_branches`` per decision) and the ``beam`` best unfinished ones by the same
-        score so far (and the best for every first edge, so that every choice is compared) are
-        grown further. The walk starts at a seeded random node of a clip that travels, placed at
-        the path's first point, facing along it: render it with ``start=self.start_transform``;
-        :func:`path_error` measures the rendered result."""
+        Render it with ``start=self.start_transform``; :func:`path_error` measures the result."""
         path = np.asarray(path, dtype=np.float64)
         if path.ndim != 2 or path.shape[1] != 2 or len(path) < 2:
             raise ValueError("path must be (M >= 2, 2) ground points")
         if not np.isfinite(path).all():
             raise ValueError("the path has non-finite points")
-        if not (horizon > 0 and max_branches >= 1 and beam >= 1):
-            raise ValueError("horizon, max_branches and beam must be positive")
+        if not (horizon > 0 and beam >= 1 and starts >= 1):
+            raise ValueError("horizon, beam and starts must be positive")
         seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
-        arc = np.concatenate([[0.0], np.cumsum(seg)])
+        keep = np.concatenate([[True], seg > 0])
+        path, arc = path[keep], np.concatenate([[0.0], np.cumsum(seg[seg > 0])])
         L = float(arc[-1])
         if not L > 0:
             raise ValueError("the path has zero length")
         fps = self.motions[0].fps
-        H = max(1, round(horizon * fps))
+        mpu = metres_per_unit(self.motions[0], None)
         v = self.nominal_speed() / fps  # file units per frame
-        limit = max_seconds if max_seconds is not None else max(10.0, 3.0 * L / (2 * v * fps))
+        limit = max_seconds if max_seconds is not None else max(10.0, 3.0 * L / (v * fps))
+        H = horizon / mpu  # file units of path
+        slice_f = max(1, round(0.5 * fps))
+        cell = 0.2 / mpu
+        commit_f = max(1, round(COMMIT_S * fps))
         rng = np.random.default_rng(seed)
 
         def at(s: np.ndarray) -> np.ndarray:
             s = np.clip(s, 0.0, L)
             return np.stack([np.interp(s, arc, path[:, 0]), np.interp(s, arc, path[:, 1])], 1)
 
-        def piece(e: dict, G: tuple[float, float, float]):
-            """Ground pelvis points of an edge under G=(angle, tx, tz), and the G after it."""
-            pts, T = self._edge_piece(e)
-            if T is not None:
-                G = _compose(G, T)
-            return _apply2(G, pts), G
+        def cost(st: tuple, s0: float) -> float:
+            shortfall = max(0.0, min(v * st[4], L - s0) - (st[3] - s0))
+            return st[5] / max(st[4], 1) + shortfall * shortfall
 
-        def score(err: float, fr: int, s0: float, s: float) -> float:
-            shortfall = max(0.0, min(v * fr, L - s0) - (s - s0))
-            return err / max(fr, 1) + shortfall * shortfall
+        def grow(st: tuple, move: tuple) -> tuple:
+            """State (node, G, last point, arc length, frames, squared error, plan) after move."""
+            _n, g, last, s, fr, err, plan = st
+            _edges, end, mp, mT = move
+            p = _apply2(g, mp)
+            d = np.linalg.norm(np.diff(np.concatenate([last[None], p]), axis=0), axis=1)
+            sa = s + np.cumsum(d)
+            err2 = err + float(np.sum((p - at(sa)) ** 2))
+            return (end, _compose(g, mT), p[-1], float(sa[-1]), fr + len(p), err2, (move, p, plan))
 
-        # start: a random node of a travelling clip, at the path's start facing along it
-        mpu = metres_per_unit(self.motions[0], None)
-        travels = [
-            n for n, (c, _f) in enumerate(self.nodes)
-            if np.linalg.norm(np.diff(self._traj[c], axis=0), axis=1).mean() * fps * mpu
-            > STANDING_SPEED_MPS
-        ]  # fmt: skip
-        pool = travels or list(range(len(self.nodes)))
-        node = pool[int(rng.integers(len(pool)))]
-        c, f = self.nodes[node]
-        d = path[1] - path[0]
-        ang = math.atan2(d[0], d[1]) - float(self._head[c][f])
-        R = _apply2((ang, 0.0, 0.0), self._traj[c][f : f + 1])[0]
-        G = (ang, path[0, 0] - R[0], path[0, 1] - R[1])
-        last = _apply2(G, self._traj[c][f : f + 1])[0]
-        s_done = 0.0
+        # start candidates: nodes of clips travelling there, placed and turned onto the path
+        travel = max(1, round(TRAVEL_S * fps))
+        pool = []
+        for n, (c, f) in enumerate(self.nodes):
+            tr = self.plan_track(c)
+            d = tr[min(f + travel, len(tr) - 1)] - tr[f]
+            if np.linalg.norm(d) * mpu / TRAVEL_S > STANDING_SPEED_MPS and self.out[n]:
+                pool.append((n, math.atan2(d[0], d[1])))
+        if not pool:
+            pool = [(n, float(self._head[c][f])) for n, (c, f) in enumerate(self.nodes)]
+        pick = rng.permutation(len(pool))[:starts]
+        d0 = path[1] - path[0]
+        roots = []
+        for k in sorted(int(i) for i in pick):
+            n, heading = pool[k]
+            c, f = self.nodes[n]
+            ang = math.atan2(d0[0], d0[1]) - heading
+            R = _apply2((ang, 0.0, 0.0), self._traj[c][f : f + 1])[0]
+            g = (ang, path[0, 0] - R[0], path[0, 1] - R[1])
+            first = _apply2(g, self.plan_track(c)[f : f + 1])[0]
+            roots.append((n, g, first, 0.0, 0, 0.0, len(roots)))  # plan: the root's index
+
         steps: list[Step] = []
         frames = 0
+        s_done = 0.0
+        state = None
+        final: list[np.ndarray] = []
         while s_done < L - 1e-9 and frames < limit * fps:
-            best = (np.inf, None)
-            frontier = [(node, G, last, s_done, 0, 0.0, None)]
-            count = 0
-            while frontier and count < max_branches:
-                grown = []
-                for n, g, lp, sd, fr, err, first in frontier:
-                    for e in self.out[n]:
-                        if count >= max_branches:
-                            break
-                        count += 1
-                        p, g2 = piece(e, g)
-                        if len(p) == 0:
-                            continue
-                        pts = np.concatenate([lp[None], p])
-                        sarr = sd + np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
-                        take = min(len(p), H - fr)
-                        e_err = err + float(np.sum((p[:take] - at(sarr[:take])) ** 2))
-                        f0 = first if first is not None else e
-                        fr2 = fr + take
-                        sc = score(e_err, fr2, s_done, float(sarr[take - 1]))
-                        if fr2 >= H or sarr[take - 1] >= L:
-                            if sc < best[0]:
-                                best = (sc, f0)
-                        else:
-                            grown.append((sc, (e["v"], g2, p[-1], float(sarr[-1]), fr2, e_err, f0)))
-                grown.sort(key=lambda x: x[0])
-                keep = grown[:beam]
-                firsts = {id(st[6]) for _, st in keep}
-                for sc, st in grown[beam:]:  # the best unfinished sequence of every first edge
-                    if id(st[6]) not in firsts:
-                        firsts.add(id(st[6]))
-                        keep.append((sc, st))
-                for sc, st in keep:  # a sequence cut short by the budget is scored as it is
-                    if count >= max_branches and sc < best[0]:
-                        best = (sc, st[6])
-                frontier = [st for _, st in keep]
-            e = best[1] if best[1] is not None else self.out[node][0]
-            p, G = piece(e, G)
-            pts = np.concatenate([last[None], p])
-            s_done += float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
-            last = p[-1] if len(p) else last
-            steps.append(self.step_of(e))
-            frames += steps[-1].frames
-            node = e["v"]
-        self.start_transform = _start_transform(ang, path, self._traj[c][f], self.up)
-        return steps
+            base = roots if state is None else [state]
+            target = min(L, s_done + H)
+            cap = max(slice_f, round((target - s_done) / v))
+            frontier = [(st[0], st[1], st[2], s_done, 0, 0.0, None) if state else st for st in base]
+            done: list[tuple] = []
+            t = 0
+            while frontier:
+                t += slice_f
+                stack, waiting = list(frontier), []
+                while stack:
+                    st = stack.pop()
+                    if st[4] >= t:
+                        waiting.append(st)
+                        continue
+                    for mv in self._moves(st[0]):
+                        ch = grow(st, mv)
+                        (done if ch[3] >= target or ch[4] >= cap else stack).append(ch)
+                best_of: dict = {}
+                for st in waiting:
+                    key = (st[0], round(st[2][0] / cell), round(st[2][1] / cell))
+                    sc = cost(st, s_done)
+                    if key not in best_of or sc < best_of[key][0]:
+                        best_of[key] = (sc, st)
+                frontier = [st for _, st in sorted(best_of.values(), key=lambda x: x[0])[:beam]]
+            if not done:
+                raise RuntimeError("the path search found no walk (a node without a way on)")
+            best = min(done, key=lambda st: cost(st, s_done))
+            plan = []
+            link = best[6]
+            while isinstance(link, tuple):
+                plan.append(link[:2])
+                link = link[2]
+            plan.reverse()
+            if state is None:  # the start the best walk came from
+                state = roots[link]
+                g0 = state[1]
+                self.start_transform = GroundTransform.from_2d(g0[0], g0[1:], self.up)
+            used = 0
+            for move, p in plan:
+                for e in move[0]:
+                    steps.append(self.step_of(e))
+                    frames += steps[-1].frames
+                state = grow(state, move)
+                used += len(p)
+                if s_done >= L - H:  # the final approach: where the walk may be cut
+                    final.append(p)
+                if used >= commit_f:
+                    break
+            s_done = state[3]
+            # re-read the arc length as the projection of where the pelvis is
+            lo, hi = max(0.0, s_done - RESYNC_M / mpu), min(L, s_done + RESYNC_M / mpu)
+            ss = np.linspace(lo, hi, 41)
+            s_done = float(ss[np.argmin(np.linalg.norm(at(ss) - state[2], axis=1))])
+            state = (*state[:3], s_done, *state[4:])
+        return _cut_at_end(steps, np.concatenate(final) if final else None, path[-1])
 
     # ---- rendering -----------------------------------------------------------------------
     def render(
@@ -670,9 +777,23 @@ def _apply2(g: tuple[float, float, float], p: np.ndarray) -> np.ndarray:
     return np.stack([p[:, 0] * c + p[:, 1] * s + tx, -p[:, 0] * s + p[:, 1] * c + tz], axis=1)
 
 
-def _start_transform(angle: float, path: np.ndarray, pelvis: np.ndarray, up: str):
-    R = _apply2((angle, 0.0, 0.0), pelvis[None])[0]
-    return GroundTransform.from_2d(angle, (path[0, 0] - R[0], path[0, 1] - R[1]), up)
+def _cut_at_end(steps: list[Step], last: np.ndarray | None, end: np.ndarray) -> list[Step]:
+    """``steps`` cut after the frame, among the walk's last ``len(last)`` frames (planned pelvis
+    points ``last``), closest to the path's ``end``; a transition's blend is kept whole."""
+    if last is None or len(last) == 0:
+        return steps
+    cut = len(last) - 1 - int(np.argmin(np.linalg.norm(last - end, axis=1)))
+    out = list(steps)
+    while cut > 0 and len(out) > 1:
+        s = out[-1]
+        if s.frames <= cut:
+            out.pop()
+            cut -= s.frames
+        else:
+            if s.kind == "clip":
+                out[-1] = replace(s, stop=s.stop - cut)
+            break
+    return out
 
 
 def load_clips(graph: MotionGraph, base: Path | None = None) -> list[Motion]:
