@@ -301,12 +301,8 @@ def test_bandai_walk_follows_the_l_paths_first_leg_and_turn(bandai_l_walk):
     assert root_trajectory(res.motion)[:, 0].max() > 150.0, err.line()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the default graph of these takes enters a right turn only at frames that leave ~2 m "
-    "of straight walk before it turns: after the left turn no walk of it turns right within the "
-    "3 m the L allows (see the path-following report)",
-)
 def test_bandai_walk_reaches_the_l_paths_end(bandai_l_walk):
+    """It ends within 1 m of the L's end: two strides, not the 0.5 m of "followed", since this
+    small graph enters its right turns at few frames (measured: 75 cm, max 90 cm off)."""
     _res, err = bandai_l_walk
     assert err.end * err.cm_per_unit < 100.0, err.line()
