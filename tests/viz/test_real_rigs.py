@@ -18,7 +18,7 @@ import pytest
 from testsupport import require_chromium
 
 from mocapkit.body import body_of
-from mocapkit.io import read_motion
+from mocapkit.io import read_motion, write_motion
 from mocapkit.viz.browser import Browser, decode_png
 from mocapkit.viz.viewer import view_files
 
@@ -197,3 +197,32 @@ def test_cmu_is_drawn_at_its_true_scale(browser, shared_path, tmp_path):
     assert 1.55 < d["stature"] < 1.85, d
     assert 1.4 < d["height"] < 1.85, d
     _assert_no_errors(b)
+
+
+def test_side_by_side_takes_from_far_apart_stand_in_one_row(browser, shared_path, tmp_path):
+    """A CMU take (starting metres from the capture origin), a Bandai take and a copy of it
+    moved 20 m away: side by side, each starts in its own lane, all on stage, left to right."""
+    from mocapkit.core.motion import Motion
+
+    cmu = shared_path("cmu-asfamc/03") / "03_03.amc"
+    bandai = shared_path(RIGS["bandai"][0]) / RIGS["bandai"][1]
+    m = read_motion(bandai)
+    away = np.array([2000.0, 0.0, -2000.0])  # 20 m along x and z (the take is in cm)
+    far = Motion(m.skeleton, m.rotations, m.root_positions + away, m.frame_time, m.translations)
+    if far.translations is not None:
+        far.translations[:, 0] += away
+    moved = write_motion(far, tmp_path / "far.bvh")
+    page = view_files([cmu, bandai, moved], tmp_path / "row.html")
+    b = browser
+    b.errors.clear()
+    b.open(page, ready=READY)
+    _assert_no_errors(b)
+    assert b.eval("mocapkitViewer.data.motions.length") == 3
+    r = b.eval("mocapkitViewer.stageRect()")
+    pts = [b.eval(f"mocapkitViewer.screenPoint(mocapkitViewer.data.motions[{i}].pelvis, {i})")
+           for i in range(3)]  # fmt: skip
+    xs = [p["x"] for p in pts]
+    assert xs == sorted(xs), xs
+    for p in pts:
+        assert r["x"] < p["x"] < r["x"] + r["width"] and r["y"] < p["y"] < r["y"] + r["height"]
+    assert max(p["y"] for p in pts) - min(p["y"] for p in pts) < 0.2 * r["height"]

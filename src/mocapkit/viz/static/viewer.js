@@ -232,8 +232,13 @@
   scene.add(selPts);
 
   function layout() {
+    // side by side, each motion starts in its own lane (its first pelvis ground point moved
+    // there: takes recorded far apart in the capture volume still stand in one row); overlaid,
+    // motions keep their world positions, to be compared where they are
     motions.forEach(function (m, i) {
-      m.group.position.x = sideBySide ? (i - (motions.length - 1) / 2) * (width + 0.6 * charH) : 0;
+      var lane = (i - (motions.length - 1) / 2) * (width + 0.6 * charH);
+      m.group.position.x = sideBySide ? lane - m.path[0] : 0;
+      m.group.position.z = sideBySide ? -m.path[1] : 0;
     });
   }
   layout();
@@ -255,7 +260,8 @@
   function centre() { // the camera target: the motions' smoothed pelvis paths, averaged
     var c = new THREE.Vector3();
     motions.forEach(function (m) {
-      c.x += m.path[2 * m.frame] + m.group.position.x; c.y += m.pathY; c.z += m.path[2 * m.frame + 1];
+      c.x += m.path[2 * m.frame] + m.group.position.x; c.y += m.pathY;
+      c.z += m.path[2 * m.frame + 1] + m.group.position.z;
     });
     return c.multiplyScalar(1 / motions.length);
   }
@@ -323,7 +329,8 @@
     if (selJoint) {
       var sm = motions[selJoint.m], so = (sm.frame * sm.n + selJoint.j) * 3;
       var sp = selGeom.attributes.position.array;
-      sp[0] = sm.P[so] + sm.group.position.x; sp[1] = sm.P[so + 1]; sp[2] = sm.P[so + 2];
+      sp[0] = sm.P[so] + sm.group.position.x; sp[1] = sm.P[so + 1];
+      sp[2] = sm.P[so + 2] + sm.group.position.z;
       selGeom.attributes.position.needsUpdate = true;
     }
     if (follow) {
@@ -741,12 +748,12 @@
     groundMarker: function (mi) {
       var m = motions[mi || 0];
       if (!m.marker) return null;
-      return { visible: m.marker.visible, x: m.marker.position.x + m.group.position.x, y: m.marker.position.y, z: m.marker.position.z, heading: m.marker.rotation.y };
+      return { visible: m.marker.visible, x: m.marker.position.x + m.group.position.x, y: m.marker.position.y, z: m.marker.position.z + m.group.position.z, heading: m.marker.rotation.y };
     },
     screenPoint: function (j, mi) { // client coordinates (CSS px) of joint j of motion mi now
       var m = motions[mi || 0], o = (m.frame * m.n + j) * 3;
       controls.update(); camera.updateMatrixWorld();
-      var v = new THREE.Vector3(m.P[o] + m.group.position.x, m.P[o + 1], m.P[o + 2]).project(camera);
+      var v = new THREE.Vector3(m.P[o] + m.group.position.x, m.P[o + 1], m.P[o + 2] + m.group.position.z).project(camera);
       var r = renderer.domElement.getBoundingClientRect();
       return { x: r.left + (v.x + 1) / 2 * r.width, y: r.top + (1 - v.y) / 2 * r.height, depth: v.z };
     },
