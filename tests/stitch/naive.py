@@ -155,3 +155,54 @@ def elastic_lscore_reference(window, model=DEFAULT_MODEL, w=None, k_max=DEFAULT_
         axis=1,
     )
     return ElasticResult(float(scores[k]), k, traj, scores)
+
+
+def inbetween_search_reference(ctx, gap: int, library, w: int, config, metres_per_unit: float):
+    """The in-betweening search by brute force: (score, clip, start time, rate) of the best
+    candidate. For every warp and every frame s of it (the frame on A-1), with the windows and
+    the ground path written out: L-scores by ``rts_smooth_reference`` one dimension at a time
+    (past then the first wl gap frames; the last wl gap frames then the future), and the
+    ground-path term from the pelvis path and heading. Candidates whose frames s-1..s+g+1 or
+    windows leave their clip are skipped."""
+    import math
+
+    g = int(gap)
+    wl = max(3, min(w, g))
+
+    def lscore(Y):
+        total = 0.0
+        for d in range(Y.shape[1]):
+            z = rts_smooth_reference(Y[:, d], None, DEFAULT_MODEL)
+            p, acc = z[:, 0], z[:, 2]
+            total += float(np.sum(np.abs((p[1:] - p[:-1]) * acc[:-1])))
+        return total
+
+    def turn(v, h):  # ground vector (side, forward) into the frame of heading h
+        c, s = math.cos(h), math.sin(h)
+        return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+    tol = config.travel_tolerance_m / metres_per_unit
+    best = None
+    for W in library.warped:
+        N = W.feats.shape[0]
+        for s in range(1, N):
+            frames = [s - 1, s + g + 1, s + wl, s + g - wl + 1]
+            if min(frames) < 0 or max(frames) >= N:
+                continue
+            if len({int(W.clip[f]) for f in range(min(frames), max(frames) + 1)}) != 1:
+                continue
+            ls = lscore(np.concatenate([ctx.past, W.feats[s + 1 : s + 1 + wl]]))
+            le = lscore(np.concatenate([W.feats[s + g - wl + 1 : s + g + 1], ctx.future]))
+            h0 = W.heading[s]
+            d = turn(W.ground[s + g + 1] - W.ground[s], h0)
+            v = turn(W.ground[s] - W.ground[s - 1], h0) / W.rate
+            dh = W.heading[s + g + 1] - W.heading[s]
+            travel = config.travel_weight * (
+                np.sum((d - ctx.travel) ** 2) / tol**2
+                + np.sum((v - ctx.velocity) ** 2) * (g + 1) ** 2 / tol**2 / 4.0
+                + ((dh - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
+            )
+            score = ls + le + travel
+            if best is None or score < best[0]:
+                best = (score, int(W.clip[s]), float(W.time[s]), W.rate)
+    return best

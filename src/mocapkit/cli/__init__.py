@@ -11,6 +11,7 @@ from mocapkit.cli import (  # noqa: F401
     demo,
     edit_commands,
     graph_commands,
+    inbetween_commands,
     io_commands,
     retarget_commands,
     stitch_commands,
