@@ -2,7 +2,7 @@
 
 Usage::
 
-    python bench/bench_inbetween.py [--shared DIR] [--tune] [--max-takes N] [--json]
+    python bench/bench_inbetween.py [--shared DIR] [--tune] [--max-takes N per class] [--json]
 
 Protocol (Harvey et al., "Robust Motion In-betweening", SIGGRAPH 2020, and its published
 benchmark code for LaFAN1), on Bandai-Namco data (30 fps, cm, Y up):
@@ -202,14 +202,19 @@ def evaluate(test_files, lib, stats, body_idx, feet_idx, config, max_takes=None,
     """Per (class, method, n): lists of per-window L2Q, L2P and the quaternion sequences."""
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.core.motion import concatenate
+    from mocapkit.features import ground_root_on_path
     from mocapkit.io import read_motion
-    from mocapkit.stitch.inbetween import inbetween
+    from mocapkit.stitch.inbetween import _back_to_clip, inbetween, kalman_fill
 
     mean, std = stats
     rec: dict = {}
     fallbacks: dict = {}
     times = []
-    files = test_files[:max_takes] if max_takes else test_files
+    files = test_files
+    if max_takes:  # the first max_takes takes of each class, in name order
+        same = {f: [g for g in test_files if take_class(g) == take_class(f)] for f in files}
+        rank = {f: same[f].index(f) for f in files}
+        files = [f for f in test_files if rank[f] < max_takes]
     for ti, f in enumerate(files):
         take = read_motion(f)
         cls = take_class(f)
@@ -224,13 +229,15 @@ def evaluate(test_files, lib, stats, body_idx, feet_idx, config, max_takes=None,
                 res = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
                                 future_frames=1)  # fmt: skip
                 times.append(time.perf_counter() - t0)
-                kal = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
-                                future_frames=1, method="kalman")  # fmt: skip
+                kal = _back_to_clip(
+                    kalman_fill(ground_root_on_path(win, "Y"), N_PAST, N_PAST + n, future_frames=1),
+                    win, N_PAST, N_PAST + n, True,
+                )  # fmt: skip
                 fallbacks.setdefault((cls, n), []).append(res.fell_back)
                 outs = {
                     "zerov": concatenate([win[:N_PAST], zero_velocity(win, n), win[N_PAST + n :]]),
                     "interp": concatenate([win[:N_PAST], interpolation(win, n), win[N_PAST + n :]]),
-                    "kalman": kal.motion,
+                    "kalman": concatenate([win[:N_PAST], kal, win[N_PAST + n :]]),
                     "library": res.motion,
                 }
                 for meth, out in outs.items():
@@ -343,7 +350,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--shared", type=Path, default=None)
     ap.add_argument("--tune", action="store_true", help="evaluate on the tuning takes")
-    ap.add_argument("--max-takes", type=int, default=None)
+    ap.add_argument("--max-takes", type=int, default=None, help="per class")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="override an InbetweenConfig field (tuning)")  # fmt: skip
     ap.add_argument("--no-timing", action="store_true")

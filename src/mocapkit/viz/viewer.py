@@ -270,6 +270,40 @@ def stitch_overlay(motions: Sequence[ViewMotion], result: dict[str, Any] | None)
     }
 
 
+def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
+    """The in-betweening overlay, read from the provenance sidecar ``mocapkit inbetween`` writes
+    (:mod:`mocapkit.provenance`): drawn like a stitch (the filled frames yellow, the last context
+    frame and the first frame after the gap marked), with the library clip and frames used."""
+    idx = next(
+        (i for i, vm in enumerate(motions) if vm.provenance and vm.provenance.tool == "inbetween"),
+        None,
+    )
+    if idx is None:
+        return None
+    plan = motions[idx].provenance
+    assert plan is not None
+    mid = next((s for s in plan.segments if s.kind in ("inbetween", "generated")), None)
+    if mid is None:
+        return None
+    a, b = mid.output_start, mid.output_stop
+    clip = plan.inputs[0] if plan.inputs else None
+    return {
+        "motion": idx,
+        "kind": "inbetween",
+        "takeoff": a - 1,
+        "generated": [a, b],
+        "landing": b,
+        "landingData": b,
+        "k": b - a,
+        "lscore": None,
+        "lscoreByK": [],
+        "query": clip,
+        "data": mid.source,
+        "sourceFrames": None if mid.source is None else [mid.source_start, mid.source_stop],
+        "method": plan.parameters.get("method"),
+    }
+
+
 def graph_overlay(
     motions: Sequence[ViewMotion], graph: dict[str, Any] | None = None
 ) -> dict[str, Any] | None:
@@ -363,7 +397,7 @@ def page_data(
         **{k: _shared(recs, k) for k in ("up", "units", "unitsSource", "metresPerUnit")},
         "motions": recs,
         "clean": clean_overlay(motions, clean_report, mdm),
-        "stitch": stitch_overlay(motions, stitch),
+        "stitch": stitch_overlay(motions, stitch) or inbetween_overlay(motions),
         "graph": graph_overlay(motions, graph),
     }
 

@@ -601,9 +601,10 @@
     }
     if (stitch) {
       var mi2 = stitch.motion, mf2 = motionFrame(motions[mi2], h.frame);
-      if (mf2 === stitch.takeoff) s += ' \u00b7 take-off';
+      if (mf2 === stitch.takeoff) s += stitch.kind === 'inbetween' ? ' \u00b7 last frame before the gap' : ' \u00b7 take-off';
+      else if (mf2 >= stitch.generated[0] && mf2 < stitch.generated[1] && stitch.kind === 'inbetween') s += ' \u00b7 filled frame ' + (mf2 - stitch.generated[0] + 1) + ' of ' + (stitch.generated[1] - stitch.generated[0]) + (stitch.data ? ' (' + base(stitch.data) + ')' : ' (Kalman)');
       else if (mf2 >= stitch.generated[0] && mf2 < stitch.generated[1]) s += ' \u00b7 injected frame ' + (mf2 - stitch.generated[0] + 1) + ' of ' + (stitch.generated[1] - stitch.generated[0]);
-      else if (mf2 === stitch.landing) s += ' \u00b7 landing (data frame ' + stitch.landingData + ')';
+      else if (mf2 === stitch.landing) s += stitch.kind === 'inbetween' ? ' \u00b7 first frame after the gap' : ' \u00b7 landing (data frame ' + stitch.landingData + ')';
     }
     $('hover-info').textContent = s;
   });
@@ -648,7 +649,10 @@
     info('cleaning: ' + clean.segments.length + ' flagged segment(s)' + (clean.threshold != null ? ', threshold ' + clean.threshold : '') +
       (clean.repairedCells != null ? ', ' + clean.repairedCells + ' repaired cells' : '') + '; joints of ' + base(motions[clean.motion].meta.name) + ' coloured by MDM (blue 0 \u2192 red 1)');
   }
-  if (stitch) {
+  if (stitch && stitch.kind === 'inbetween') {
+    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' +
+      (stitch.data ? 'from ' + base(stitch.data) + ' frames ' + stitch.sourceFrames[0] + '\u2013' + (stitch.sourceFrames[1] - 1) : 'by the Kalman transition (no library segment scored better)'));
+  } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
       ' (k = ' + stitch.k + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
     if (stitch.lscoreByK.length) { $('lk-wrap').hidden = false; drawLk(); }

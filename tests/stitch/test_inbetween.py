@@ -1,0 +1,218 @@
+"""In-betweening from a library (mocapkit.stitch.inbetween): the search against brute force,
+the exact meeting of the context poses, the Kalman fallback and the CLI's gap checks."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from testsupport import load_sibling
+
+from mocapkit import datasets
+from mocapkit.cli import main
+from mocapkit.core.kinematics import forward_kinematics
+from mocapkit.io import read_motion, write_motion
+from mocapkit.stitch.inbetween import (
+    InbetweenConfig,
+    InbetweenLibrary,
+    _Context,
+    _Warped,
+    check_gap,
+    inbetween,
+    prepare_library,
+    search_inbetween,
+)
+
+naive = load_sibling(__file__, "naive")
+with_ground_root = load_sibling(__file__, "motions").with_ground_root
+
+
+def _lerp(a: np.ndarray, t: np.ndarray) -> np.ndarray:
+    i0 = np.floor(t).astype(int)
+    i1 = np.minimum(i0 + 1, a.shape[0] - 1)
+    f = (t - i0).reshape(-1, *[1] * (a.ndim - 1))
+    return a[i0] * (1 - f) + a[i1] * f
+
+
+def _synthetic_library(seed: int, lengths, m: int, rates) -> InbetweenLibrary:
+    """Random-walk features, ground paths and headings, 'warped' per rate (arrays only)."""
+    rng = np.random.default_rng(seed)
+    clips = [
+        (
+            np.cumsum(rng.normal(size=(n, m)), 0),
+            np.cumsum(rng.normal(0, 3, size=(n, 2)), 0),
+            np.cumsum(rng.normal(0, 0.05, size=n)),
+        )
+        for n in lengths
+    ]
+    warped = []
+    for r in rates:
+        parts = []
+        for i, (x, gp, h) in enumerate(clips):
+            t = np.arange(int(np.floor((x.shape[0] - 1) / r)) + 1) * r
+            parts.append(
+                (_lerp(x, t).astype(np.float32), _lerp(gp, t), _lerp(h, t), np.full(len(t), i), t)
+            )
+        cols = [np.concatenate(c) for c in zip(*parts, strict=True)]
+        warped.append(_Warped(float(r), np.ascontiguousarray(cols[0]), *cols[1:]))
+    return InbetweenLibrary((), tuple(f"c{i}" for i in range(len(lengths))), "Y", tuple(warped), 0)
+
+
+@pytest.mark.parametrize("gap", [2, 7])
+def test_search_matches_brute_force(gap):
+    rng = np.random.default_rng(gap)
+    m = 3
+    config = InbetweenConfig(warps=(0.8, 1.0, 1.25))
+    lib = _synthetic_library(1, (30, 9, 26), m, config.warps)
+    ctx = _Context(
+        np.cumsum(rng.normal(size=(5, m)), 0),
+        np.cumsum(rng.normal(size=(2, m)), 0),
+        rng.normal(0, 10, 2),
+        0.1,
+        rng.normal(0, 2, 2),
+    )
+    best, count = search_inbetween(ctx, gap, lib, w=5, config=config, metres_per_unit=0.01)
+    ref = naive.inbetween_search_reference(ctx, gap, lib, 5, config, 0.01)
+    assert count > 0
+    assert (best.clip, best.rate) == (ref[1], ref[3])
+    assert best.start == pytest.approx(ref[2])
+    assert best.score == pytest.approx(ref[0], rel=1e-4)
+
+
+@pytest.fixture(scope="module")
+def humanoid():
+    walk = with_ground_root(datasets.procedural_motion("walk", 5.0, seed=11).motion)
+    lib = [
+        with_ground_root(datasets.procedural_motion(k, 6.0, seed=s).motion)
+        for k, s in (("walk", 1), ("walk", 2), ("run", 1), ("idle", 3))
+    ]
+    return walk, lib
+
+
+def test_meets_context_exactly(humanoid):
+    walk, lib = humanoid
+    a, b = 60, 90
+    res = inbetween(walk, (a, b), lib, up="Y", method="library")
+    out = res.motion
+    assert res.method == "library" and out.num_frames == walk.num_frames
+    # the context frames are the clip's own, channel for channel
+    np.testing.assert_array_equal(out.rotations[:a], walk.rotations[:a])
+    np.testing.assert_array_equal(out.rotations[b:], walk.rotations[b:])
+    np.testing.assert_array_equal(out.local_translations()[:a], walk.local_translations()[:a])
+    np.testing.assert_array_equal(out.local_translations()[b:], walk.local_translations()[b:])
+    # and the filled frames join them without a jump larger than the walk's own steps
+    P, _ = forward_kinematics(out)
+    T, _ = forward_kinematics(walk)
+    step = np.linalg.norm(np.diff(T, axis=0), axis=-1).max()
+    assert np.linalg.norm(P[a] - P[a - 1], axis=-1).max() < 1.5 * step
+    assert np.linalg.norm(P[b] - P[b - 1], axis=-1).max() < 1.5 * step
+    assert np.isfinite(P).all()
+    # the static ground root stays where the clip keeps it
+    np.testing.assert_allclose(out.root_positions[a:b], 0.0, atol=1e-9)
+    s0, s1 = res.source_frames
+    assert 0 <= s0 < s1 <= lib[res.candidate.clip].num_frames
+    prov = res.provenance("x.bvh").to_json()
+    kinds = [s["kind"] for s in prov["segments"]]
+    assert kinds == ["clip", "inbetween", "clip"]
+    assert prov["segments"][1]["source"] == res.source
+
+
+def test_fallback_when_kalman_scores_lower(humanoid):
+    walk, lib = humanoid
+    idle = [lib[3]]  # a standing library cannot continue a walk over 2 frames
+    res = inbetween(walk, (60, 62), idle, up="Y")
+    assert res.candidate.lscore > res.kalman_lscore
+    assert res.fell_back and res.method == "kalman"
+    assert res.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
+    np.testing.assert_array_equal(res.motion.rotations[:60], walk.rotations[:60])
+    np.testing.assert_array_equal(res.motion.rotations[62:], walk.rotations[62:])
+    kept = inbetween(walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback=False))
+    assert kept.method == "library"
+
+
+@pytest.mark.parametrize(
+    "gap, msg",
+    [((0, 10), "3 <= A < B"), ((20, 20), "3 <= A < B"), ((20, 10), "3 <= A < B"),
+     ((20, 150), "3 <= A < B"), ("x", "gap")],
+)  # fmt: skip
+def test_check_gap(gap, msg):
+    with pytest.raises(ValueError, match=msg):
+        check_gap(gap, 150)
+
+
+def test_prepare_library_rejects_other_skeleton(humanoid):
+    walk, _ = humanoid
+    plain = datasets.procedural_motion("walk", 2.0, seed=0).motion
+    with pytest.raises(ValueError, match=r"odd clip|different skeleton"):
+        prepare_library([plain], walk, ["odd clip"])
+
+
+def run(*args):
+    res = CliRunner().invoke(main, [str(a) for a in args])
+    return res.exit_code, res.stdout, res.stderr
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory, humanoid):
+    d = tmp_path_factory.mktemp("inb")
+    walk, lib = humanoid
+    write_motion(walk, d / "walk.bvh")
+    (d / "lib").mkdir()
+    for i, m in enumerate(lib[:3]):
+        write_motion(m, d / "lib" / f"l{i}.bvh")
+    return d
+
+
+def test_cli_writes_motion_and_sidecar(files):
+    out = files / "filled.bvh"
+    code, so, se = run(
+        "inbetween", files / "walk.bvh", "--gap", "2.0s:2.5s", "--library", files / "lib",
+        "--method", "library", "--out", out, "--json", files / "r.json",
+    )  # fmt: skip
+    assert code == 0, se
+    assert "filled frames 60:75" in so
+    side = json.loads((files / "filled.provenance.json").read_text())
+    assert side["tool"] == "inbetween" and side["parameters"]["gap"] == [60, 75]
+    seg = side["segments"][1]
+    assert (seg["output_start"], seg["output_stop"]) == (60, 75)
+    assert seg["source"].startswith(str(files / "lib"))
+    back = read_motion(out)
+    assert back.num_frames == read_motion(files / "walk.bvh").num_frames
+
+
+@pytest.mark.parametrize(
+    "gap, msg",
+    [("40:20", "reversed"), ("abc", "expected A:B"), ("1:20", "3 <= A < B"),
+     ("100:400", "past the end"), ("100:", "3 <= A < B"), ("30:30", "empty")],
+)  # fmt: skip
+def test_cli_bad_gap(files, gap, msg):
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", gap, "--library",
+                       files / "lib", "--out", files / "bad.bvh")  # fmt: skip
+    assert code == 2
+    assert msg in se and "Traceback" not in se
+    assert len(se.strip().splitlines()) == 1
+    assert not (files / "bad.bvh").exists()
+
+
+def test_view_marks_filled_frames(files):
+    from mocapkit.provenance import find_provenance
+    from mocapkit.viz.viewer import ViewMotion, page_data
+
+    out = files / "filled.bvh"
+    if not out.exists():
+        test_cli_writes_motion_and_sidecar(files)
+    vm = ViewMotion(read_motion(out), str(out), provenance=find_provenance(out))
+    st = page_data([vm])["stitch"]
+    assert st["kind"] == "inbetween" and st["generated"] == [60, 75]
+    assert st["data"].startswith(str(files / "lib")) and len(st["sourceFrames"]) == 2
+
+
+def test_demo_step(tmp_path, capsys):
+    from mocapkit.cli.inbetween_commands import inbetween_demo_step
+
+    inbetween_demo_step(tmp_path)
+    assert (tmp_path / "inbetween_walk.bvh").exists()
+    assert (tmp_path / "inbetween_walk.provenance.json").exists()
+    assert "gap 60:90" in capsys.readouterr().out
