@@ -341,7 +341,7 @@ def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:
     for pair_seconds in (1.5, 0.0):  # by the cancelling steps, and by its spike size alone
         cl = SelfSimilarityCleaner(pair_seconds=pair_seconds).fit(bad)
         cl.mdm_[:, j] = 0.0  # as if the KNN words had followed the spike
-        cl._jump = cl._steps = cl._pairs = cl._spikes = cl._frozen = None
+        cl.forget_flags()
         m = cl.mask()
         assert m[80:82, j].all() and not m[:76, j].any() and not m[86:, j].any()
 
@@ -382,12 +382,12 @@ def test_wrong_way_bends_flag_a_knee_bent_backwards_only() -> None:
     # the cleaner flags it even where the KNN words follow it (several bends match each other)
     cl = SelfSimilarityCleaner().fit(inj.motion, [ctx])
     cl.mdm_[:, j] = 0.0
-    cl._jump = cl._steps = cl._pairs = cl._spikes = cl._frozen = cl._signal = None
+    cl.forget_flags()
     assert cl.mask()[inj.frames, j].all()
 
 
 def test_limb_hinges_need_a_straight_rest_pose_for_the_bend_rule() -> None:
-    from mocapkit.clean.cleaner import straight_hinges
+    from mocapkit.clean.detect import straight_hinges
 
     sk = datasets.humanoid_skeleton()
     assert straight_hinges(sk, np.radians(20.0)) == hinge_joints(

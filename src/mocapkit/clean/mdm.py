@@ -270,6 +270,7 @@ def frozen_cells(
     min_digression: float = np.radians(3.0),
     tol: float = np.radians(0.5),
     max_recur: int = 3,
+    margin: int = 3,
 ) -> np.ndarray:
     """(F, J) bool: runs of at least ``min_frames`` frames where a joint holds its rotation
     (frame-to-frame angle below ``speed``) while the KNN words move away from it (digression
@@ -277,7 +278,8 @@ def frozen_cells(
     the take (fewer than ``max_recur`` frames within ``tol`` outside the run where the joint is
     still too: a joint parked at its limit, e.g. a straight elbow or flat toes, comes back to
     rest at the same value again and again; a frozen marker holds an arbitrary one, which the
-    joint may pass through but does not rest at)."""
+    joint may pass through but does not rest at; the run and ``margin`` frames around it do not
+    count)."""
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
     out = np.zeros((F, J), dtype=bool)
@@ -294,7 +296,7 @@ def frozen_cells(
             near = rot.quat_angle(q[:, j], q[a, j][None]) < tol
             near[:-1] &= still[:, j]  # at rest there, not passing through
             near[-1] &= still[-1, j]
-            near[max(a - 3, 0) : b + 5] = False
+            near[max(a - margin, 0) : b + margin + 2] = False
             if near.sum() < max_recur:
                 out[fr, j] = True
     return out

@@ -1,0 +1,52 @@
+"""Two jumps on one joint that cancel: the stretch between them was turned by one rotation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from mocapkit.clean.detect._runs import deg
+from mocapkit.clean.detect.config import DetectConfig
+from mocapkit.clean.detect.evidence import Evidence
+from mocapkit.clean.detect.flags import Flags
+
+
+@dataclass(frozen=True)
+class CancellingJumps:
+    """Flag the frames between two jumps of a joint (steps differing from both neighbours,
+    :func:`~mocapkit.clean.mdm.jump_size`, far above the joint's own) at most ``max_seconds``
+    apart whose step deviations cancel, whatever their MDM.
+
+    Relies on: a spike, an offset or a flip turns a stretch by one constant rotation, entered
+    and left with opposite jumps; natural motion that jumps seldom jumps back by the same
+    rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`)."""
+
+    name: ClassVar[str] = "cancelling-jumps"
+    veto: ClassVar[bool] = False
+    signal: ClassVar[bool] = False
+    max_seconds: float = 1.5
+
+    @classmethod
+    def from_config(cls, config: DetectConfig) -> CancellingJumps:
+        return cls(config.pair_seconds)
+
+    def apply(self, ev: Evidence, flags: Flags) -> None:
+        if self.max_seconds > 0:
+            flags.flag(self.name, ev.cancelling)
+
+    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+        pk = np.flatnonzero(ev.jump_peaks[:, joint])
+        before = pk[pk <= frame]
+        after = pk[pk > frame]
+        parts = [f"jump here {deg(ev.jump_size[frame, joint])}"]
+        if len(before):
+            parts.append(
+                f"last jump peak frame {before[-1]} ({deg(ev.jump_size[before[-1], joint])})"
+            )
+        if len(after):
+            parts.append(f"next frame {after[0]} ({deg(ev.jump_size[after[0], joint])})")
+        inside = bool(ev.cancelling[frame, joint])
+        parts.append("between two that cancel" if inside else "not between two that cancel")
+        return "; ".join(parts)

@@ -1,0 +1,225 @@
+"""Every tunable of self-similarity detection, in one frozen dataclass.
+
+Units: angles in degrees, durations in seconds (converted to frames at the take's own rate where
+a rule runs, so a 30 fps and a 120 fps take are judged alike), MDM levels in [0, 1], ratios bare.
+Each field carries the reason for its value. Values marked "bandai1 tuning half" were chosen on
+injected errors in the tuning half of Bandai-1 (bench/eval_clean.py ``--split tune``) and checked,
+without retuning, on its validation half, Bandai-2 and the raw CMU takes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+DETECT_MODES = ("hysteresis", "threshold")
+SCALES = ("spread", "mean", "median")
+
+
+def seconds_to_frames(seconds: float, fps: float, minimum: int = 1) -> int:
+    """``max(minimum, round(seconds * fps))``: a duration of the config on a take's frames."""
+    return max(int(minimum), round(float(seconds) * float(fps)))
+
+
+@dataclass(frozen=True)
+class DetectConfig:
+    """Thresholds of :class:`~mocapkit.clean.SelfSimilarityCleaner` (search, MDM and rules).
+
+    ``SelfSimilarityCleaner(config=DetectConfig(threshold=0.6))``; ``config.replace(...)`` gives
+    a changed copy. A rule whose switch is 0 (``pair_seconds``, ``dominance``, ``abrupt_deg``,
+    ``recur_deg``) is skipped; which rules run, and in what order, is
+    :data:`mocapkit.clean.detect.PIPELINE`.
+    """
+
+    # ------------------------------------------------------------------ search (the paper)
+    #: Neighbours per motion-word: the paper's K = 5; fewer make the mean texture follow one
+    #: neighbour's quirks, more reach words that no longer resemble the source.
+    k: int = 5
+    #: Analysis rate (frames per second) the words are defined at: the paper's 24 fps; takes at
+    #: other rates are resampled to it for the search only.
+    analysis_fps: float = 24.0
+    #: DTW slope constraint (consecutive non-diagonal steps, a count, not a duration): the
+    #: paper's 2 lets a neighbour run at 1/3 to 3 times the source's speed.
+    max_run: int = 2
+    #: KNN minima within this many seconds of the source word are its own trivial match and are
+    #: skipped; ``None``: half a source word (the paper).
+    exclude_seconds: float | None = None
+    #: Search the take with whole-body words first, then the context with the sub-group words
+    #: only around what stage one flagged: faster with large contexts, same words.
+    two_stage: bool = False
+    #: Stage-one flagging level; ``None``: ``0.6 * threshold`` (stage one sees a coarser MDM, so
+    #: it must not miss what stage two would flag).
+    stage1_threshold: float | None = None
+    #: Weight each word's vote by its KNN distance to this power (0: equal votes, the paper).
+    weight_power: float = 0.0
+    #: Recompute the mean texture without the votes of words holding a flagged cell. Off: on
+    #: Bandai it did not raise precision (fewer votes make the mean texture noisier).
+    robust: bool = False
+
+    # ------------------------------------------------------------------ MDM
+    #: MDM level a flagged run extends down to: the paper's 0.5.
+    threshold: float = 0.5
+    #: Digression scale: "spread" (how much the K neighbours disagree at the cell), "mean" (the
+    #: paper: the joint's mean digression; an average cell then sits at MDM 0.63 > 0.5).
+    scale: str = "spread"
+    #: Scale multiplier: with "spread", a cell crosses 0.5 at ``0.83 * 4 = 3.3`` times the
+    #: neighbours' own disagreement, i.e. well outside what the context itself varies by.
+    gain: float = 4.0
+    #: Least scale (degrees): neighbours that agree closely must not turn a few degrees of
+    #: natural variation into an error (a cell crosses 0.5 at 12.5 deg or more).
+    floor_deg: float = 15.0
+    #: "hysteresis" (the rules of :data:`~mocapkit.clean.detect.PIPELINE`) or "threshold" (the
+    #: paper: every cell above ``threshold``).
+    detect: str = "hysteresis"
+
+    # ------------------------------------------------------------------ MDM seeds (hysteresis)
+    #: A run above ``threshold`` is flagged when it holds a near-certain cell (MDM above this,
+    #: i.e. a digression over 2.6 times the scale) or an abrupt one (below).
+    seed_threshold: float = 0.999
+    #: Abrupt cell: angular acceleration (deviation of the next rotation from constant velocity,
+    #: median over a short window) this many times the joint's median in the take, ...
+    jump_ratio: float = 6.0
+    #: ... with the joint's median acceleration taken as at least this (degrees per frame step):
+    #: a joint that barely moves must not call every small wobble abrupt.
+    jump_floor_deg: float = 4.0
+    #: ... on a cell whose MDM exceeds this (the KNN words disagree with it somewhat).
+    jump_min_mdm: float = 0.3
+    #: Second abrupt level: a smaller acceleration ratio ...
+    jump_ratio_2: float = 3.0
+    #: ... on a cell the KNN words clearly disagree with.
+    jump_min_mdm_2: float = 0.8
+    #: Half-width of the acceleration's median window (seconds): one frame at 30 fps, so that a
+    #: lasting jitter outweighs one kink.
+    jump_median_seconds: float = 1.0 / 30.0
+
+    # ------------------------------------------------------------------ steps
+    #: A step (frame-to-frame rotation far from the steps around it) seeds a run when it exceeds
+    #: this many times the joint's 99th percentile of steps in the take (feet strike the ground
+    #: with natural steps; each joint is judged against its own) ...
+    step_ratio: float = 1.5
+    #: ... and this many degrees; also the least step :class:`ExtendToSteps` reaches to.
+    step_min_deg: float = 8.0
+    #: ... and the cell on its digressing side has MDM above this.
+    step_min_mdm: float = 0.5
+    #: Percentile of the joint's steps the step ratio is measured against.
+    step_quantile: float = 99.0
+    #: Which side of a step is the error: compare the normalised digression this long (seconds)
+    #: after and before it.
+    step_side_seconds: float = 0.1
+
+    # ------------------------------------------------------------------ dominance veto
+    #: Drop an MDM-only run whose peak is below this fraction of another joint's peak nearby: a
+    #: gross error on one joint bends the time-warped neighbours of every word around it (0: off).
+    dominance: float = 0.5
+    #: "Nearby" for the dominance veto (seconds either side of the run).
+    dominance_pad_seconds: float = 1.0 / 6.0
+
+    # ------------------------------------------------------------------ cancelling jumps
+    #: Longest stretch (seconds) between an entry jump and an exit jump that cancel: the longest
+    #: injected offset is 1.3 s; natural motion seldom jumps back by the same rotation (0: off).
+    pair_seconds: float = 1.5
+    #: Two jumps cancel when ``|v_in + v_out| < pair_tol * min(|v_in|, |v_out|)``.
+    pair_tol: float = 0.45
+    #: A jump counts when it exceeds this many times the joint's 99th percentile of jumps.
+    pair_ratio: float = 1.2
+
+    # ------------------------------------------------------------------ spikes
+    #: A short stretch that leaves the joint's smooth path (the cubic through the frames around
+    #: it) by more than this many degrees at every frame is a spike: natural motion of one joint
+    #: does not leave and rejoin its own smooth path within a sixth of a second by 25 deg.
+    spike_deg: float = 25.0
+    #: Longest spike (seconds).
+    spike_seconds: float = 1.0 / 6.0
+    #: A spike within this long (seconds) of a run already flagged is left to that run: the run's
+    #: wrong frames spoil the cubic around it.
+    spike_pad_seconds: float = 0.2
+
+    # ------------------------------------------------------------------ frozen joints
+    #: A rotation held exactly for this long (seconds) while the KNN words move away is frozen:
+    #: live joints tremble by more than ``frozen_speed_deg_s`` over a third of a second.
+    frozen_seconds: float = 1.0 / 3.0
+    #: "Held": turning slower than this (degrees per second); a stored value repeated exactly.
+    frozen_speed_deg_s: float = 0.3
+    #: The KNN words must move this far (degrees) from the held value somewhere in the run.
+    frozen_min_digression_deg: float = 3.0
+    #: A joint resting again elsewhere within this angle (degrees) of the held value ...
+    frozen_tol_deg: float = 0.5
+    #: ... for this long in all (seconds) is parked at a limit (a straight elbow, flat toes),
+    #: not frozen; also the margin around the run that does not count.
+    frozen_recur_seconds: float = 0.1
+
+    # ------------------------------------------------------------------ smooth veto
+    #: Drop a run with no step above this (degrees) near it: capture errors enter or leave with
+    #: a step, a smooth digression is natural motion the context lacks (0: off).
+    abrupt_deg: float = 12.0
+    #: "Near" for the smooth veto (seconds either side of the run).
+    abrupt_seconds: float = 0.2
+
+    # ------------------------------------------------------------------ recurring veto
+    #: Drop a short run whose excursion the joint repeats elsewhere within this (degrees): a
+    #: motif of the performer (toe pops at every push-off), not a random error (0: off).
+    recur_deg: float = 8.0
+    #: ... and within this fraction of the run's own digression.
+    recur_ratio: float = 0.5
+    #: Longest run (seconds) the recurring veto considers.
+    recur_seconds: float = 0.2
+    #: Timing slack (seconds) when matching an excursion's entry, peak and exit.
+    recur_flex_seconds: float = 1.0 / 30.0
+
+    # ------------------------------------------------------------------ noise bursts
+    #: Second difference of the angular velocity above this (degrees) at nearly every frame is
+    #: a noise burst: smooth motion keeps it small, white noise of s per axis gives ~4.5 s.
+    noise_deg: float = 20.0
+    #: Shortest noise burst (seconds): an error's edge or a limb stopping at once raises the
+    #: roughness for a few frames only.
+    noise_seconds: float = 0.2
+
+    # ------------------------------------------------------------------ wrong-way hinges
+    #: A knee or elbow bent more than this (degrees) past straight the wrong way: anatomically
+    #: impossible whatever the context holds.
+    hinge_deg: float = 15.0
+    #: A hinge counts as straight at rest (so negative flexion is wrong-way) within this angle.
+    hinge_straight_deg: float = 20.0
+    #: Hinges whose rotations reach this (degrees) are skipped: rotation vectors wrap at 180.
+    hinge_max_deg: float = 170.0
+
+    # ------------------------------------------------------------------ extension
+    #: Stretch every flagged run to the steps (above ``step_min_deg``) within this long
+    #: (seconds) of its ends: an error's first and last frames often digress too little.
+    extend_seconds: float = 2.0 / 15.0
+
+    def __post_init__(self) -> None:
+        if self.detect not in DETECT_MODES:
+            raise ValueError(f"detect must be 'hysteresis' or 'threshold', got {self.detect!r}")
+        if self.scale not in SCALES:
+            raise ValueError(f"scale must be 'spread', 'mean' or 'median', got {self.scale!r}")
+        if self.k < 1:
+            raise ValueError("k must be >= 1")
+        if not self.analysis_fps > 0:
+            raise ValueError("analysis_fps must be positive")
+        for name in ("threshold", "seed_threshold", "jump_min_mdm", "jump_min_mdm_2",
+                     "step_min_mdm"):  # fmt: skip
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must lie in [0, 1]")
+        if self.step_ratio <= 0 or self.step_min_deg < 0:
+            raise ValueError("step_ratio must be positive and step_min_deg non-negative")
+        if self.pair_seconds < 0:
+            raise ValueError("pair_seconds must be >= 0 (0 turns the pairing off)")
+        if self.abrupt_deg < 0 or self.recur_deg < 0:
+            raise ValueError("abrupt_deg and recur_deg must be >= 0 (0 turns the veto off)")
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if f.name.endswith(("_seconds", "_deg", "_deg_s")) and v is not None and v < 0:
+                raise ValueError(f"{f.name} must be >= 0, got {v!r}")
+
+    def replace(self, **changes: object) -> DetectConfig:
+        """A copy with ``changes`` (field names of this class; anything else is a TypeError)."""
+        names = {f.name for f in dataclasses.fields(self)}
+        bad = sorted(set(changes) - names)
+        if bad:
+            raise TypeError(f"unknown DetectConfig field(s): {', '.join(bad)}")
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict:
+        """The fields as a JSON-ready dict."""
+        return dataclasses.asdict(self)

@@ -1,0 +1,248 @@
+"""The evidence the detection rules read, computed once per take.
+
+:class:`Evidence` holds the take's rotations and, once the self-similarity search has run, its
+maps (MDM, digression, neighbour spread); every derived quantity (steps, jumps, roughness, hinge
+flexion, spike sizes, frozen runs) is computed on first use and kept, whatever rule asks first.
+None of them depends on the MDM threshold, so one Evidence serves every threshold.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import cached_property
+
+import numpy as np
+
+from mocapkit.clean import mdm as mdm_mod
+from mocapkit.clean.detect.config import DetectConfig, seconds_to_frames
+from mocapkit.core import rotations as rot
+from mocapkit.core.skeleton import Skeleton
+from mocapkit.features import limb_hinges
+
+
+def straight_hinges(skeleton: Skeleton, max_angle: float) -> list[int]:
+    """The knees and elbows (:func:`~mocapkit.features.limb_hinges`) whose bone in (their offset)
+    and longest bone out lie within ``max_angle`` radians of one straight line at rest: those
+    whose zero rotation is the straight limb, so that a flexion below zero is a wrong-way bend."""
+    out = []
+    for j in limb_hinges(skeleton):
+        outs = [skeleton.offsets[c] for c in skeleton.children(j)]
+        outs += list(skeleton.end_site_offsets[skeleton.end_site_parents == j])
+        if not outs:
+            continue
+        below = max(outs, key=lambda v: float(np.linalg.norm(v)))
+        above = skeleton.offsets[j]
+        n = float(np.linalg.norm(below) * np.linalg.norm(above))
+        if n > 0 and np.arccos(np.clip(below @ above / n, -1.0, 1.0)) <= max_angle:
+            out.append(j)
+    return out
+
+
+class Evidence:
+    """What the rules of :data:`~mocapkit.clean.detect.PIPELINE` read, for one take.
+
+    Args:
+        rotations: (F, J, 4) the take's local rotations (w, x, y, z).
+        fps: the take's frame rate.
+        config: the thresholds (the derived quantities below read only their window lengths).
+        hinges: joint indices of the straight-at-rest knees and elbows (wrong-way bends).
+        context_rotations: (F_i, J, 4) rotations of context takes at the same frame rate (the
+            recurring veto looks for the same excursion there; the hinge axis is fitted on them
+            too).
+        names: the J joint names (for explanations).
+
+    The maps are set by :meth:`set_maps` after the search: ``mdm`` (F, J) in [0, 1], ``z`` the
+    normalised digression (unbounded, (F, J)), ``digression`` (F, J) radians, ``spread`` (F, J)
+    radians or None, ``analysed`` (J,) bool.
+    """
+
+    def __init__(
+        self,
+        rotations: np.ndarray,
+        fps: float,
+        config: DetectConfig | None = None,
+        hinges: Sequence[int] = (),
+        context_rotations: Sequence[np.ndarray] = (),
+        names: Sequence[str] | None = None,
+    ) -> None:
+        self.rotations = np.asarray(rotations, dtype=np.float64)
+        if self.rotations.ndim != 3 or self.rotations.shape[2] != 4:
+            raise ValueError(f"rotations must be (F, J, 4), got {self.rotations.shape}")
+        self.fps = float(fps)
+        self.config = config or DetectConfig()
+        self.hinges = [int(j) for j in hinges]
+        self.context_rotations = [np.asarray(c, dtype=np.float64) for c in context_rotations]
+        J = self.rotations.shape[1]
+        self.names = list(names) if names is not None else [f"joint{j}" for j in range(J)]
+        self.mdm: np.ndarray | None = None
+        self.z: np.ndarray | None = None
+        self.digression: np.ndarray | None = None
+        self.spread: np.ndarray | None = None
+        self.analysed = np.ones(J, dtype=bool)
+
+    @classmethod
+    def for_motion(
+        cls,
+        motion,
+        config: DetectConfig | None = None,
+        context: Sequence = (),
+    ) -> Evidence:
+        """Evidence of a :class:`~mocapkit.core.motion.Motion`: the straight hinges from its
+        skeleton, the context takes of its own frame rate."""
+        cfg = config or DetectConfig()
+        same_rate = [
+            c.rotations for c in context if np.isclose(c.frame_time, motion.frame_time, rtol=1e-6)
+        ]
+        hinges = straight_hinges(motion.skeleton, np.radians(cfg.hinge_straight_deg))
+        return cls(motion.rotations, motion.fps, cfg, hinges, same_rate, motion.skeleton.names)
+
+    def set_maps(
+        self,
+        mdm: np.ndarray,
+        z: np.ndarray,
+        digression: np.ndarray,
+        analysed: np.ndarray | None = None,
+        spread: np.ndarray | None = None,
+    ) -> Evidence:
+        """Attach the self-similarity maps (see the class docstring); returns ``self``."""
+        shape = self.rotations.shape[:2]
+        for name, a in (("mdm", mdm), ("z", z), ("digression", digression)):
+            if np.shape(a) != shape:
+                raise ValueError(f"{name} must be {shape}, got {np.shape(a)}")
+        self.mdm, self.z, self.digression, self.spread = mdm, z, digression, spread
+        if analysed is not None:
+            self.analysed = np.asarray(analysed, dtype=bool)
+        return self
+
+    def frames(self, seconds: float, minimum: int = 1) -> int:
+        """A duration of the config in this take's frames."""
+        return seconds_to_frames(seconds, self.fps, minimum)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.rotations.shape[:2]
+
+    def _need_maps(self) -> None:
+        if self.mdm is None:
+            raise RuntimeError("this rule needs the MDM: call set_maps() (fit the cleaner) first")
+
+    # ------------------------------------------------------------------ from the rotations
+    @cached_property
+    def jump_ratio(self) -> np.ndarray:
+        """(F, J) angular acceleration over the joint's median (:func:`mdm.jump_ratio`)."""
+        size = 2 * self.frames(self.config.jump_median_seconds, 0) + 1
+        return mdm_mod.jump_ratio(self.rotations, np.radians(self.config.jump_floor_deg), size)
+
+    @cached_property
+    def body_deviations(self) -> np.ndarray:
+        """(F, J, 3) step deviations in the joint's own frame (:func:`mdm.step_deviations`)."""
+        return mdm_mod.step_deviations(self.rotations, "body")
+
+    @cached_property
+    def parent_deviations(self) -> np.ndarray:
+        """(F, J, 3) step deviations in the parent's frame."""
+        return mdm_mod.step_deviations(self.rotations, "parent")
+
+    @cached_property
+    def steps(self) -> np.ndarray:
+        """(F, J) radians: step size (:func:`mdm.step_size`)."""
+        return np.linalg.norm(self.body_deviations, axis=-1)
+
+    @cached_property
+    def step_peaks(self) -> np.ndarray:
+        """(F, J) bool: steps far above the joint's own (:func:`mdm.step_peaks`)."""
+        c = self.config
+        return mdm_mod.step_peaks(
+            self.steps, c.step_ratio, np.radians(c.step_min_deg), c.step_quantile
+        )
+
+    @cached_property
+    def step_cells(self) -> np.ndarray:
+        """(F, J) bool: the cell on each step peak's digressing side (needs the maps)."""
+        self._need_maps()
+        sides = mdm_mod.step_sides(
+            self.step_peaks, self.z, self.frames(self.config.step_side_seconds)
+        )
+        return mdm_mod.step_cells(self.step_peaks, sides)
+
+    @cached_property
+    def jump_size(self) -> np.ndarray:
+        """(F, J) radians: how much a step differs from both neighbours (:func:`mdm.jump_size`)."""
+        return mdm_mod.jump_size(self.rotations)
+
+    @cached_property
+    def jump_peaks(self) -> np.ndarray:
+        """(F, J) bool: jumps far above the joint's own."""
+        c = self.config
+        return mdm_mod.step_peaks(
+            self.jump_size, c.pair_ratio, np.radians(c.step_min_deg), c.step_quantile
+        )
+
+    @cached_property
+    def cancelling(self) -> np.ndarray:
+        """(F, J) bool: stretches between two jumps that cancel (:func:`mdm.cancelling_steps`)."""
+        span = round(self.config.pair_seconds * self.fps)
+        devs = [self.body_deviations, self.parent_deviations]
+        return mdm_mod.cancelling_steps(self.jump_peaks, devs, span, self.config.pair_tol)
+
+    @cached_property
+    def spike_size(self) -> np.ndarray:
+        """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`)."""
+        return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds))
+
+    @cached_property
+    def roughness(self) -> np.ndarray:
+        """(F, J) radians: second difference of angular velocity (:func:`mdm.burst_roughness`)."""
+        return mdm_mod.burst_roughness(self.rotations)
+
+    @cached_property
+    def noise_bursts(self) -> np.ndarray:
+        """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`)."""
+        c = self.config
+        n = self.frames(c.noise_seconds, 2)
+        return mdm_mod.noise_bursts(self.roughness, np.radians(c.noise_deg), n)
+
+    @cached_property
+    def hinge_flexion(self) -> np.ndarray:
+        """(F, J) radians: flexion of the straight hinges about their main axis (positive: the
+        usual way), NaN on other joints and on hinges whose rotations wrap."""
+        q = self.rotations
+        out = np.full(q.shape[:2], np.nan)
+        for j in self.hinges:
+            own = rot.quat_to_rotvec(q[:, j])
+            pool = np.concatenate(
+                [own, *(rot.quat_to_rotvec(c[:, j]) for c in self.context_rotations)]
+            )
+            if len(pool) == 0:
+                continue
+            if np.linalg.norm(pool, axis=1).max() > np.radians(self.config.hinge_max_deg):
+                continue
+            axis = np.linalg.svd(pool, full_matrices=False)[2][0]
+            if np.median(pool @ axis) < 0:
+                axis = -axis
+            out[:, j] = own @ axis
+        return out
+
+    @cached_property
+    def wrong_way(self) -> np.ndarray:
+        """(F, J) bool: hinges bent past straight the wrong way by more than ``hinge_deg``."""
+        with np.errstate(invalid="ignore"):
+            return self.hinge_flexion < -np.radians(self.config.hinge_deg)
+
+    # ------------------------------------------------------------------ needing the maps
+    @cached_property
+    def frozen(self) -> np.ndarray:
+        """(F, J) bool: frozen runs (:func:`mdm.frozen_cells`)."""
+        self._need_maps()
+        c = self.config
+        recur = self.frames(c.frozen_recur_seconds)
+        return mdm_mod.frozen_cells(
+            self.rotations,
+            self.digression,
+            self.frames(c.frozen_seconds, 2),
+            speed=np.radians(c.frozen_speed_deg_s / self.fps),
+            min_digression=np.radians(c.frozen_min_digression_deg),
+            tol=np.radians(c.frozen_tol_deg),
+            max_recur=recur,
+            margin=recur,
+        )

@@ -1,0 +1,50 @@
+"""The detection state the rules change: which cells are flagged, and which rule said so."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Flags:
+    """(F, J) flagged cells with their provenance.
+
+    ``mask`` is the current decision. ``added[name]`` holds the cells rule ``name`` flagged
+    (whether or not they were flagged already), ``removed[name]`` the flagged cells veto
+    ``name`` cleared. A cell's reasons are the rules whose ``added`` holds it, in pipeline order.
+    """
+
+    def __init__(self, shape: tuple[int, int]) -> None:
+        self.mask = np.zeros(shape, dtype=bool)
+        self.added: dict[str, np.ndarray] = {}
+        self.removed: dict[str, np.ndarray] = {}
+
+    def flag(self, rule: str, cells: np.ndarray) -> None:
+        """Flag ``cells`` ((F, J) bool) on behalf of ``rule``."""
+        cells = np.asarray(cells, dtype=bool)
+        prev = self.added.get(rule)
+        self.added[rule] = cells.copy() if prev is None else (prev | cells)
+        self.mask |= cells
+
+    def veto(self, rule: str, cells: np.ndarray) -> None:
+        """Clear ``cells`` ((F, J) bool) on behalf of the veto ``rule``."""
+        cells = np.asarray(cells, dtype=bool)
+        gone = cells & self.mask
+        prev = self.removed.get(rule)
+        self.removed[rule] = gone if prev is None else (prev | gone)
+        self.mask &= ~cells
+
+    def reasons_at(self, frames: slice | np.ndarray, joint: int) -> list[str]:
+        """The rules that flagged any of ``frames`` of ``joint`` and whose cells are still
+        flagged there, in the order they ran."""
+        m = self.mask[frames, joint]
+        return [r for r, a in self.added.items() if (a[frames, joint] & m).any()]
+
+    def primary(self, order: list[str]) -> np.ndarray:
+        """(F, J) int8: for each flagged cell the index in ``order`` of the first rule that
+        flagged it (-1 where not flagged)."""
+        out = np.full(self.mask.shape, -1, dtype=np.int8)
+        for i, name in reversed(list(enumerate(order))):
+            a = self.added.get(name)
+            if a is not None:
+                out[a & self.mask] = i
+        return out

@@ -1,0 +1,44 @@
+"""A burst of frame-to-frame jitter on one joint."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from mocapkit.clean.detect._runs import deg
+from mocapkit.clean.detect.config import DetectConfig
+from mocapkit.clean.detect.evidence import Evidence
+from mocapkit.clean.detect.flags import Flags
+
+
+@dataclass(frozen=True)
+class NoiseBursts:
+    """Flag runs of at least ``min_seconds`` whose roughness (second difference of the angular
+    velocity, :func:`~mocapkit.clean.mdm.burst_roughness`) exceeds ``min_deg`` at nearly every
+    frame (:func:`~mocapkit.clean.mdm.noise_bursts`), whatever the MDM.
+
+    Relies on: smooth motion keeps the roughness small (it grows with the cube of the
+    frequency); marker noise is white, about 4.5 times its size per axis. The KNN words of a
+    weakly jittered fast joint may follow the jitter, so the MDM alone misses it."""
+
+    name: ClassVar[str] = "noise"
+    veto: ClassVar[bool] = False
+    signal: ClassVar[bool] = True
+    min_deg: float = 20.0
+    min_seconds: float = 0.2
+
+    @classmethod
+    def from_config(cls, config: DetectConfig) -> NoiseBursts:
+        return cls(config.noise_deg, config.noise_seconds)
+
+    def cells(self, ev: Evidence):
+        return ev.noise_bursts
+
+    def apply(self, ev: Evidence, flags: Flags) -> None:
+        flags.flag(self.name, ev.noise_bursts)
+
+    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+        return (
+            f"roughness {deg(ev.roughness[frame, joint])} (burst: above {self.min_deg:g} deg "
+            f"for {self.min_seconds:g} s)"
+        )

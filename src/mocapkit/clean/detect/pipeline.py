@@ -1,0 +1,211 @@
+"""The detection pipeline as data, its runner, and the explanation of one cell."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mocapkit.clean.detect.cancelling_jumps import CancellingJumps
+from mocapkit.clean.detect.config import DetectConfig
+from mocapkit.clean.detect.dominance import DominanceVeto
+from mocapkit.clean.detect.evidence import Evidence
+from mocapkit.clean.detect.extend import ExtendToSteps
+from mocapkit.clean.detect.flags import Flags
+from mocapkit.clean.detect.frozen import FrozenJoints
+from mocapkit.clean.detect.hinges import WrongWayHinges
+from mocapkit.clean.detect.mdm_threshold import MDMHysteresis, PaperThreshold
+from mocapkit.clean.detect.noise_bursts import NoiseBursts
+from mocapkit.clean.detect.recurring import RecurringVeto
+from mocapkit.clean.detect.smooth import SmoothVeto
+from mocapkit.clean.detect.spikes import Spikes
+
+PIPELINE: tuple[type, ...] = (
+    MDMHysteresis,
+    DominanceVeto,
+    CancellingJumps,
+    Spikes,
+    FrozenJoints,
+    SmoothVeto,
+    RecurringVeto,
+    NoiseBursts,
+    WrongWayHinges,
+    ExtendToSteps,
+)
+"""The rules of ``detect="hysteresis"``, in the order they run: the vetoes clear what the rules
+before them flagged (the smooth veto spares frozen runs), the signal rules (noise bursts,
+wrong-way hinges) come after the vetoes since they need no KNN evidence, and the extension
+stretches whatever is flagged to its bounding steps."""
+
+PAPER_PIPELINE: tuple[type, ...] = (PaperThreshold,)
+"""``detect="threshold"``: the paper's plain MDM threshold."""
+
+UNANALYSED = "unanalysed"
+"""The last step of every pipeline: joints the search could not analyse are never flagged."""
+
+
+def pipeline_for(config: DetectConfig) -> tuple[type, ...]:
+    """The rule classes ``config.detect`` selects."""
+    return PIPELINE if config.detect == "hysteresis" else PAPER_PIPELINE
+
+
+def build(config: DetectConfig, pipeline: Sequence[type] | None = None) -> list:
+    """The rule objects of ``pipeline`` (default :func:`pipeline_for`) with their thresholds
+    from ``config``."""
+    return [r.from_config(config) for r in (pipeline or pipeline_for(config))]
+
+
+def run_pipeline(
+    evidence: Evidence,
+    threshold: float | None = None,
+    pipeline: Sequence[type] | None = None,
+) -> Flags:
+    """Run the rules on ``evidence`` (its config; ``threshold`` replaces the MDM threshold,
+    ``pipeline`` the rule list) and return the :class:`Flags`."""
+    cfg = evidence.config if threshold is None else evidence.config.replace(threshold=threshold)
+    flags = Flags(evidence.shape)
+    for rule in build(cfg, pipeline):
+        rule.apply(evidence, flags)
+    flags.veto(UNANALYSED, np.broadcast_to(~evidence.analysed[None, :], evidence.shape))
+    return flags
+
+
+def signal_cells(evidence: Evidence, pipeline: Sequence[type] | None = None) -> np.ndarray:
+    """(F, J) bool: what the pipeline's signal rules (read off the rotations alone) flag; the
+    KNN words lying on these cells may not speak for that joint."""
+    out = np.zeros(evidence.shape, dtype=bool)
+    for rule in build(evidence.config, pipeline):
+        if rule.signal:
+            out |= rule.cells(evidence)
+    return out
+
+
+@dataclass
+class Explanation:
+    """Why one cell was or was not flagged: ``flagged``, the rules that flagged it
+    (``reasons``), the vetoes that cleared it (``cleared_by``) and, per rule of the pipeline,
+    one line of what it measured there (``lines``: (rule, verdict, measurement))."""
+
+    joint: str
+    joint_index: int
+    frame: int
+    seconds: float
+    flagged: bool
+    reasons: list[str]
+    cleared_by: list[str]
+    mdm: float
+    analysed: bool
+    lines: list[tuple[str, str, str]] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {
+            "joint": self.joint,
+            "joint_index": self.joint_index,
+            "frame": self.frame,
+            "seconds": round(self.seconds, 6),
+            "flagged": self.flagged,
+            "reasons": list(self.reasons),
+            "cleared_by": list(self.cleared_by),
+            "mdm": round(self.mdm, 6),
+            "analysed": self.analysed,
+            "rules": [{"rule": r, "verdict": v, "measured": m} for r, v, m in self.lines],
+        }
+
+    def __str__(self) -> str:
+        head = "FLAGGED" if self.flagged else "not flagged"
+        why = f" by {', '.join(self.reasons)}" if self.flagged else ""
+        if self.cleared_by:
+            why += f" (cleared by {', '.join(self.cleared_by)})"
+        out = [f"{self.joint} frame {self.frame} ({self.seconds:.3f} s): {head}{why}"]
+        if not self.analysed:
+            out.append("  the joint was not analysed (it does not rotate, or no word covers it)")
+        w = max((len(r) for r, _, _ in self.lines), default=0)
+        for r, v, m in self.lines:
+            out.append(f"  {r:<{w}s}  {v:<22s} {m}")
+        return "\n".join(out)
+
+
+def explain(
+    evidence: Evidence,
+    flags: Flags,
+    joint: int,
+    frame: int,
+    pipeline: Sequence[type] | None = None,
+) -> Explanation:
+    """Why cell (``frame``, ``joint``) was or was not flagged by ``flags`` (the result of
+    :func:`run_pipeline` on ``evidence`` with the same ``pipeline``)."""
+    F, J = evidence.shape
+    if not 0 <= joint < J:
+        raise ValueError(f"joint index {joint} outside 0-{J - 1}")
+    if not 0 <= frame < F:
+        raise ValueError(f"frame {frame} outside 0-{F - 1}")
+    lines = []
+    reasons, cleared = [], []
+    for rule in build(evidence.config, pipeline):
+        table = flags.removed if rule.veto else flags.added
+        cells = table.get(rule.name)
+        hit = cells is not None and bool(cells[frame, joint])
+        if rule.veto:
+            verdict = "cleared it" if hit else "-"
+            if hit:
+                cleared.append(rule.name)
+        else:
+            verdict = "flagged it" if hit else "-"
+            if hit and flags.mask[frame, joint]:
+                reasons.append(rule.name)
+        try:
+            measured = rule.describe(evidence, frame, joint)
+        except RuntimeError as e:  # a rule that needs maps on bare evidence
+            measured = str(e)
+        lines.append((rule.name, verdict, measured))
+    un = flags.removed.get(UNANALYSED)
+    if un is not None and un[frame, joint]:
+        cleared.append(UNANALYSED)
+    return Explanation(
+        joint=evidence.names[joint],
+        joint_index=int(joint),
+        frame=int(frame),
+        seconds=frame / evidence.fps,
+        flagged=bool(flags.mask[frame, joint]),
+        reasons=reasons,
+        cleared_by=cleared,
+        mdm=float(evidence.mdm[frame, joint]) if evidence.mdm is not None else float("nan"),
+        analysed=bool(evidence.analysed[joint]),
+        lines=lines,
+    )
+
+
+def segment_evidence(
+    evidence: Evidence, reasons: Sequence[str], joint: int, a: int, b: int
+) -> dict:
+    """The measurements behind a flagged run ``a .. b`` (inclusive) of ``joint``: MDM peak,
+    digression and neighbour spread (degrees), the largest jump and step around it (degrees),
+    and what each of its ``reasons`` measured (spike size, roughness, wrong-way flexion, held
+    seconds). JSON-ready, finite numbers only."""
+    sl = slice(a, b + 1)
+    around = slice(max(a - 1, 0), b + 2)
+    ev = evidence
+    out: dict = {"frames": b - a + 1, "seconds": round((b - a + 1) / ev.fps, 4)}
+
+    def put(key: str, value: float) -> None:
+        if np.isfinite(value):
+            out[key] = round(float(value), 4)
+
+    if ev.mdm is not None:
+        put("mdm_peak", ev.mdm[sl, joint].max())
+        put("digression_deg", np.degrees(ev.digression[sl, joint].max()))
+        if ev.spread is not None:
+            put("neighbour_spread_deg", np.degrees(ev.spread[sl, joint].mean()))
+    put("jump_deg", np.degrees(ev.jump_size[around, joint].max()))
+    put("step_deg", np.degrees(ev.steps[around, joint].max()))
+    if "spike" in reasons:
+        put("spike_deg", np.degrees(ev.spike_size[sl, joint].max()))
+    if "noise" in reasons:
+        put("roughness_deg", np.degrees(ev.roughness[sl, joint].max()))
+    if "wrong-way-hinge" in reasons:
+        with np.errstate(invalid="ignore"):
+            put("wrong_way_deg", -np.degrees(np.nanmin(ev.hinge_flexion[sl, joint])))
+    if "frozen" in reasons:
+        put("held_seconds", ev.frozen[sl, joint].sum() / ev.fps)
+    return out
