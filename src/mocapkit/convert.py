@@ -20,6 +20,7 @@ __all__ = [
     "convert_file",
     "convert_many",
     "convert_motion",
+    "convert_one",
     "output_path",
     "units_scale",
 ]
@@ -182,12 +183,27 @@ def _error_line(source: Path, e: BaseException) -> str:
     return msg if str(source) in msg else f"{source}: {msg}"
 
 
+def convert_one(task: tuple[str | Path, str | Path, dict[str, Any]]) -> ItemResult:
+    """One input of :func:`convert_many`, ``(source, output, options)``: :func:`convert_file`,
+    or the error line naming the input (on whichever process runs it)."""
+    from mocapkit.io import MocapFileError
+
+    src, out, options = Path(task[0]), Path(task[1]), task[2]
+    try:
+        res = convert_file(src, out, **options)
+    except (MocapFileError, ValueError, KeyError, OSError) as e:
+        return ItemResult(src, None, error=_error_line(src, e))
+    return ItemResult(src, res.output, res.motion.num_frames, res.motion.fps)
+
+
 def convert_many(
     sources: Sequence[str | Path],
     out_dir: str | Path,
     to: str,
     *,
     on_item: Callable[[ItemResult], None] | None = None,
+    runner: Any = None,
+    progress: Callable[[int, int], None] | None = None,
     **options: Any,
 ) -> ConvertedMany:
     """Convert every file of ``sources`` into ``out_dir`` as ``<stem>.<to>`` (``to``: one of
@@ -196,30 +212,62 @@ def convert_many(
 
     A file that cannot be converted (unreadable, or its output name taken by an earlier input
     or by one of the inputs) is recorded with one error line and the others go on; each output
-    is written atomically on its own. ``on_item`` is called with each result as it is done.
+    is written atomically on its own. ``on_item`` is called with each result, in input order,
+    as it is done. ``runner`` (a :class:`mocapkit.batch.Runner`) runs the conversions, in this
+    process by default or on a Dask cluster: the files written are the same;
+    ``progress(done, total)`` counts its finished conversions.
     """
     from mocapkit.io import MocapFileError
     from mocapkit.io.atomic import refuse_overwrite
 
     srcs = [Path(s) for s in sources]
+    results: dict[int, ItemResult] = {}
     written: dict[Path, Path] = {}
-    items: list[ItemResult] = []
-    for src in srcs:
-        out = output_path(src, out_dir, to)
-        try:
-            key = out.resolve()
-            if key in written:
-                raise ValueError(
-                    f"{src}: its output {out} is already written from {written[key]}; "
-                    "rename one of them"
-                )
-            refuse_overwrite(out, srcs)  # never over any input, not only this one
-            res = convert_file(src, out, **options)
-            written[key] = src
-            item = ItemResult(src, res.output, res.motion.num_frames, res.motion.fps)
-        except (MocapFileError, ValueError, KeyError, OSError) as e:
-            item = ItemResult(src, None, error=_error_line(src, e))
-        items.append(item)
-        if on_item is not None:
-            on_item(item)
-    return ConvertedMany(tuple(items))
+    emitted = 0
+
+    def emit() -> None:
+        nonlocal emitted
+        while emitted in results:
+            if on_item is not None:
+                on_item(results[emitted])
+            emitted += 1
+
+    # waves: of several inputs with one output name, the first is converted, and the next
+    # only if that one failed (as one after the other would)
+    pending = list(range(len(srcs)))
+    while pending:
+        wave: list[tuple[int, Path, Path]] = []
+        later: list[int] = []
+        claimed: set[Path] = set()
+        for k in pending:
+            src = srcs[k]
+            out = output_path(src, out_dir, to)
+            try:
+                key = out.resolve()
+                if key in written:
+                    raise ValueError(
+                        f"{src}: its output {out} is already written from {written[key]}; "
+                        "rename one of them"
+                    )
+                if key in claimed:
+                    later.append(k)
+                    continue
+                refuse_overwrite(out, srcs)  # never over any input, not only this one
+            except (MocapFileError, ValueError, KeyError, OSError) as e:
+                results[k] = ItemResult(src, None, error=_error_line(src, e))
+                continue
+            claimed.add(key)
+            wave.append((k, out, key))
+        emit()
+        tasks = [(str(srcs[k]), str(out), options) for k, out, _ in wave]
+        if runner is None:
+            done = (convert_one(t) for t in tasks)
+        else:
+            done = runner.imap(convert_one, tasks, progress=progress, name="convert")
+        for (k, _, key), item in zip(wave, done, strict=True):
+            results[k] = item
+            if item.ok:
+                written[key] = srcs[k]
+            emit()
+        pending = later
+    return ConvertedMany(tuple(results[k] for k in range(len(srcs))))

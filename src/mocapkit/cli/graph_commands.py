@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from mocapkit.cli.batch_commands import job_progress, job_runner, peak_memory_line, runner_options
 from mocapkit.cli.common import (
     MOTION_SUFFIXES,
     CLIError,
@@ -19,7 +20,6 @@ from mocapkit.cli.common import (
     load_all,
     main,
     naming,
-    progress_callback,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
@@ -128,8 +128,12 @@ def _rel(path: Path, base: Path) -> str:
     help="Also write the graph as GraphML.",
 )
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@runner_options
 @friendly_errors
-def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graphml, quiet):
+def build(
+    inputs, out, metric, T, threshold, window, stride, masses, plot, graphml, quiet, workers,
+    scheduler,
+):  # fmt: skip
     """Build a motion graph from motion files and/or folders of them.
 
     Finds the local minima of the aligned window cost between every pair of frames (in tiles,
@@ -143,7 +147,13 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
       mocapkit graph build walk.bvh run.bvh --out graph.json
       mocapkit graph build clips/ --out graph.json --metric uniform --transitions 60
       mocapkit graph build clips/ --out graph.json --plot costs.png --graphml graph.graphml
+      mocapkit graph build clips/ --out graph.json --workers 8     (tiles as Dask tasks)
+
+    With --workers or --scheduler the frame-pair cost is cut into tiles that run as Dask tasks,
+    each returning only its local minima; tiles, tasks and the merge order do not depend on the
+    number of workers, so the graph is the same. The memory one worker needs is printed.
     """
+    from mocapkit.graph.distance import build_database, plan_tiles, tile_runner
     from mocapkit.graph.graph import build_graph
     from mocapkit.graph.weights import load_masses
 
@@ -160,12 +170,19 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
     with (
         naming(*files),
         all_or_nothing(),  # the graph, its GraphML and the plot: all of them or none
-        progress_callback("comparing frames", enabled=not quiet) as step,
+        job_runner(workers, scheduler) as runner,
+        job_progress("comparing frames (tile tasks)", enabled=not quiet) as step,
     ):
-        g, db, _minima = build_graph(
-            motions, metric, paths=[_rel(f, outp.parent) for f in files], transitions=T,
-            threshold=threshold, window=window, stride=stride, masses=overrides, progress=step,
-        )  # fmt: skip
+        db = build_database(motions, metric, window, masses=overrides)
+        plan = plan_tiles(db, stride, 1024, None)  # what build_graph will run
+        with tile_runner(runner):
+            g, db, _minima = build_graph(
+                motions, metric, paths=[_rel(f, outp.parent) for f in files], transitions=T,
+                threshold=threshold, window=window, stride=stride, masses=overrides,
+                progress=step, database=db,
+            )  # fmt: skip
+        where = runner.describe()
+        mem = peak_memory_line(runner)
         g.save(outp)
         wrote = [outp]
         if graphml:
@@ -190,6 +207,10 @@ def build(inputs, out, metric, T, threshold, window, stride, masses, plot, graph
         f"kept T = {g.T} ({'--transitions' if T is not None else '--threshold' if threshold is not None else 'knee rule'}): "  # noqa: E501
         f"{g.num_transitions} transitions, {int(g.in_scc.sum())} in the largest strongly "
         f"connected component ({g.scc_frames()} frames)"
+    )
+    click.echo(
+        f"tiles: {plan.num_tiles} in {len(plan.tasks)} tasks ({where}); memory per worker at "
+        f"most {plan.memory_bytes(db) / 2**20:.0f} MB (estimate), {mem}"
     )
     cov = g.coverage()
     click.echo(cov.summary())

@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from mocapkit.cli.batch_commands import job_progress, job_runner, runner_options
 from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
@@ -24,7 +25,6 @@ from mocapkit.cli.common import (
     naming,
     one_line,
     os_error_line,
-    progress,
     up_option,
 )
 from mocapkit.convert import FOLDER_FORMATS, ConvertedMany, ItemResult, convert_file, convert_many
@@ -119,6 +119,27 @@ def _info_one(path: Path, up: str | None, units: str | None, lenient: bool) -> d
     return out
 
 
+def info_item(task: tuple[str, Path | None, str | None, str | None, str | None, bool]) -> Any:
+    """One entry of ``info``: ``(name, file, error, up, units, lenient)`` -> its JSON object, or
+    ``{"path", "error"}`` with one line (on whichever process runs it)."""
+    name, f, error, up, units, lenient = task
+    try:
+        if f is None:
+            raise CLIError(error or name)
+        if f.suffix.lower() == ".amc":
+            check_amc(f)
+        with naming(f):
+            return _info_one(f, up, units, lenient)
+    except (CLIError, MocapFileError, OSError) as e:
+        if isinstance(e, CLIError):
+            msg = e.message
+        elif isinstance(e, MocapFileError):
+            msg = one_line(e)
+        else:
+            msg = one_line(os_error_line(e))
+        return {"path": name, "error": msg}
+
+
 @main.command()
 @click.argument("files", nargs=-1, required=True, metavar="FILE_DIR_OR_GLOB...")
 @click.option(
@@ -137,6 +158,7 @@ def _info_one(path: Path, up: str | None, units: str | None, lenient: bool) -> d
 )
 @click.option("--tree", is_flag=True, help="Also print the hierarchy with each joint's body part.")
 @LENIENT
+@runner_options
 @friendly_errors
 def info(
     files: tuple[str, ...],
@@ -145,6 +167,8 @@ def info(
     units: str | None,
     tree: bool,
     lenient: bool,
+    workers: int | None,
+    scheduler: str | None,
 ) -> None:
     """Summarise motion files: joints, channels, frames, fps, units, bounding box, contacts.
 
@@ -163,6 +187,7 @@ def info(
       mocapkit info --json 'clips/**/*.bvh' takes/
       mocapkit info --up Z --units cm zup_clip.bvh
       mocapkit info --tree take.bvh              (hierarchy: Hips (pelvis), LeftUpLeg (left_hip)...)
+      mocapkit info --json lib/ --workers 8       (a local Dask cluster; same JSON)
     """
     single = is_single_file(files)
     entries: list[tuple[str, Path | None, str | None]] = []  # (name, file, error)
@@ -180,26 +205,13 @@ def info(
                 entries.append((str(f), f, None))
     results: list[dict[str, Any]] = []
     failed = 0
-    with progress(len(entries), "reading") as step:
-        for name, f, error in entries:
-            try:
-                if f is None:
-                    raise CLIError(error or name)
-                if f.suffix.lower() == ".amc":
-                    check_amc(f)
-                with naming(f):
-                    results.append(_info_one(f, up, units, lenient))
-            except (CLIError, MocapFileError, OSError) as e:
+    tasks = [(name, f, error, up, units, lenient) for name, f, error in entries]
+    with job_runner(workers, scheduler) as runner, job_progress("reading", len(tasks) > 1) as step:
+        for out in runner.imap(info_item, tasks, progress=step, name="info"):
+            if set(out) == {"path", "error"}:
                 failed += 1
-                if isinstance(e, CLIError):
-                    msg = e.message
-                elif isinstance(e, MocapFileError):
-                    msg = one_line(e)
-                else:
-                    msg = one_line(os_error_line(e))
-                click.echo(f"mocapkit: error: {msg}", err=True)
-                results.append({"path": name, "error": msg})
-            step()
+                click.echo(f"mocapkit: error: {out['error']}", err=True)
+            results.append(out)
     if as_json:
         if single:
             if failed == 0:
@@ -261,6 +273,7 @@ CONVERT_INPUTS = (*MOTION_SUFFIXES, ".glb", ".gltf")
     help="Frame rate of AMC input (AMC files do not store it).",
 )
 @LENIENT
+@runner_options
 @friendly_errors
 def convert(
     inputs: tuple[str, ...],
@@ -272,6 +285,8 @@ def convert(
     units: str | None,
     amc_fps: float,
     lenient: bool,
+    workers: int | None,
+    scheduler: str | None,
 ) -> None:
     """Convert IN to OUT: BVH/.npz/ASF+AMC -> BVH, .npz or glTF 2.0 (.glb, .gltf).
 
@@ -294,6 +309,7 @@ def convert(
       mocapkit convert 01.asf 01_01.amc 01_01.bvh --units cm   (BVH cannot state units)
       mocapkit convert lib/ --out-dir lib_glb/ --to glb         (every motion of a folder)
       mocapkit convert 'takes/*.bvh' --out-dir npz/ --to npz --fps 60
+      mocapkit convert lib/ --out-dir out/ --to bvh --fps 30 --workers 8   (on Dask)
     """
     options = {
         "fps": fps,
@@ -308,8 +324,10 @@ def convert(
             raise CLIError(
                 "folder mode needs both --out-dir and --to (e.g. --out-dir out/ --to glb)"
             )
-        _convert_folder(inputs, out_dir, to.lower(), options)
+        _convert_folder(inputs, out_dir, to.lower(), options, workers, scheduler)
         return
+    if workers is not None or scheduler is not None:
+        raise CLIError("--workers and --scheduler are for folder mode (--out-dir and --to)")
     from mocapkit.io import WRITABLE
 
     if len(inputs) < 2:
@@ -338,7 +356,12 @@ def convert(
 
 
 def _convert_folder(
-    inputs: tuple[str, ...], out_dir: str, to: str, options: dict[str, Any]
+    inputs: tuple[str, ...],
+    out_dir: str,
+    to: str,
+    options: dict[str, Any],
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> ConvertedMany:
     """``convert --out-dir --to``: every input named by ``inputs`` (an item naming none is one
     error line), one line per file as it is done, exit status 2 at the end if any failed."""
@@ -366,13 +389,11 @@ def _convert_folder(
         else:
             click.echo(f"mocapkit: error: {one_line(item.error)}", err=True)
 
-    with progress(len(unique), "converting") as step:
-
-        def on_item(item: ItemResult) -> None:
-            report(item)
-            step()
-
-        res = convert_many(unique, out, to, on_item=on_item, **options)
+    with (
+        job_runner(workers, scheduler) as runner,
+        job_progress("converting", len(unique) > 1) as step,
+    ):
+        res = convert_many(unique, out, to, on_item=report, runner=runner, progress=step, **options)
     failed += len(res.failed)
     done = len(res.items) - len(res.failed)
     click.echo(

@@ -29,7 +29,9 @@ well conditioned.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+import contextvars
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numba
@@ -49,13 +51,21 @@ __all__ = [
     "DEFAULT_BUCKET_SECONDS",
     "DEFAULT_PER_BUCKET",
     "DEFAULT_WINDOW",
+    "TILES_PER_TASK",
     "CostDatabase",
     "MinimaReducer",
+    "TileMinima",
+    "TilePlan",
+    "TileTask",
     "build_database",
     "cost_matrix",
     "cost_tile",
+    "merge_tile_minima",
     "pair_alignment",
     "pair_costs",
+    "plan_tiles",
+    "tile_runner",
+    "tile_task_minima",
     "tiled_local_minima",
     "window_weights",
 ]
@@ -809,6 +819,214 @@ class MinimaReducer:
         return ci[first].astype(np.int64), cj[first].astype(np.int64), cc[first]
 
 
+#: Tiles per task of :func:`tiled_local_minima`: a fixed number, not a function of the number
+#: of workers, so that the tasks, each task's reduction and the merge order (task order) are the
+#: same wherever and on however many workers the tiles run.
+TILES_PER_TASK = 16
+
+
+@dataclass(frozen=True)
+class TileTask:
+    """One task of the tiled cost: consecutive tiles ``(row start, column start)`` (positions in
+    the plan's grid; upper triangle, row-major order)."""
+
+    index: int
+    tiles: tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True, eq=False)
+class TilePlan:
+    """How :func:`tiled_local_minima` cuts the upper triangle of the grid's cost matrix into
+    tiles and tasks, and the settings of the reduction; it depends on the library and the
+    settings only."""
+
+    grid: np.ndarray
+    stride: int
+    tile: int
+    dtype: str
+    gap: int
+    bucket_frames: int
+    per_bucket: int
+    max_candidates: int
+    tasks: tuple[TileTask, ...]
+
+    @property
+    def num_tiles(self) -> int:
+        return sum(len(t.tiles) for t in self.tasks)
+
+    def pairs(self) -> int:
+        """Cells evaluated (halo included), over every tile."""
+        G = len(self.grid)
+        n = 0
+        for t in self.tasks:
+            for ra, ca in t.tiles:
+                n += (min(ra + self.tile, G - 1) - ra + 2) * (min(ca + self.tile, G - 1) - ca + 2)
+        return n
+
+    def memory_bytes(self, db: CostDatabase) -> int:
+        """An upper estimate of the memory one process needs to run a task (bytes): the
+        database (every worker holds a copy; O(frames)), one tile's window features (rows and
+        columns, with their float64 intermediates), one tile's products and its minima mask,
+        and the task's reducer. Independent of the number of tiles: no process holds N x N."""
+        item = np.dtype(self.dtype).itemsize
+        K = len(db.window)
+        P = db.coords.shape[1]
+        n = self.tile + 2
+        side = n * K * P * (11 * 8 + 20 * item)
+        tile = n * n * (8 * item + 1 + 8)
+        buckets = -(-db.num_frames // max(1, self.bucket_frames)) + db.num_clips
+        reducer = buckets * max(1, self.per_bucket) * 32 + db.num_frames * 16
+        reducer += 2 * self.max_candidates * 24
+        return int(_database_bytes(db) + 2 * side + tile + reducer + len(self.grid) * 32)
+
+
+def _database_bytes(db: CostDatabase) -> int:
+    arrays = (db.coords, db.centre, db.point_frame, db.point_static, db.starts, db.support,
+              db.foot_contacts)  # fmt: skip
+    return int(sum(a.nbytes for a in arrays))
+
+
+def plan_tiles(
+    db: CostDatabase,
+    stride: int | None = 1,
+    tile: int = 1024,
+    dtype: type | None = np.float32,
+    min_gap: int | None = None,
+    max_candidates: int = 200_000,
+    bucket_seconds: float = DEFAULT_BUCKET_SECONDS,
+    per_bucket: int = DEFAULT_PER_BUCKET,
+    tiles_per_task: int = TILES_PER_TASK,
+) -> TilePlan:
+    """The tiles and tasks of :func:`tiled_local_minima` (see its arguments); ``stride`` and
+    ``dtype`` None: :func:`mocapkit.graph.build_graph`'s defaults."""
+    if stride is None:
+        from mocapkit.graph.graph import default_stride
+
+        stride = default_stride(db.num_frames)
+    if dtype is None:
+        dtype = np.float64 if db.num_frames <= 20000 else np.float32
+    if tile < 8:
+        raise ValueError("tile must be >= 8")
+    if tiles_per_task < 1:
+        raise ValueError(f"tiles_per_task must be >= 1, got {tiles_per_task}")
+    if np.dtype(dtype) not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise ValueError("dtype must be numpy.float64 or numpy.float32")
+    grid = candidate_grid(db, stride)
+    G = len(grid)
+    starts = list(range(1, G - 1, tile))
+    tiles = [(ra, ca) for ra in starts for ca in starts if ca >= ra]
+    tasks = tuple(
+        TileTask(k, tuple(tiles[a : a + tiles_per_task]))
+        for k, a in enumerate(range(0, len(tiles), tiles_per_task))
+    )
+    return TilePlan(
+        grid,
+        int(stride),
+        int(tile),
+        np.dtype(dtype).name,
+        (2 * db.half + 1) if min_gap is None else int(min_gap),
+        max(1, round(bucket_seconds * db.fps)),
+        int(per_bucket),
+        int(max_candidates),
+        tasks,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class TileMinima:
+    """What one task returns: its tiles' local minima, reduced by its own
+    :class:`MinimaReducer` (the global part ``i, j, cost`` and the per-bucket part ``bi, bj,
+    bc``), the cells it evaluated and its seconds."""
+
+    index: int
+    i: np.ndarray
+    j: np.ndarray
+    cost: np.ndarray
+    bi: np.ndarray
+    bj: np.ndarray
+    bc: np.ndarray
+    pairs: int
+    seconds: float
+
+
+def tile_task_minima(shared: tuple[CostDatabase, TilePlan], task: TileTask) -> TileMinima:
+    """Run one task of a :class:`TilePlan` (``shared`` = the database and the plan, sent once to
+    each worker): every tile's cost, its local minima, reduced."""
+    import time
+
+    db, plan = shared
+    t0 = time.perf_counter()
+    dtype = np.dtype(plan.dtype).type
+    grid = plan.grid
+    G = len(grid)
+    clip = db.clip_of(np.maximum(grid, 0))
+    idx = np.maximum(grid, 0)
+    sep = grid < 0
+    Wk_s = _support_window(db, dtype)
+    reducer = MinimaReducer(db.starts, plan.bucket_frames, plan.per_bucket, plan.max_candidates)
+    bufs: dict[str, np.ndarray] = {}
+    mins_buf: np.ndarray | None = None
+    row_at = -1
+    rpack = None
+    pairs = 0
+    for ra, ca in task.tiles:
+        rb = min(ra + plan.tile, G - 1)
+        rows = np.arange(ra - 1, rb + 1)
+        if ra != row_at:
+            rpack = _row_pack(_side(db, idx[rows], dtype), Wk_s)
+            row_at = ra
+        cb = min(ca + plan.tile, G - 1)
+        cols = np.arange(ca - 1, cb + 1)
+        cpack = _col_pack(_side(db, idx[cols], dtype), Wk_s)
+        t = _tile_cost_packed(rpack, cpack, bufs)
+        t[sep[rows], :] = np.inf
+        t[:, sep[cols]] = np.inf
+        pairs += t.size
+        mins = mins_buf = _local_minima(t, mins_buf)
+        flat = np.flatnonzero(mins)
+        mi, mj = np.divmod(flat, mins.shape[1])
+        gi, gj = rows[mi + 1], cols[mj + 1]
+        sel = gj > gi
+        gi, gj = gi[sel], gj[sel]
+        fi, fj = grid[gi], grid[gj]
+        near = (clip[gi] == clip[gj]) & (np.abs(fj - fi) < plan.gap)
+        fi, fj = fi[~near], fj[~near]
+        cv = t[mi[sel][~near] + 1, mj[sel][~near] + 1].astype(np.float64)
+        reducer.add(fi, fj, cv)
+    reducer._compact()
+    keep = reducer.best_p >= 0
+    empty_i, empty_c = np.zeros(0, np.int64), np.zeros(0)
+    return TileMinima(
+        task.index,
+        reducer._i[0] if reducer._i else empty_i,
+        reducer._j[0] if reducer._j else empty_i,
+        reducer._c[0] if reducer._c else empty_c,
+        reducer.best_i[keep],
+        reducer.best_j[keep],
+        reducer.best_c[keep],
+        pairs,
+        time.perf_counter() - t0,
+    )
+
+
+class TileMapper:
+    """What runs the tasks of :func:`tiled_local_minima`: anything with ``imap(fn, items, *,
+    shared, progress)`` yielding ``fn(shared, item)`` in input order (e.g.
+    :class:`mocapkit.batch.Runner`, in-process or on Dask)."""
+
+    def imap(self, fn, items, *, shared=None, progress=None, name=None):  # pragma: no cover
+        raise NotImplementedError
+
+
+def _in_process_imap(fn, items, shared, progress):
+    items = list(items)
+    for n, item in enumerate(items):
+        out = fn(shared, item)
+        if progress is not None:
+            progress(n + 1, len(items))
+        yield out
+
+
 def tiled_local_minima(
     db: CostDatabase,
     stride: int = 1,
@@ -819,6 +1037,9 @@ def tiled_local_minima(
     progress: Callable[[int, int], None] | None = None,
     bucket_seconds: float = DEFAULT_BUCKET_SECONDS,
     per_bucket: int = DEFAULT_PER_BUCKET,
+    *,
+    runner: TileMapper | None = None,
+    tiles_per_task: int = TILES_PER_TASK,
 ) -> MinimaResult:
     """Local minima of the cost matrix over a stride grid, computed tile by tile (upper
     triangle; the cost is symmetric), never holding more than one tile (+ 1-cell halo).
@@ -827,68 +1048,74 @@ def tiled_local_minima(
     dropped. The tiles' minima are reduced by a :class:`MinimaReducer`: the ``max_candidates``
     cheapest, plus, for every ``bucket_seconds`` piece of every clip, its cheapest minimum with
     each of its ``per_bucket`` cheapest partner clips (``per_bucket=0``: the global list only).
-    ``progress(done, total)`` is called after each tile.
+
+    The tiles are grouped into tasks of ``tiles_per_task`` (:func:`plan_tiles`); each task
+    reduces its own tiles (:func:`tile_task_minima`) and the tasks' reductions are merged in
+    task order, so the result is the same whether the tasks run here or on ``runner`` (e.g. a
+    :class:`mocapkit.batch.Runner` on a Dask cluster), on any number of workers.
+    ``progress(done, total)`` is called after each task.
     """
     import time
 
-    if tile < 8:
-        raise ValueError("tile must be >= 8")
     t0 = time.perf_counter()
-    grid = candidate_grid(db, stride)
-    G = len(grid)
-    gap = (2 * db.half + 1) if min_gap is None else int(min_gap)
-    clip = db.clip_of(np.maximum(grid, 0))
-    idx = np.maximum(grid, 0)
-    sep = grid < 0
-    starts = list(range(1, G - 1, tile))
-    total = len(starts) * (len(starts) + 1) // 2
-    done = 0
-    pairs = 0
-    Wk_s = _support_window(db, dtype)
-    reducer = MinimaReducer(
-        db.starts, max(1, round(bucket_seconds * db.fps)), per_bucket, max_candidates
+    plan = plan_tiles(db, stride, tile, dtype, min_gap, max_candidates, bucket_seconds,
+                      per_bucket, tiles_per_task)  # fmt: skip
+    return merge_tile_minima(db, plan, _run_plan(db, plan, runner, progress), t0)
+
+
+_TILE_RUNNER: contextvars.ContextVar[TileMapper | None] = contextvars.ContextVar(
+    "mocapkit_tile_runner", default=None
+)
+
+
+@contextlib.contextmanager
+def tile_runner(runner: TileMapper | None) -> Iterator[None]:
+    """Inside the block, :func:`tiled_local_minima` calls that give no ``runner`` (e.g. through
+    :func:`mocapkit.graph.build_graph`) run their tasks on ``runner``."""
+    token = _TILE_RUNNER.set(runner)
+    try:
+        yield
+    finally:
+        _TILE_RUNNER.reset(token)
+
+
+def _run_plan(db, plan, runner, progress):
+    runner = runner if runner is not None else _TILE_RUNNER.get()
+    if runner is None:
+        return _in_process_imap(tile_task_minima, plan.tasks, (db, plan), progress)
+    return runner.imap(
+        tile_task_minima, plan.tasks, shared=(db, plan), progress=progress, name="graph-tiles"
     )
-    col_cache: dict[int, _ColPack] = {}
-    bufs: dict[str, np.ndarray] = {}
-    mins_buf: np.ndarray | None = None
-    for ra in starts:
-        rb = min(ra + tile, G - 1)
-        rows = np.arange(ra - 1, rb + 1)
-        rpack = _row_pack(_side(db, idx[rows], dtype), Wk_s)
-        for ca in starts:
-            if ca < ra:
-                continue
-            cb = min(ca + tile, G - 1)
-            cols = np.arange(ca - 1, cb + 1)
-            if ca not in col_cache:
-                col_cache[ca] = _col_pack(_side(db, idx[cols], dtype), Wk_s)
-            t = _tile_cost_packed(rpack, col_cache[ca], bufs)
-            t[sep[rows], :] = np.inf
-            t[:, sep[cols]] = np.inf
-            pairs += t.size
-            mins = mins_buf = _local_minima(t, mins_buf)
-            flat = np.flatnonzero(mins)
-            mi, mj = np.divmod(flat, mins.shape[1])
-            gi, gj = rows[mi + 1], cols[mj + 1]
-            sel = gj > gi
-            gi, gj = gi[sel], gj[sel]
-            fi, fj = grid[gi], grid[gj]
-            near = (clip[gi] == clip[gj]) & (np.abs(fj - fi) < gap)
-            fi, fj = fi[~near], fj[~near]
-            cv = t[mi[sel][~near] + 1, mj[sel][~near] + 1].astype(np.float64)
-            reducer.add(fi, fj, cv)
-            done += 1
-            if progress is not None:
-                progress(done, total)
-        col_cache.pop(ra, None)  # later row blocks never use this column block again
+
+
+def merge_tile_minima(
+    db: CostDatabase, plan: TilePlan, parts, t0: float | None = None
+) -> MinimaResult:
+    """Merge the tasks' :class:`TileMinima` (given in task order) into the
+    :class:`MinimaResult` of :func:`tiled_local_minima`."""
+    import time
+
+    t0 = time.perf_counter() if t0 is None else t0
+    reducer = MinimaReducer(db.starts, plan.bucket_frames, plan.per_bucket, plan.max_candidates)
+    pairs = 0
+    expect = 0
+    for part in parts:
+        if part.index != expect:
+            raise ValueError(f"tile task {part.index} given where task {expect} was expected")
+        expect += 1
+        reducer.add(part.bi, part.bj, part.bc, to_global=False)
+        reducer.add(part.i, part.j, part.cost)
+        pairs += part.pairs
+    if expect != len(plan.tasks):
+        raise ValueError(f"{expect} of {len(plan.tasks)} tile tasks given")
     ci, cj, cc = reducer.result()
     return MinimaResult(
         ci,
         cj,
         cc,
-        stride,
+        plan.stride,
         pairs,
         float(pairs) * db.flops_per_pair(),
         time.perf_counter() - t0,
-        np.dtype(dtype).name,
+        plan.dtype,
     )

@@ -1,0 +1,208 @@
+"""Library jobs on the command line: the ``--workers`` / ``--scheduler`` options every library
+command takes, the job progress bar, and ``mocapkit clean-library`` (registered on import)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import click
+
+from mocapkit.batch.runner import RUNNER_HELP, JobError, Runner
+from mocapkit.cli.common import CLIError, friendly_errors, main, one_line
+
+
+def runner_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """``--workers N`` and ``--scheduler ADDRESS`` (see :class:`mocapkit.batch.Runner`)."""
+    fn = click.option(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="Run the job on a running Dask cluster (e.g. tcp://127.0.0.1:8786, started with "
+        "`dask scheduler` and `dask worker ADDRESS`); its workers must see the same files.",
+    )(fn)
+    return click.option(
+        "--workers",
+        type=click.IntRange(min=1),
+        default=None,
+        metavar="N",
+        help="Run the job on a local Dask cluster of N worker processes (started and stopped "
+        "here). " + RUNNER_HELP.split(";", 1)[1].strip().capitalize(),
+    )(fn)
+
+
+@contextmanager
+def job_runner(workers: int | None, scheduler: str | None) -> Iterator[Runner]:
+    """The job's :class:`Runner` (started, closed at the end); a cluster failure is one line."""
+    if workers is not None and scheduler is not None:
+        raise CLIError("give --workers or --scheduler, not both")
+    runner = Runner(workers, scheduler)
+    try:
+        runner.start()
+        yield runner
+    except JobError as e:
+        raise CLIError(one_line(e)) from None
+    finally:
+        runner.close()
+
+
+@contextmanager
+def job_progress(description: str, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
+    """One progress bar over a whole job on stderr (tasks done / total, throughput, ETA), fed
+    by the runner's completion events; shown only when stderr is a terminal."""
+    from rich.console import Console
+
+    console = Console(stderr=True)
+    if not enabled or not console.is_terminal:
+        yield lambda done, total: None
+        return
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    t0 = time.perf_counter()
+    with Progress(
+        TextColumn("{task.description}", markup=False),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task(description, total=None, rate="")
+
+        def update(done: int, total: int) -> None:
+            dt = time.perf_counter() - t0
+            rate = f"{done / dt:.1f}/s" if dt > 0 and done else ""
+            bar.update(task, completed=done, total=total, rate=rate)
+
+        yield update
+
+
+def _mb(n: int) -> str:
+    return f"{n / 2**20:.0f} MB"
+
+
+def peak_memory_line(runner: Runner) -> str:
+    """Peak resident memory of the processes that ran the job's tasks."""
+    peaks = runner.stats.peak_rss
+    if not peaks:
+        return "peak memory: no task ran"
+    where = "this process" if runner.mode == "in-process" else f"{len(peaks)} worker(s)"
+    return f"peak memory per worker: {_mb(max(peaks.values()))} ({where})"
+
+
+@main.command("clean-library")
+@click.argument("library", metavar="LIB", type=click.Path(file_okay=False, exists=True))
+@click.option(
+    "--out-dir",
+    required=True,
+    metavar="DIR",
+    help="Where the repaired takes go (DIR/<take>.bvh; not inside LIB).",
+)
+@click.option(
+    "--report-dir",
+    required=True,
+    metavar="DIR",
+    help="Where the reports go: DIR/takes/<take>.json, DIR/summary.json (every flagged segment) "
+    "and DIR/overview.html (takes ranked by flagged seconds).",
+)
+@click.option(
+    "--context-by",
+    type=click.Choice(["folder", "prefix", "all"]),
+    default="prefix",
+    show_default=True,
+    help="Related takes: the same folder (CMU's subject folders), the same folder and name up "
+    "to its last '_' (Bandai's content_style_NNN), or every take.",
+)
+@click.option(
+    "--context-max",
+    type=click.IntRange(min=0),
+    default=8,
+    show_default=True,
+    help="At most this many related takes per take (the nearest in name order).",
+)
+@click.option("--threshold", type=click.FloatRange(0.0, 1.0), default=None,
+              help="MDM threshold (default: mocapkit clean's).")  # fmt: skip
+@click.option("--two-stage", is_flag=True, help="As in mocapkit clean.")
+@click.option(
+    "--lenient",
+    is_flag=True,
+    help="Repair what is safe when reading (frame-count mismatch, blank or truncated rows).",
+)
+@runner_options
+@click.option("--quiet", is_flag=True, help="No progress bar and no line per take.")
+@friendly_errors
+def clean_library_command(
+    library: str,
+    out_dir: str,
+    report_dir: str,
+    context_by: str,
+    context_max: int,
+    threshold: float | None,
+    two_stage: bool,
+    lenient: bool,
+    workers: int | None,
+    scheduler: str | None,
+    quiet: bool,
+) -> None:
+    """Clean every take of a library folder against its related takes (mocapkit clean on each
+    take), with one report per take and a library summary.
+
+    Each take's outputs are written atomically, then its manifest entry (hashes of the take, its
+    context takes, the settings and the mocapkit version): a rerun skips the takes that are
+    complete and unchanged, so an interrupted job resumes. A take that cannot be read or cleaned
+    is listed in the summary and the others go on (exit status 2 at the end). The outputs are
+    the same bytes in-process, with --workers or on --scheduler.
+
+    \b
+    Examples:
+      mocapkit clean-library bandai/ --out-dir fixed/ --report-dir reports/
+      mocapkit clean-library cmu/ --out-dir fixed/ --report-dir reports/ --context-by folder
+      mocapkit clean-library lib/ --out-dir fixed/ --report-dir reports/ --workers 8
+      mocapkit clean-library lib/ --out-dir fixed/ --report-dir reports/ \\
+          --scheduler tcp://127.0.0.1:8786
+    """
+    from mocapkit.batch.clean_library import LibraryCleanConfig, clean_library
+
+    config = LibraryCleanConfig(context_by, context_max, threshold, two_stage, lenient)
+
+    def on_take(r: dict[str, Any]) -> None:
+        if "error" in r:
+            click.echo(f"mocapkit: error: {one_line(r['error'])}", err=True)
+        elif not quiet and r["flagged_seconds"] > 0:
+            worst = ", ".join(w["joint"] for w in r["worst_joints"][:3])
+            click.echo(f"{r['take']}: {r['flagged_seconds']:.2f} s flagged ({worst})")
+
+    t0 = time.perf_counter()
+    with (
+        job_runner(workers, scheduler) as runner,
+        job_progress("cleaning takes", enabled=not quiet) as step,
+    ):
+        res = clean_library(
+            library, out_dir, report_dir, config, runner=runner, progress=step, on_take=on_take
+        )
+        where = runner.describe()
+        mem = peak_memory_line(runner)
+    dt = time.perf_counter() - t0
+    n = len(res.records)
+    rate = res.cleaned / dt if dt > 0 else 0.0
+    click.echo(
+        f"{n} takes: {res.cleaned} cleaned ({where}, {dt:.1f} s, {rate:.1f} takes/s), "
+        f"{res.resumed} already complete, {len(res.failed)} failed"
+    )
+    if not quiet:
+        click.echo(mem)
+    click.echo(f"wrote {res.summary_path} and {res.overview_path}")
+    if res.failed:
+        raise click.exceptions.Exit(2)
