@@ -4,7 +4,9 @@ or one of the paper's rotation baselines), repairs the flagged cells and returns
 
     from mocapkit.clean import run
     report = run(take, [ctx1, ctx2], source="take.bvh", context_names=["a.bvh", "b.bvh"])
-    report.segments              # flagged runs (Segment: joint, start, end, peak)
+    report.segments              # flagged runs (Segment: joint, start, end, peak, reasons,
+                                 #   evidence)
+    report.explanations          # with explain=[("LeftArm", 120)]: why each cell was flagged
     report.motion                # the repaired take
     report.to_json()             # what `mocapkit clean --report` writes
 """
@@ -19,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from mocapkit.clean.cleaner import THRESHOLD, Progress, Segment, SelfSimilarityCleaner
+from mocapkit.clean.cleaner import Progress, Segment, SelfSimilarityCleaner
+from mocapkit.clean.detect import DetectConfig, Explanation
 from mocapkit.clean.repair import ContactConstraint, RepairResult
 from mocapkit.core.motion import Motion
 
@@ -42,6 +45,11 @@ class CleanReport:
         analysis_seconds: wall time of the analysis and repair.
         output: where the repaired take is written (recorded in the report only).
         cleaner: the fitted :class:`SelfSimilarityCleaner` (its neighbours and maps).
+        config: the :class:`~mocapkit.clean.detect.DetectConfig` used; rules: the rules that
+            ran, in order.
+        decision: (F, J) int8, per flagged cell the index in ``reason_names`` of the first rule
+            that flagged it, -1 elsewhere (the heat map's top panel).
+        explanations: :class:`~mocapkit.clean.detect.Explanation` of the cells asked for.
     """
 
     source: str
@@ -59,6 +67,11 @@ class CleanReport:
     analysis_seconds: float
     output: str | None = None
     cleaner: SelfSimilarityCleaner | None = None
+    config: DetectConfig | None = None
+    rules: tuple[str, ...] = ()
+    decision: np.ndarray | None = None
+    reason_names: tuple[str, ...] = ()
+    explanations: tuple[Explanation, ...] = ()
 
     @property
     def motion(self) -> Motion:
@@ -84,12 +97,15 @@ class CleanReport:
             "method": self.method,
             "two_stage": self.two_stage,
             "context": list(self.context),
+            "rules": list(self.rules),
+            "config": None if self.config is None else self.config.as_dict(),
             "segments": [s.as_dict() for s in self.segments],
             "flagged_cells": self.flagged_cells,
             "repaired_cells": self.repaired_cells,
             "blend_margin_frames": self.repair.margin,
             "analysis_seconds": round(self.analysis_seconds, 3),
             "output": self.output,
+            "explain": [e.to_json() for e in self.explanations],
         }
 
     def save_mdm(self, path: str | Path) -> Path:
@@ -107,7 +123,7 @@ def _baseline_segments(mask: np.ndarray, names: Sequence[str]) -> tuple[Segment,
     from mocapkit.core.runs import true_runs
 
     return tuple(
-        Segment(names[j], j, a, b, 1.0)
+        Segment(names[j], j, a, b, 1.0, ("baseline",), {"frames": b - a + 1})
         for j in range(mask.shape[1])
         for a, b in true_runs(mask[:, j])
     )
@@ -117,9 +133,11 @@ def run(
     motion: Motion,
     context: Sequence[Motion] = (),
     *,
-    threshold: float = THRESHOLD,
-    two_stage: bool = False,
+    threshold: float | None = None,
+    two_stage: bool | None = None,
+    config: DetectConfig | None = None,
     baseline: str | None = None,
+    explain: Sequence[tuple[str | int, int]] = (),
     contacts: Sequence[ContactConstraint] = (),
     source: str | Path = "",
     context_names: Sequence[str | Path] | None = None,
@@ -128,12 +146,14 @@ def run(
 ) -> CleanReport:
     """Find the erroneous cells of ``motion`` and repair them.
 
-    Detection: :class:`SelfSimilarityCleaner` (``threshold``, ``two_stage``) against the take
-    itself and the ``context`` takes, or with ``baseline`` ("a", "b", "c") the paper's rotation
-    baselines (:class:`~mocapkit.clean.baselines.RotationBaseline`) learned from ``context``
-    (required then). Repair: the KNN words' median in either case, keeping the ``contacts``.
+    Detection: :class:`SelfSimilarityCleaner` (``config``; ``threshold`` and ``two_stage``,
+    when given, replace the config's) against the take itself and the ``context`` takes, or
+    with ``baseline`` ("a", "b", "c") the paper's rotation baselines
+    (:class:`~mocapkit.clean.baselines.RotationBaseline`) learned from ``context`` (required
+    then). Repair: the KNN words' median in either case, keeping the ``contacts``.
     ``source``, ``context_names`` and ``output`` are only recorded in the report.
-    ``progress(stage, done, total)`` is called as the search advances.
+    ``progress(stage, done, total)`` is called as the search advances. ``explain``: cells
+    ``(joint name or index, frame)`` whose verdict the report explains.
     """
     from mocapkit.clean.baselines import RotationBaseline
 
@@ -145,18 +165,35 @@ def run(
             "the baselines need context takes (--context): their limits are learned from clean "
             "takes"
         )
+    cfg = config or DetectConfig()
+    changes = {}
+    if threshold is not None:
+        changes["threshold"] = float(threshold)
+    if two_stage is not None:
+        changes["two_stage"] = bool(two_stage)
+    cfg = cfg.replace(**changes) if changes else cfg
     t0 = time.perf_counter()
-    cleaner = SelfSimilarityCleaner(threshold=threshold, two_stage=two_stage)
+    cleaner = SelfSimilarityCleaner(config=cfg)
     cleaner.fit(motion, context, progress=progress, names=names)
     joint_names = tuple(motion.skeleton.names)
+    explanations = tuple(cleaner.explain(j, f) for j, f in explain)
     if baseline is None:
         mdm = cleaner.scores().astype(np.float32)
-        mask = cleaner.mask()
+        flags = cleaner.flags()
+        mask = flags.mask.copy()
         segments = tuple(cleaner.segments())
+        rules = tuple(cleaner.rule_names())
+        reason_names = tuple(
+            r for r in rules if r in flags.added and (flags.added[r] & mask).any()
+        )
+        decision = flags.primary(list(reason_names))
     else:
         mask = RotationBaseline(baseline).fit(list(context)).mask(motion)
         mdm = mask.astype(np.float32)
         segments = _baseline_segments(mask, joint_names)
+        rules = ("baseline",)
+        reason_names = ("baseline",)
+        decision = np.where(mask, 0, -1).astype(np.int8)
     result = cleaner.repair(mask=mask, contacts=contacts)
     elapsed = time.perf_counter() - t0
     return CleanReport(
@@ -164,9 +201,9 @@ def run(
         fps=motion.fps,
         frames=motion.num_frames,
         joints=joint_names,
-        threshold=threshold,
+        threshold=cfg.threshold,
         method=f"baseline {baseline}" if baseline else "self-similarity",
-        two_stage=two_stage,
+        two_stage=cfg.two_stage,
         context=tuple(names)
         if names is not None
         else tuple(f"context{i}" for i in range(len(context))),
@@ -177,4 +214,9 @@ def run(
         analysis_seconds=elapsed,
         output=None if output is None else str(output),
         cleaner=cleaner,
+        config=cfg,
+        rules=rules,
+        decision=decision,
+        reason_names=reason_names,
+        explanations=explanations,
     )

@@ -81,6 +81,25 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     return c
 
 
+def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
+    """``JOINT:FRAME`` -> (joint index, frame). FRAME is a 0-based frame or seconds (``1.5s``);
+    the last ``:`` separates, so joint names with colons (``mixamorig:LeftHand``) work."""
+    form = "JOINT:FRAME (a 0-based frame, or seconds like 1.5s)"
+    if ":" not in spec:
+        raise CLIError(f"--explain {spec!r}: expected {form}")
+    joint, when = spec.rsplit(":", 1)
+    names = list(motion.skeleton.names)
+    if joint not in names:
+        raise CLIError(f"--explain {spec!r}: no joint named {joint!r}")
+    try:
+        frame = round(float(when[:-1]) * motion.fps) if when.endswith("s") else int(when)
+    except (ValueError, OverflowError):
+        raise CLIError(f"--explain {spec!r}: expected {form}") from None
+    if not 0 <= frame < motion.num_frames:
+        raise CLIError(f"--explain {spec!r}: frame {frame} outside 0-{motion.num_frames - 1}")
+    return names.index(joint), frame
+
+
 @main.command("clean")
 @click.argument("input_path", metavar="IN")
 @click.option(
@@ -103,11 +122,9 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     type=click.FloatRange(0.0, 1.0),
     default=THRESHOLD,
     show_default=True,
-    help="MDM level a flagged stretch of a joint extends down to; a stretch is flagged only "
-    "if it holds a near-certain cell or an abrupt jump, lies between two jumps that cancel, "
-    "leaves the joint's smooth path, or is a frozen run; smooth stretches and motifs the "
-    "joint repeats elsewhere are not flagged. Noise bursts and wrong-way knee or elbow bends "
-    "are flagged whatever the MDM.",
+    help="MDM level a flagged stretch of a joint extends down to (DetectConfig.threshold); "
+    "the rules of mocapkit.clean.detect.PIPELINE decide which stretches are flagged, and "
+    "--explain shows their verdicts on one cell.",
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
@@ -140,6 +157,14 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     "IK pins it. Without X,Y,Z the point is where the input has the joint at the range's "
     "first frame. Repeatable.",
 )
+@click.option(
+    "--explain",
+    "explain_specs",
+    multiple=True,
+    metavar="JOINT:FRAME",
+    help="Print why this cell was or was not flagged: every detection rule's verdict and what "
+    "it measured there (FRAME: 0-based, or seconds like 1.5s). Repeatable; also in --report.",
+)
 @LENIENT
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")
 @friendly_errors
@@ -154,6 +179,7 @@ def clean_command(
     plot_path: str | None,
     baseline: str | None,
     contact_specs: tuple[str, ...],
+    explain_specs: tuple[str, ...],
     lenient: bool,
     quiet: bool,
 ) -> None:
@@ -187,6 +213,7 @@ def clean_command(
     motion = load(input_path, lenient)
     context = load_all(ctx_paths, lenient, "loading context", show=not quiet)
     contacts = [parse_contact(c, motion) for c in contact_specs]
+    cells = [parse_explain(e, motion) for e in explain_specs]
     with (
         naming(input_path, *ctx_paths),
         all_or_nothing(),
@@ -199,6 +226,7 @@ def clean_command(
             two_stage=two_stage,
             baseline=baseline,
             contacts=contacts,
+            explain=cells,
             source=input_path,
             context_names=[str(p) for p in ctx_paths],
             output=out_path,
@@ -215,6 +243,8 @@ def clean_command(
         if report_path:
             write_json(report_path, report.to_json())
     if quiet:
+        for e in report.explanations:
+            click.echo(str(e))
         return
     click.echo(
         f"{input_path}: {report.frames} frames at {report.fps:g} fps, "
@@ -224,9 +254,14 @@ def clean_command(
     if not segments:
         click.echo("  no erroneous segment above the threshold")
     for s in segments[:50]:
-        click.echo(f"  {s.joint:>16s}  frames {s.start:5d}-{s.end:<5d}  peak {s.peak:.2f}")
+        click.echo(
+            f"  {s.joint:>16s}  frames {s.start:5d}-{s.end:<5d}  peak {s.peak:.2f}  "
+            f"{', '.join(s.reasons)}"
+        )
     if len(segments) > 50:
         click.echo(f"  ... {len(segments) - 50} more (see --report)")
+    for e in report.explanations:
+        click.echo(str(e))
     for label, path in (
         ("repaired take", out_path),
         ("report", report_path),

@@ -1,5 +1,11 @@
-"""The movement digression map as a heat map (the paper's Figure 1): joints x time, hot =
-the joint digresses from its nearest neighbours, flagged segments outlined."""
+"""The cleaning decision beside the movement digression map (the paper's Figure 1).
+
+Two panels share the time axis and the joint rows (labelled with joint names): on top the
+*decision*, every flagged cell coloured by the first rule that flagged it (legend: the rule
+names), white elsewhere, so colour there means "flagged, and why"; below, the MDM in greys
+(white = like its neighbours, black = distinct) with the threshold marked on its colour bar, so
+a dark MDM cell that is not flagged is visible as such and no box is drawn on it.
+"""
 
 from __future__ import annotations
 
@@ -11,15 +17,51 @@ import numpy as np
 
 from mocapkit.viz.figures import figsize, pyplot, save, short_labels, thin_ticks, wrap
 
-__all__ = ["plot_clean_report", "plot_mdm"]
+__all__ = ["REASON_COLOURS", "plot_clean_report", "plot_mdm"]
 
 _MAX_ROW_LABELS = 60  # joint names readable at 7 pt on the tallest figure
+_MAX_COLUMNS = 3000  # time columns drawn: a longer take is max-pooled (a flagged frame survives)
+
+REASON_COLOURS = {
+    "mdm": "#d62728",
+    "cancelling-jumps": "#ff7f0e",
+    "spike": "#e377c2",
+    "frozen": "#1f77b4",
+    "noise": "#9467bd",
+    "wrong-way-hinge": "#8c564b",
+    "extend": "#f7b6d2",
+}
+"""Colour of each rule's cells in the decision panel (others: a fixed cycle)."""
+_OTHER = ("#bcbd22", "#17becf", "#7f7f7f", "#2ca02c")
 
 
-def _seg(s: Any) -> tuple[int, int, int]:
+def _seg(s: Any) -> tuple[int, int, int, tuple[str, ...]]:
     if isinstance(s, Mapping):
-        return int(s["joint_index"]), int(s["start"]), int(s["end"])
-    return int(s.joint_index), int(s.start), int(s.end)
+        return int(s["joint_index"]), int(s["start"]), int(s["end"]), tuple(s.get("reasons", ()))
+    return int(s.joint_index), int(s.start), int(s.end), tuple(getattr(s, "reasons", ()))
+
+
+def _pool(a: np.ndarray, fn) -> np.ndarray:
+    """Max/min-pool (F, J) along time to at most ``_MAX_COLUMNS`` rows."""
+    F = a.shape[0]
+    if F <= _MAX_COLUMNS:
+        return a
+    k = int(np.ceil(F / _MAX_COLUMNS))
+    pad = (-F) % k
+    fill = np.full((pad, a.shape[1]), a.min() if fn is np.max else a.max(), dtype=a.dtype)
+    return fn(np.concatenate([a, fill]).reshape(-1, k, a.shape[1]), axis=1)
+
+
+def _decision_from_segments(segments: Sequence[Any], F: int, J: int) -> tuple[np.ndarray, list]:
+    names: list[str] = []
+    dec = np.full((F, J), -1, dtype=np.int16)
+    for s in segments:
+        j, a, b, reasons = _seg(s)
+        r = reasons[0] if reasons else "flagged"
+        if r not in names:
+            names.append(r)
+        dec[a : b + 1, j] = names.index(r)
+    return dec, names
 
 
 def plot_mdm(
@@ -29,67 +71,116 @@ def plot_mdm(
     path: str | Path,
     fps: float,
     title: str = "",
+    decision: np.ndarray | None = None,
+    reason_names: Sequence[str] | None = None,
+    threshold: float | None = None,
 ) -> Path:
-    """Write the MDM heat map to ``path`` (PNG).
+    """Write the decision and MDM heat map to ``path`` (PNG).
 
-    ``mdm``: (F, J) in [0, 1]; ``names``: the J joint names (one row each, top to bottom in
-    skeleton order); ``segments``: flagged runs (:class:`~mocapkit.clean.Segment` or their
-    ``as_dict()``: ``joint_index``, ``start``, ``end`` inclusive), outlined in white; ``fps``:
-    the take's frame rate (time axis in seconds below, frames above).
+    ``mdm``: (F, J) in [0, 1]; ``names``: the J joint names (rows, top to bottom in skeleton
+    order); ``segments``: flagged runs (:class:`~mocapkit.clean.Segment` or their ``as_dict()``:
+    ``joint_index``, ``start``, ``end`` inclusive, ``reasons``); ``decision``: (F, J) int, the
+    index in ``reason_names`` of each flagged cell's first reason, -1 where not flagged (default:
+    from the segments); ``threshold``: marked on the MDM colour bar; ``fps``: the take's rate.
     """
-    from matplotlib.patches import Rectangle
+    from matplotlib.colors import ListedColormap, to_rgb
+    from matplotlib.patches import Patch
 
     plt = pyplot()
     mdm = np.asarray(mdm, dtype=float)
     F, J = mdm.shape
+    if decision is None or reason_names is None:
+        decision, reason_names = _decision_from_segments(segments, F, J)
+    decision = np.asarray(decision)
+    reason_names = list(reason_names)
     dt = 1.0 / fps
     seconds = F * dt
-    fig, ax = plt.subplots(figsize=figsize(max(7.0, 2.0 + seconds * 0.9), max(3.2, 1.6 + J * 0.17)))
-    im = ax.imshow(
-        mdm.T,
+    extent = (-0.5 * dt, (F - 0.5) * dt, J - 0.5, -0.5)
+    w_in = max(7.0, 2.5 + seconds * 0.9)
+    h_in = max(4.8, 2.4 + 2 * J * 0.15)
+    fig, (ax_d, ax_m) = plt.subplots(
+        2, 1, figsize=figsize(w_in, h_in), sharex=True, sharey=True, constrained_layout=True
+    )
+    other = iter(_OTHER * 4)
+    colours = [REASON_COLOURS.get(r) or next(other) for r in reason_names]
+    dec = _pool(decision.astype(np.int16), np.max)
+    img = np.ones((*dec.T.shape, 3))
+    for i, c in enumerate(colours):
+        img[(i == dec.T)] = to_rgb(c)
+    ax_d.imshow(img, aspect="auto", origin="upper", interpolation="nearest", extent=extent)
+    # a one-frame flag in a long take stays visible: a tick under it
+    n_flagged = len(segments)
+    min_w = seconds / 400.0
+    for s in segments:
+        j, a, b, reasons = _seg(s)
+        if (b - a + 1) * dt < min_w:
+            r = reasons[0] if reasons else None
+            col = colours[reason_names.index(r)] if r in reason_names else "black"
+            ax_d.plot([(a + b) / 2 * dt] * 2, [j - 0.45, j + 0.45], color=col, lw=1.5)
+    shown = set(np.unique(decision).tolist())
+    handles = [
+        Patch(color=c, label=r)
+        for i, (r, c) in enumerate(zip(reason_names, colours, strict=True))
+        if i in shown
+    ]
+    if handles:
+        ax_d.legend(
+            handles=handles,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            fontsize=7,
+            title="flagged by",
+            title_fontsize=7,
+            frameon=False,
+        )
+    head = title or "cleaning"
+    ax_d.set_title(
+        wrap(f"{head}: {n_flagged} flagged segment{'s' if n_flagged != 1 else ''}", 80),
+        fontsize=10,
+    )
+    im = ax_m.imshow(
+        _pool(mdm, np.max).T,
         aspect="auto",
         origin="upper",
-        cmap="magma",
+        cmap=ListedColormap(plt.get_cmap("Greys")(np.linspace(0.0, 0.95, 256))),
         vmin=0.0,
         vmax=1.0,
         interpolation="nearest",
-        extent=(-0.5 * dt, (F - 0.5) * dt, J - 0.5, -0.5),
+        extent=extent,
     )
-    min_w = seconds / 300.0  # a one-frame segment of a long take stays visible
-    for s in segments:
-        j, a, b = _seg(s)
-        w = max((b - a + 1) * dt, min_w)
-        ax.add_patch(
-            Rectangle(
-                ((a + b) / 2 * dt - w / 2, j - 0.5),
-                w,
-                1.0,
-                fill=False,
-                edgecolor="cyan",
-                linewidth=1.3,
-            )
-        )
+    ax_m.set_title("movement digression map (MDM)", fontsize=9)
+    cb = fig.colorbar(im, ax=ax_m, pad=0.01, fraction=0.04)
+    label = "MDM (0 = like its neighbours)"
+    if threshold is not None:
+        cb.ax.axhline(threshold, color="#d62728", lw=1.5)
+        label += f"; threshold {threshold:g} (line)"
+    cb.set_label(label, fontsize=7)
+    cb.ax.tick_params(labelsize=7)
     step = thin_ticks(J, _MAX_ROW_LABELS)
     rows = list(range(0, J, step))
-    ax.set_yticks(rows)
     labels = short_labels(names, 26)
-    ax.set_yticklabels([labels[j] for j in rows], fontsize=7 if J > 30 else 8)
-    ax.set_ylabel("joint" + (f" (1 in {step} named)" if step > 1 else ""))
-    ax.set_xlabel(f"time (s) at {fps:g} fps")
-    top = ax.secondary_xaxis("top", functions=(lambda t: t * fps, lambda f: f / fps))
+    for ax in (ax_d, ax_m):
+        ax.set_yticks(rows)
+        ax.set_yticklabels([labels[j] for j in rows], fontsize=6 if J > 30 else 7)
+        ax.set_ylabel("joint" + (f" (1 in {step} named)" if step > 1 else ""), fontsize=8)
+    ax_m.set_xlabel(f"time (s) at {fps:g} fps")
+    top = ax_d.secondary_xaxis("top", functions=(lambda t: t * fps, lambda f: f / fps))
     top.set_xlabel("frame", fontsize=8)
     top.tick_params(labelsize=7)
-    n = len(segments)
-    head = title or "movement digression map"
-    ax.set_title(
-        wrap(f"{head}: {n} flagged segment{'s' if n != 1 else ''} (outlined)", 80), fontsize=10
-    )
-    fig.colorbar(im, ax=ax, label="MDM (0 = like its neighbours, 1 = distinct)", pad=0.02)
-    fig.tight_layout()
     return save(fig, path)
 
 
 def plot_clean_report(report: Any, path: str | Path, title: str | None = None) -> Path:
     """:func:`plot_mdm` of a :class:`~mocapkit.clean.CleanReport` (title: the take's name)."""
     name = title if title is not None else Path(report.source).name
-    return plot_mdm(report.mdm, report.joints, report.segments, path, report.fps, name)
+    return plot_mdm(
+        report.mdm,
+        report.joints,
+        report.segments,
+        path,
+        report.fps,
+        name,
+        decision=getattr(report, "decision", None),
+        reason_names=getattr(report, "reason_names", None),
+        threshold=None if report.method != "self-similarity" else report.threshold,
+    )
