@@ -144,3 +144,35 @@ def test_clean_with_contact(files, tmp_path) -> None:
                        ("LeftHand@1:5@x", "expected JOINT@A:B")):  # fmt: skip
         code, _, stderr = run("clean", str(files["input"]), "--contact", bad)
         assert code == 2 and words in stderr and len(stderr.splitlines()) == 1, stderr
+
+
+def test_clean_explains_a_cell_and_reports_reasons(files) -> None:
+    d = files["dir"]
+    rep = d / "rx.json"
+    f0 = int(files["frames"][2])
+    code, out, stderr = run(
+        "clean", str(files["input"]), "--context", str(files["ctx"]), "--report", str(rep),
+        "--explain", f"LeftForeArm:{f0}", "--explain", "Head:0.5s",
+    )  # fmt: skip
+    assert code == 0, stderr
+    assert f"LeftForeArm frame {f0}" in out and "FLAGGED by" in out
+    assert "Head frame 15 (0.500 s): not flagged" in out
+    for rule in ("mdm", "spike", "frozen", "noise", "wrong-way-hinge", "smooth"):
+        assert f"  {rule} " in out
+    report = json.loads(rep.read_text(), parse_constant=lambda c: pytest.fail(c))
+    assert report["rules"][0] == "mdm" and report["config"]["threshold"] == 0.5
+    seg = [s for s in report["segments"] if s["joint"] == "LeftForeArm"]
+    assert seg and all(s["reasons"] and "mdm_peak" in s["evidence"] for s in seg)
+    ex = report["explain"]
+    assert ex[0]["flagged"] and ex[0]["reasons"] and not ex[1]["flagged"]
+    assert [r["rule"] for r in ex[0]["rules"]] == report["rules"]
+
+
+@pytest.mark.parametrize(
+    "spec, msg",
+    [("LeftForeArm", "expected JOINT:FRAME"), ("Nope:3", "no joint named"),
+     ("Head:x", "expected JOINT:FRAME"), ("Head:99999", "outside")],
+)  # fmt: skip
+def test_clean_explain_bad_input_is_one_line(files, spec, msg) -> None:
+    code, _, stderr = run("clean", str(files["input"]), "--explain", spec, "--quiet")
+    assert code != 0 and msg in stderr and len(stderr.strip().splitlines()) == 1

@@ -1,0 +1,235 @@
+"""Each detection rule on a hand-made case where it must fire and one where it must not."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mocapkit.clean import SelfSimilarityCleaner
+from mocapkit.clean.detect import (
+    PIPELINE,
+    CancellingJumps,
+    DetectConfig,
+    DominanceVeto,
+    Evidence,
+    ExtendToSteps,
+    Flags,
+    FrozenJoints,
+    MDMHysteresis,
+    NoiseBursts,
+    PaperThreshold,
+    RecurringVeto,
+    SmoothVeto,
+    Spikes,
+    WrongWayHinges,
+    run_pipeline,
+)
+from mocapkit.core import rotations as rot
+
+FPS = 30.0
+
+
+def smooth(F: int = 90, J: int = 2, amp: float = 0.5) -> np.ndarray:
+    """(F, J, 4) joints swinging slowly about x (one cycle per 3 s)."""
+    t = np.arange(F) / FPS
+    ang = amp * np.sin(2 * np.pi * t / 3.0)
+    rv = np.zeros((F, J, 3))
+    rv[..., 0] = ang[:, None] * (1 + 0.2 * np.arange(J))[None]
+    return rot.rotvec_to_quat(rv)
+
+
+def turn(q: np.ndarray, frames: slice, joint: int, deg: float, axis=(0.0, 1.0, 0.0)) -> np.ndarray:
+    out = q.copy()
+    d = rot.rotvec_to_quat(np.radians(deg) * np.asarray(axis))
+    out[frames, joint] = rot.quat_mul(q[frames, joint], d)
+    return out
+
+
+def evidence(q, mdm=None, z=None, dig=None, **kw) -> Evidence:
+    ev = Evidence(q, FPS, **kw)
+    shape = q.shape[:2]
+    mdm = np.zeros(shape) if mdm is None else mdm
+    z = np.sqrt(-np.log(np.clip(1 - mdm, 1e-12, 1))) if z is None else z
+    dig = np.zeros(shape) if dig is None else dig
+    return ev.set_maps(mdm, z, dig)
+
+
+def flagged(F: int, J: int, cells) -> Flags:
+    fl = Flags((F, J))
+    m = np.zeros((F, J), dtype=bool)
+    for a, b, j in cells:
+        m[a:b, j] = True
+    fl.flag("test", m)
+    return fl
+
+
+def test_pipeline_is_data_and_config_has_no_frames() -> None:
+    names = [r.name for r in PIPELINE]
+    assert names[0] == "mdm" and names[-1] == "extend" and len(set(names)) == len(names)
+    for r in PIPELINE:
+        assert r.__doc__ and "Relies on" in r.__doc__, r.__name__
+        assert dataclasses.is_dataclass(r) and r.__dataclass_params__.frozen
+    for f in dataclasses.fields(DetectConfig):
+        assert "frame" not in f.name, f.name
+    with pytest.raises(TypeError, match="unknown DetectConfig"):
+        DetectConfig().replace(jump_frames=3)
+    with pytest.raises(TypeError, match="unknown DetectConfig"):
+        SelfSimilarityCleaner(nope=1)
+    with pytest.raises(ValueError, match="spike_deg"):
+        DetectConfig(spike_deg=-1.0)
+
+
+def test_mdm_threshold_and_hysteresis() -> None:
+    q = smooth()
+    mdm = np.zeros((90, 2))
+    mdm[20:30, 0] = 0.6
+    mdm[25, 0] = 1.0  # a near-certain seed
+    mdm[50:60, 1] = 0.7  # above threshold, no seed, smooth track
+    ev = evidence(q, mdm)
+    fl = Flags((90, 2))
+    MDMHysteresis().apply(ev, fl)
+    assert fl.mask[20:30, 0].all() and not fl.mask[:, 1].any()
+    fl = Flags((90, 2))
+    PaperThreshold().apply(ev, fl)
+    assert fl.mask[50:60, 1].all() and fl.mask.sum() == 20
+
+
+def test_dominance_veto() -> None:
+    q = smooth()
+    z = np.zeros((90, 2))
+    z[30:35, 0] = 1.5
+    z[30:35, 1] = 10.0
+    ev = evidence(q, z=z)
+    fl = flagged(90, 2, [(30, 35, 0), (30, 35, 1)])
+    DominanceVeto().apply(ev, fl)
+    assert not fl.mask[:, 0].any() and fl.mask[30:35, 1].all()
+    z[30:35, 1] = 2.0  # comparable digressions: both stay
+    fl = flagged(90, 2, [(30, 35, 0), (30, 35, 1)])
+    DominanceVeto().apply(evidence(q, z=z), fl)
+    assert fl.mask[30:35].all()
+
+
+def test_cancelling_jumps() -> None:
+    # the jumps are judged against the joint's own 99th percentile: a take of 10 s
+    bad = turn(smooth(300), slice(40, 52), 1, 40.0)
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(bad), fl)
+    assert fl.mask[40:52, 1].all() and fl.mask.sum() == 12
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(smooth(300)), fl)
+    assert not fl.mask.any()
+    # one jump that stays (a turn that does not come back) pairs with nothing
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(turn(smooth(300), slice(40, 300), 1, 40.0)), fl)
+    assert not fl.mask[:, 1].any()
+
+
+def test_spikes() -> None:
+    bad = turn(smooth(), slice(40, 42), 0, 40.0)
+    fl = Flags((90, 2))
+    Spikes().apply(evidence(bad), fl)
+    assert fl.mask[40:42, 0].all() and fl.mask.sum() == 2
+    fl = Flags((90, 2))
+    Spikes().apply(evidence(smooth(amp=1.5)), fl)
+    assert not fl.mask.any()
+    fl = flagged(90, 2, [(43, 46, 0)])  # already flagged next to it: left to that run
+    Spikes().apply(evidence(bad), fl)
+    assert not fl.added["spike"].any()
+
+
+def test_frozen_joints() -> None:
+    q = smooth()
+    bad = q.copy()
+    bad[30:50, 0] = q[30, 0]
+    dig = rot.quat_angle(bad, q)
+    fl = Flags((90, 2))
+    FrozenJoints().apply(evidence(bad, dig=dig), fl)
+    assert fl.mask[32:50, 0].all() and not fl.mask[:, 1].any()
+    fl = Flags((90, 2))  # the KNN words hold still too: a pause, not a freeze
+    FrozenJoints().apply(evidence(bad), fl)
+    assert not fl.mask.any()
+
+
+def test_smooth_veto() -> None:
+    fl = flagged(90, 2, [(30, 40, 0)])
+    SmoothVeto().apply(evidence(smooth()), fl)
+    assert not fl.mask.any() and fl.removed["smooth"][30:40, 0].all()
+    fl = flagged(90, 2, [(30, 40, 0)])
+    SmoothVeto().apply(evidence(turn(smooth(), slice(30, 40), 0, 30.0)), fl)
+    assert fl.mask[30:40, 0].all()
+
+
+def test_recurring_veto() -> None:
+    F = 120
+    t = np.arange(F)
+    bump = np.zeros(F)
+    for c in (20, 60, 100):
+        bump += np.radians(30.0) * np.exp(-0.5 * ((t - c) / 1.0) ** 2)
+    rv = np.zeros((F, 1, 3))
+    rv[:, 0, 0] = bump
+    q = rot.rotvec_to_quat(rv)
+    dig = np.zeros((F, 1))
+    dig[59:62, 0] = np.radians(30.0)
+    fl = flagged(F, 1, [(59, 62, 0)])
+    RecurringVeto().apply(evidence(q, dig=dig), fl)
+    assert not fl.mask.any()  # the performer's motif: the same pop three times
+    rv[:, 0, 0] = np.radians(30.0) * np.exp(-0.5 * ((t - 60) / 1.0) ** 2)
+    fl = flagged(F, 1, [(59, 62, 0)])
+    RecurringVeto().apply(evidence(rot.rotvec_to_quat(rv), dig=dig), fl)
+    assert fl.mask[59:62, 0].all()  # once only: an error
+
+
+def test_noise_bursts() -> None:
+    q = smooth()
+    rng = np.random.default_rng(0)
+    bad = q.copy()
+    bad[30:45, 1] = rot.quat_mul(
+        q[30:45, 1], rot.rotvec_to_quat(rng.normal(scale=np.radians(10), size=(15, 3)))
+    )
+    fl = Flags((90, 2))
+    NoiseBursts().apply(evidence(bad), fl)
+    assert fl.mask[:, 1].sum() >= 8 and not fl.mask[:28, 1].any() and not fl.mask[:, 0].any()
+    fl = Flags((90, 2))
+    NoiseBursts().apply(evidence(smooth(amp=1.5)), fl)
+    assert not fl.mask.any()
+
+
+def test_wrong_way_hinges() -> None:
+    F = 90
+    flex = np.radians(40.0) * (1 + np.sin(np.arange(F) / 8.0)) / 2 + np.radians(5)
+    flex[40:50] = np.radians(-40.0)
+    rv = np.zeros((F, 1, 3))
+    rv[:, 0, 0] = flex
+    fl = Flags((F, 1))
+    WrongWayHinges().apply(evidence(rot.rotvec_to_quat(rv), hinges=[0]), fl)
+    assert fl.mask[40:50, 0].all() and fl.mask.sum() == 10
+    fl = Flags((F, 1))  # not a hinge: never judged
+    WrongWayHinges().apply(evidence(rot.rotvec_to_quat(rv)), fl)
+    assert not fl.mask.any()
+    rv[40:50, 0, 0] = np.radians(-5.0)  # a little past straight: within tolerance
+    fl = Flags((F, 1))
+    WrongWayHinges().apply(evidence(rot.rotvec_to_quat(rv), hinges=[0]), fl)
+    assert not fl.mask.any()
+
+
+def test_extend_to_steps() -> None:
+    bad = turn(smooth(), slice(40, 52), 1, 40.0)
+    fl = flagged(90, 2, [(42, 50, 1)])
+    ExtendToSteps().apply(evidence(bad), fl)
+    assert fl.mask[40:52, 1].all() and fl.mask.sum() == 12
+    assert fl.added["extend"].sum() == 4
+    fl = flagged(90, 2, [(42, 50, 1)])
+    ExtendToSteps().apply(evidence(smooth()), fl)
+    assert fl.mask.sum() == 8 and not fl.added["extend"].any()
+
+
+def test_run_pipeline_records_reasons_and_never_flags_unanalysed_joints() -> None:
+    bad = turn(smooth(), slice(40, 42), 0, 40.0)
+    ev = evidence(bad)
+    fl = run_pipeline(ev)
+    assert fl.mask[40:42, 0].all()
+    assert fl.reasons_at(slice(40, 42), 0) == ["spike"]
+    ev.analysed = np.array([False, True])
+    assert not run_pipeline(ev).mask[:, 0].any()
