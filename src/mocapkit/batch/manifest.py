@@ -107,4 +107,6 @@ class Manifest:
             "outputs": {str(p): file_sha256(p) for p in outputs},
             "result": result,
         }
-        return atomic_write_text(self.entry_path(item), _canonical(entry) + "\n")
+        # not key-sorted: ``result`` comes back with its keys in the order written
+        text = json.dumps(entry, separators=(",", ":"), ensure_ascii=True)
+        return atomic_write_text(self.entry_path(item), text + "\n")

@@ -85,7 +85,8 @@ class Runner:
     Args:
         workers: N >= 1 worker processes of a local cluster on 127.0.0.1.
         scheduler: the address of a running scheduler (``tcp://127.0.0.1:8786``).
-        threads_per_worker: threads of each local worker (BLAS and numba included).
+        threads_per_worker: threads of each local worker (BLAS and numba included); in-process,
+            the number of threads that run tasks side by side (default 1: one after the other).
         timeout: seconds to wait for the scheduler or the local cluster to come up.
     """
 
@@ -226,6 +227,9 @@ class Runner:
         has_shared = shared is not None
         if progress is not None:
             progress(0, total)
+        if self.client is None and self.mode == "in-process" and self.threads_per_worker > 1:
+            yield from self._imap_threads(fn, items, shared, has_shared, progress)
+            return
         if self.client is None and self.mode == "in-process":
             for n, item in enumerate(items):
                 t0 = time.perf_counter()
@@ -238,6 +242,41 @@ class Runner:
         if self.client is None:
             self.start()
         yield from self._imap_dask(fn, items, shared, has_shared, progress, name)
+
+    def _imap_threads(
+        self,
+        fn: Callable[..., Any],
+        items: list[Any],
+        shared: Any,
+        has_shared: bool,
+        progress: Progress | None,
+    ) -> Iterator[Any]:
+        from concurrent.futures import ThreadPoolExecutor, as_completed
+
+        def call(item: Any) -> tuple[Any, float]:
+            t0 = time.perf_counter()
+            out = fn(shared, item) if has_shared else fn(item)
+            return out, time.perf_counter() - t0
+
+        with ThreadPoolExecutor(self.threads_per_worker) as pool:
+            futures = [pool.submit(call, item) for item in items]
+            index = {f: i for i, f in enumerate(futures)}
+            done: dict[int, Any] = {}
+            nxt = count = 0
+            try:
+                for fut in as_completed(futures):
+                    out, secs = fut.result()
+                    self.stats.note(os.getpid(), _peak_rss_bytes(), secs)
+                    done[index[fut]] = out
+                    count += 1
+                    if progress is not None:
+                        progress(count, len(items))
+                    while nxt in done:
+                        yield done.pop(nxt)
+                        nxt += 1
+            finally:
+                for f in futures:
+                    f.cancel()
 
     def _imap_dask(
         self,

@@ -949,9 +949,26 @@ class TileMinima:
     seconds: float
 
 
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """BLAS on one thread inside the block: a multi-threaded BLAS may sum a tile's products in
+    another order (last-bit differences that move ties between local minima), so every tile is
+    computed on one thread wherever it runs; parallelism comes from running tasks side by
+    side."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
 def tile_task_minima(shared: tuple[CostDatabase, TilePlan], task: TileTask) -> TileMinima:
     """Run one task of a :class:`TilePlan` (``shared`` = the database and the plan, sent once to
-    each worker): every tile's cost, its local minima, reduced."""
+    each worker): every tile's cost (BLAS on one thread), its local minima, reduced."""
+    with one_blas_thread():
+        return _tile_task_minima(shared, task)
+
+
+def _tile_task_minima(shared: tuple[CostDatabase, TilePlan], task: TileTask) -> TileMinima:
     import time
 
     db, plan = shared
@@ -1060,7 +1077,8 @@ def tiled_local_minima(
     t0 = time.perf_counter()
     plan = plan_tiles(db, stride, tile, dtype, min_gap, max_candidates, bucket_seconds,
                       per_bucket, tiles_per_task)  # fmt: skip
-    return merge_tile_minima(db, plan, _run_plan(db, plan, runner, progress), t0)
+    with one_blas_thread():  # here too, for tasks run on this process's threads
+        return merge_tile_minima(db, plan, _run_plan(db, plan, runner, progress), t0)
 
 
 _TILE_RUNNER: contextvars.ContextVar[TileMapper | None] = contextvars.ContextVar(

@@ -1,0 +1,217 @@
+"""Library jobs give the same bytes in-process, on a local Dask cluster (2 worker processes)
+and on a `dask scheduler` + 2 `dask worker` processes; a killed worker loses nothing; an
+interrupted job resumes without redoing finished takes."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from mocapkit.batch import JobError, LibraryCleanConfig, Runner, clean_library, context_of
+from mocapkit.cli import main
+from mocapkit.convert import convert_many
+from mocapkit.graph.distance import tile_runner, tiled_local_minima
+from mocapkit.graph.graph import build_graph
+from mocapkit.io import read_motion
+
+CFG = LibraryCleanConfig(context_by="all", context_max=3)
+
+
+def _takes(lib: Path) -> list[Path]:
+    return sorted(p for p in lib.glob("*.bvh") if not p.name.startswith("broken"))
+
+
+def _graph_json(path: Path) -> dict:
+    g = json.loads(path.read_text())
+    g.get("stats", {}).pop("tile_seconds", None)  # wall time, the one field that differs
+    return g
+
+
+@pytest.fixture(scope="session")
+def reference(library, clips, tmp_path_factory):
+    """Every job run in-process once: clean, convert, graph (and fine tile minima)."""
+    out = tmp_path_factory.mktemp("ref")
+    res = clean_library(library, out / "fixed", out / "reports", CFG)
+    conv = convert_many(sorted(library.glob("*.bvh")), out / "conv", "bvh", fps=24.0)
+    motions = [read_motion(p) for p in _takes(clips)]
+    paths = [p.name for p in _takes(clips)]
+    g, db, _ = build_graph(motions, paths=paths)
+    g.save(out / "graph.json")
+    mins = tiled_local_minima(db, 1, 16, np.float64, tiles_per_task=3)
+    return {"dir": out, "clean": res, "convert": conv, "db": db, "minima": mins,
+            "motions": motions, "paths": paths}  # fmt: skip
+
+
+def _same_minima(a, b) -> None:
+    for k in ("i", "j", "cost"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+    assert a.pairs == b.pairs
+
+
+def test_context_of_is_nearest_in_name_order():
+    takes = ["a/x_001.bvh", "a/x_002.bvh", "a/x_003.bvh", "a/y_001.bvh", "b/x_001.bvh"]
+    by_prefix = context_of(takes, "prefix", 1)
+    assert by_prefix["a/x_002.bvh"] == ["a/x_001.bvh"]
+    assert by_prefix["a/y_001.bvh"] == [] and by_prefix["b/x_001.bvh"] == []
+    assert context_of(takes, "folder", 8)["b/x_001.bvh"] == []
+    assert context_of(takes, "all", 2)["a/x_003.bvh"] == ["a/x_002.bvh", "a/y_001.bvh"]
+
+
+def test_in_process_reference(reference, library):
+    res = reference["clean"]
+    assert res.cleaned == len(res.records) == 13
+    assert [r["take"] for r in res.failed] == ["broken_000.bvh"]
+    summary = json.loads(res.summary_path.read_text())
+    assert summary["failed"] == 1 and summary["errors"][0]["take"] == "broken_000.bvh"
+    assert "broken_000.bvh" in summary["errors"][0]["error"]
+    assert len(summary["ranking"]) == 12
+    html = res.overview_path.read_text()
+    assert html.count("<svg") == 12 and "broken_000.bvh" in html
+    assert len(reference["minima"].i) > 0
+    assert reference["convert"].failed[0].source.name == "broken_000.bvh"
+
+
+def test_local_cluster_same_bytes(reference, local_runner, library, tmp_path, tree):
+    ref = reference["dir"]
+    res = clean_library(library, tmp_path / "fixed", tmp_path / "reports", CFG,
+                        runner=local_runner)  # fmt: skip
+    assert res.cleaned == 13
+    assert tree(tmp_path / "fixed") == tree(ref / "fixed")
+    assert tree(tmp_path / "reports") == tree(ref / "reports")
+    conv = convert_many(sorted(library.glob("*.bvh")), tmp_path / "conv", "bvh", fps=24.0,
+                        runner=local_runner)  # fmt: skip
+    assert [i.to_json()["source"] for i in conv.items] == [
+        i.to_json()["source"] for i in reference["convert"].items
+    ]
+    assert [i.error for i in conv.items] == [i.error for i in reference["convert"].items]
+    assert tree(tmp_path / "conv") == tree(ref / "conv")
+    mins = tiled_local_minima(reference["db"], 1, 16, np.float64, tiles_per_task=3,
+                              runner=local_runner)  # fmt: skip
+    _same_minima(mins, reference["minima"])
+    with tile_runner(local_runner):
+        g, _, _ = build_graph(reference["motions"], paths=reference["paths"])
+    g.save(tmp_path / "graph.json")
+    assert _graph_json(tmp_path / "graph.json") == _graph_json(ref / "graph.json")
+    assert len(local_runner.stats.peak_rss) == 2  # both workers ran tasks
+
+
+def test_scheduler_processes_same_bytes(reference, scheduler_address, library, clips, tmp_path,
+                                        tree):  # fmt: skip
+    ref = reference["dir"]
+    cli = CliRunner()
+    r = cli.invoke(main, ["clean-library", str(library), "--out-dir", str(tmp_path / "fixed"),
+                          "--report-dir", str(tmp_path / "reports"), "--context-by", "all",
+                          "--context-max", "3", "--scheduler", scheduler_address])  # fmt: skip
+    assert r.exit_code == 2, r.output  # the broken take
+    assert "broken_000.bvh" in r.output and "13 takes: 13 cleaned" in r.output
+    assert tree(tmp_path / "fixed") == tree(ref / "fixed")
+    assert tree(tmp_path / "reports") == tree(ref / "reports")
+    r = cli.invoke(main, ["convert", str(library), "--out-dir", str(tmp_path / "conv"), "--to",
+                          "bvh", "--fps", "24", "--scheduler", scheduler_address])  # fmt: skip
+    assert r.exit_code == 2 and "converted 12 of 13" in r.output, r.output
+    assert tree(tmp_path / "conv") == tree(ref / "conv")
+    r = cli.invoke(main, ["graph", "build", *map(str, _takes(clips)), "--out",
+                          str(tmp_path / "graph.json"), "--quiet", "--scheduler",
+                          scheduler_address])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert "memory per worker" in r.output
+    g_in = cli.invoke(main, ["graph", "build", *map(str, _takes(clips)), "--out",
+                             str(tmp_path / "graph_in.json"), "--quiet"])  # fmt: skip
+    assert g_in.exit_code == 0, g_in.output
+    assert _graph_json(tmp_path / "graph.json") == _graph_json(tmp_path / "graph_in.json")
+    from mocapkit.graph.distance import tiled_local_minima as tlm
+
+    with Runner(scheduler=scheduler_address) as runner:
+        mins = tlm(reference["db"], 1, 16, np.float64, tiles_per_task=3, runner=runner)
+        infos = runner.map(len, ["ab", "c"])
+    _same_minima(mins, reference["minima"])
+    assert infos == [2, 1]
+
+
+def test_info_folder_same_json_on_cluster(scheduler_address, library):
+    cli = CliRunner()
+    a = cli.invoke(main, ["info", "--json", str(library)])
+    b = cli.invoke(main, ["info", "--json", str(library), "--scheduler", scheduler_address])
+    assert a.exit_code == b.exit_code == 2
+    assert a.stdout == b.stdout and json.loads(a.stdout)[0]["path"].endswith("broken_000.bvh")
+
+
+def test_worker_killed_mid_job(reference, local_runner, library, tmp_path, tree):
+    """SIGKILL one worker process while the library clean runs: the nanny restarts it, the
+    scheduler reruns the lost tasks, the job completes with the same bytes."""
+    client = local_runner.client
+    killed: list[int] = []
+
+    def progress(done: int, total: int) -> None:
+        if done == 2 and not killed:
+            busy = [w for w, keys in client.processing().items() if keys]
+            pids = local_runner.worker_pids()
+            target = busy[0] if busy else next(iter(pids))
+            killed.append(pids[target])
+            os.kill(pids[target], signal.SIGKILL)
+
+    res = clean_library(library, tmp_path / "fixed", tmp_path / "reports", CFG,
+                        runner=local_runner, progress=progress)  # fmt: skip
+    assert killed, "no worker was killed"
+    assert res.cleaned == 13
+    assert tree(tmp_path / "fixed") == tree(reference["dir"] / "fixed")
+    assert tree(tmp_path / "reports") == tree(reference["dir"] / "reports")
+    client.wait_for_workers(2, timeout=60)
+    assert killed[0] not in local_runner.worker_pids().values()
+
+
+def test_interrupted_job_resumes(library, tmp_path, tree, reference):
+    seen: list[str] = []
+
+    def stop_after_four(r: dict) -> None:
+        seen.append(r["take"])
+        if len(seen) == 4:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        clean_library(library, tmp_path / "fixed", tmp_path / "reports", CFG,
+                      on_take=stop_after_four)  # fmt: skip
+    res = clean_library(library, tmp_path / "fixed", tmp_path / "reports", CFG)
+    assert (res.resumed, res.cleaned) == (4, 9)
+    assert tree(tmp_path / "fixed") == tree(reference["dir"] / "fixed")
+    assert tree(tmp_path / "reports") == tree(reference["dir"] / "reports")
+    again = clean_library(library, tmp_path / "fixed", tmp_path / "reports", CFG)
+    assert (again.resumed, again.cleaned) == (13, 0)
+
+
+def test_changed_input_or_output_is_redone(library, tmp_path, tmp_path_factory):
+    lib = tmp_path_factory.mktemp("lib2") / "lib"
+    lib.mkdir()
+    for p in _takes(library)[:6]:
+        (lib / p.name).write_bytes(p.read_bytes())
+    cfg = LibraryCleanConfig(context_by="prefix", context_max=2)
+    first = clean_library(lib, tmp_path / "f", tmp_path / "r", cfg)
+    assert first.cleaned == 6
+    # idle_000's bytes change: it and the takes whose context holds it are redone
+    victim = lib / "idle_000.bvh"
+    victim.write_bytes(victim.read_bytes().replace(b"Frame Time", b"Frame  Time", 1))
+    ctx = context_of([p.name for p in sorted(lib.glob("*.bvh"))], "prefix", 2)
+    expect = 1 + sum("idle_000.bvh" in c for c in ctx.values())
+    again = clean_library(lib, tmp_path / "f", tmp_path / "r", cfg)
+    assert again.cleaned == expect
+    # an output removed or corrupted is redone; a changed setting redoes everything
+    (tmp_path / "f" / "run_001.bvh").write_text("corrupt")
+    assert clean_library(lib, tmp_path / "f", tmp_path / "r", cfg).cleaned == 1
+    other = LibraryCleanConfig(context_by="prefix", context_max=1)
+    assert clean_library(lib, tmp_path / "f", tmp_path / "r", other).cleaned == 6
+
+
+def test_output_inside_library_refused(library):
+    with pytest.raises(ValueError, match="inside the library"):
+        clean_library(library, library / "fixed", library.parent / "r", CFG)
+
+
+def test_unreachable_scheduler_is_one_line():
+    with pytest.raises(JobError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
+        Runner(scheduler="tcp://127.0.0.1:9", timeout=2).start()
