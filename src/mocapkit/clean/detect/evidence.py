@@ -187,8 +187,10 @@ class Evidence:
 
     @cached_property
     def spike_size(self) -> np.ndarray:
-        """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`)."""
-        return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds))
+        """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`), exact above half
+        of ``spike_deg`` (a bound below it)."""
+        floor = np.radians(0.5 * self.config.spike_deg)
+        return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
 
     @cached_property
     def roughness(self) -> np.ndarray:
