@@ -28,6 +28,21 @@ def test_inject_gives_exactly_k_frames(clips, method, k) -> None:
     assert res.generated.stop - res.generated.start == k
     a, b = res.transition.takeoff, res.transition.landing
     assert res.motion.num_frames == (a + 1) + k + (run.num_frames - b)
+    # the forced k's L-score, on the whole curve up to the usual 1 s: the optimum stays visible
+    L = res.transition.lscore_by_k
+    assert len(L) == round(walk.fps) + 1 and res.transition.lscore == L[k]
+
+
+def test_inject_at_a_given_landing_ranks_by_the_forced_k(clips) -> None:
+    """With --landing, the clips are ranked by their L-score at the forced k too."""
+    walk, run = clips
+    idle = datasets.procedural_motion("idle", seconds=4.0, seed=3).motion
+    for k in (0, 6, 20):
+        res = stitch(walk, 50, [run, idle], landing=10, inject=k)
+        by_clip = [stitch(walk, 50, [c], landing=10, inject=k).transition.lscore
+                   for c in (run, idle)]  # fmt: skip
+        assert res.transition.lscore == min(by_clip)
+        assert res.transition.clip == by_clip.index(min(by_clip))
 
 
 @pytest.mark.parametrize("method", METHODS)

@@ -310,17 +310,20 @@ def search_features(
     that frame of each clip (clips too short for it are skipped). Ranked by L* (``score=
     "lscore"``) or by windowed Euclidean distance (``"euclidean"``); ties go to the first
     (clip, take-off, landing). ``inject`` forces k (the number of injected frames): candidates
-    are ranked by their L-score at that k, and ``k_max`` becomes ``inject``. Returns a
+    are ranked by their L-score at that k; the chosen window's ``lscore_by_k`` still runs to
+    ``max(k_max, inject)``, so that the optimum the user overrode is seen beside it. Returns a
     :class:`Transition`.
     """
+    if int(k_max) != k_max or k_max < 0:
+        raise ValueError(f"k_max must be an integer >= 0, got {k_max}")
+    k_show = int(k_max)
     if inject is not None:
         if int(inject) != inject or inject < 0:
             raise ValueError(f"inject must be an integer >= 0, got {inject}")
-        k_max = inject = int(inject)
+        inject = int(inject)
+        k_max, k_show = inject, max(k_show, inject)
     w = check_w(w)
     score = _check_score(score)
-    if int(k_max) != k_max or k_max < 0:
-        raise ValueError(f"k_max must be an integer >= 0, got {k_max}")
     k_max = int(k_max)
     Q = np.asarray(query_feats, dtype=float)
     if Q.ndim != 2:
@@ -344,7 +347,7 @@ def search_features(
             )
     if landing is not None:
         best, candidates = _best_at_landing(
-            Q, takeoffs, clips, int(landing), w, k_max, model, score
+            Q, takeoffs, clips, int(landing), w, k_max, model, score, inject
         )
     else:
         best, candidates = _best_over_library(
@@ -352,7 +355,7 @@ def search_features(
         )
     _, ci, a, b = best
     window = sliding_windows(Q, a, clips[ci], w, landings=[b]).astype(float)
-    scores = elastic_lscores(window, model, w, k_max)[0]
+    scores = elastic_lscores(window, model, w, k_show)[0]
     k = int(np.argmin(scores)) if inject is None else inject
     eu = float(windowed_euclidean(window, w)[0])
     return Transition(ci, a, b, k, float(scores[k]), scores, eu, w, score, candidates)
