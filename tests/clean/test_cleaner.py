@@ -71,7 +71,13 @@ def test_repair_touches_only_written_cells_and_fixes_errors(fitted, corrupted, t
     cur, truth = corrupted
     walk, _ = takes
     res = fitted.repair()
-    assert np.array_equal(res.written, dilate(res.flagged, res.margin))
+    plain = fitted.repair(foot_lock=False)
+    assert np.array_equal(plain.written, dilate(plain.flagged, plain.margin))
+    # the foot lock adds leg cells (hip, knee, ankle, toe) around planted feet, nothing else
+    assert not (dilate(res.flagged, res.margin) & ~res.written).any()
+    extra = np.flatnonzero((res.written & ~plain.written).any(axis=0))
+    names = cur.skeleton.names
+    assert all(any(k in names[j] for k in ("UpLeg", "Leg", "Foot", "Toe")) for j in extra)
     assert np.array_equal(res.flagged, fitted.mask())
     # bit-identical outside the written cells; root translation untouched
     assert np.array_equal(res.motion.rotations[~res.written], cur.rotations[~res.written])
@@ -208,3 +214,20 @@ def test_robust_second_pass_and_paper_normalisation(takes, corrupted) -> None:
             assert cl.scores()[truth[:, j], j].max() > 0.9
     # the paper's row-mean normalisation flags far more cells than the default
     assert paper.mask().sum() > 3 * rb.mask().sum()
+
+
+def test_repair_keeps_planted_feet_planted(fitted, corrupted, takes) -> None:
+    from mocapkit.clean.repair import foot_slide
+    from mocapkit.features import foot_contacts
+
+    cur, truth = corrupted
+    walk, _ = takes
+    contacts = foot_contacts(walk)  # the clean take's contacts: where feet should stay
+    near = np.convolve(truth.any(axis=1), np.ones(21), mode="same") > 0
+    locked = fitted.repair()
+    plain = fitted.repair(foot_lock=False)
+    assert locked.held_contacts is not None and locked.held_contacts.contacts.any()
+    s_locked = foot_slide(locked.motion, contacts, near)
+    s_plain = foot_slide(plain.motion, contacts, near)
+    s_bad = foot_slide(cur, contacts, near)
+    assert s_locked < s_plain and s_locked < s_bad

@@ -28,6 +28,7 @@ from mocapkit.clean.repair import (
     chain_of,
     default_margin,
     effector_error,
+    lock_repaired_feet,
     pin_with_ik,
     repair_cells,
 )
@@ -426,6 +427,7 @@ class SelfSimilarityCleaner:
         margin: int | None = None,
         mask: np.ndarray | None = None,
         contacts: Sequence[ContactConstraint] = (),
+        foot_lock: bool = True,
     ) -> RepairResult:
         """Replace the flagged cells by the median KNN words, blended (see
         :mod:`mocapkit.clean.repair`); everything else is copied bit for bit.
@@ -433,7 +435,9 @@ class SelfSimilarityCleaner:
         ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's. ``contacts``: for the
         effector chains of these constraints, the KNN word that keeps the effector nearest its
         contact point replaces the median, then IK pins the effector (changing only the written
-        cells of the chain)."""
+        cells of the chain). ``foot_lock``: where the repair changed a leg, hold its planted
+        feet still by whole-leg IK (:func:`~mocapkit.clean.repair.lock_repaired_feet`; the
+        cells it changes join ``written``)."""
         self._check()
         tex = self.texture_
         margin = default_margin(self.motion_.fps) if margin is None else margin
@@ -453,6 +457,11 @@ class SelfSimilarityCleaner:
         for c in contacts:
             motion = pin_with_ik(motion, c, result.written, c.target(self.motion_))
         result.motion = motion
+        if foot_lock and flagged.any():
+            locked = lock_repaired_feet(motion, result.written)
+            result.motion = locked.motion
+            result.written = locked.written
+            result.held_contacts = locked.contacts
         return result
 
     def _contact_replacement(

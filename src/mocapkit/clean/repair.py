@@ -48,12 +48,15 @@ class RepairResult:
         flagged: (F, J) bool, cells above the threshold.
         written: (F, J) bool, cells written (flagged dilated by the blend margin).
         margin: the blend margin in frames.
+        held_contacts: the foot contacts held by :func:`lock_repaired_feet` (a
+            :class:`~mocapkit.features.FootContacts`), None when feet were not locked.
     """
 
     motion: Motion
     flagged: np.ndarray
     written: np.ndarray
     margin: int
+    held_contacts: object | None = None
 
 
 def repair_cells(
@@ -205,3 +208,84 @@ def pin_with_ik(
         motion.frame_time,
         None if motion.translations is None else motion.translations.copy(),
     )
+
+
+# ------------------------------------------------------------------------ planted feet
+
+
+@dataclass
+class FootLockResult:
+    """What :func:`lock_repaired_feet` did: the motion, the written cells (the repair's plus
+    the leg cells the IK changed), and the contact runs it held (``contacts``, or None when
+    the rig has no legs the IK can drive)."""
+
+    motion: Motion
+    written: np.ndarray
+    contacts: object | None
+
+
+def lock_repaired_feet(
+    repaired: Motion, written: np.ndarray, config: object | None = None
+) -> FootLockResult:
+    """Keep planted feet planted where the repair changed a leg.
+
+    Contacts are those :func:`mocapkit.features.foot_contacts` detects on the repaired take;
+    only the contact runs of a foot during which the repair wrote a cell of that foot's chain
+    (the foot and every joint above it, pelvis included) are held, by damped-least-squares IK
+    on the whole leg (:func:`mocapkit.ik.lock_feet`, ``config`` a
+    :class:`~mocapkit.ik.FootLockConfig`), so frames away from a repaired leg stay bit for bit.
+
+    Relies on: a repaired leg is rebuilt from other steps of the take, whose foot lands a few
+    centimetres elsewhere; the performer's foot did not slide while planted."""
+    import dataclasses
+
+    from mocapkit.core.runs import true_runs
+    from mocapkit.features import foot_contacts
+    from mocapkit.ik import FootLockConfig, leg_chains, lock_feet
+
+    written = np.asarray(written, dtype=bool)
+    try:
+        chains = leg_chains(repaired)
+        contacts = foot_contacts(repaired) if chains else None
+    except (ValueError, KeyError):  # no legs, no feet or no ground: nothing to hold
+        return FootLockResult(repaired, written, None)
+    if not chains or contacts is None or not len(contacts.joints):
+        return FootLockResult(repaired, written, None)
+    sk = repaired.skeleton
+    held = np.zeros_like(contacts.contacts)
+    for k, foot in enumerate(contacts.joints):
+        above = [int(foot), *sk.ancestors(int(foot))]
+        touched = written[:, above].any(axis=1)
+        for a, b in true_runs(contacts.contacts[:, k]):
+            if touched[a : b + 1].any():
+                held[a : b + 1, k] = True
+    if not held.any():
+        return FootLockResult(repaired, written, dataclasses.replace(contacts, contacts=held))
+    cfg = config if config is not None else FootLockConfig()
+    res = lock_feet(repaired, dataclasses.replace(contacts, contacts=held), cfg, chains=chains)
+    changed = np.any(res.motion.rotations != repaired.rotations, axis=-1)
+    return FootLockResult(res.motion, written | changed, res.contacts)
+
+
+def foot_slide(motion: Motion, contacts: object, frames: np.ndarray | None = None) -> float:
+    """Mean horizontal speed (metres per second) of the foot joints of ``contacts`` (a
+    :class:`~mocapkit.features.FootContacts`) over their planted frames (restricted to the
+    (F,) bool ``frames`` when given); NaN when no foot is planted there."""
+    from mocapkit.body import body_of
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.features import ground_frame
+
+    body = body_of(motion)
+    pos, _ = forward_kinematics(motion)
+    up = ground_frame(body.up)[1]
+    feet = pos[:, list(contacts.joints)]
+    feet = feet - (feet @ up)[..., None] * up
+    v = np.zeros(feet.shape[:2])
+    v[1:-1] = np.linalg.norm(feet[2:] - feet[:-2], axis=-1) / (2 * motion.frame_time)
+    planted = np.asarray(contacts.contacts, dtype=bool).copy()
+    planted[[0, -1]] = False
+    if frames is not None:
+        planted &= np.asarray(frames, dtype=bool)[:, None]
+    if not planted.any():
+        return float("nan")
+    return float(v[planted].mean() * body.metres_per_unit)
