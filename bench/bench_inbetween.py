@@ -334,7 +334,8 @@ def search_timing(lib_files, extra_files, reference, config):
     from mocapkit.stitch import motion_features
 
     qf = motion_features(reference, "Y")
-    a, b = 60, 90
+    a = min(60, reference.num_frames // 3)
+    b = min(a + 30, reference.num_frames - 5)
     ctx = _context(ground_root_on_path(reference, "Y"), a, b, 5, "Y", None)
     for _ in range(2):  # warm-up (numba compile), then timed
         t0 = time.perf_counter()

@@ -124,6 +124,18 @@ class InbetweenConfig:
     """How long each end's pose offset takes to fade (inertialization; capped by the gap): long
     enough that removing the offset adds no visible acceleration, short enough that the middle
     of a long gap is the library's own motion."""
+    foot_lock: bool = True
+    """Hold the feet the filled frames plant still (IK on the legs, :mod:`mocapkit.ik`): the
+    ground warp and the end offsets move the whole body a little every frame, and the Kalman
+    fallback glides, both of which slide a planted foot; a planted foot does not move. On the
+    tuning takes it lowers the filled frames' foot skate at 30 frames from 35.6 to 31.9 cm/s
+    (the takes' own: 32.5)."""
+    lock_context_seconds: float = 0.5
+    """Context on each side of the gap seen by the contact detector (a contact that began
+    before the gap is held where it began)."""
+    lock_ramp_seconds: float = 0.1
+    """The foot lock fades in after the last past frame and out before the first future frame,
+    so the context frames are untouched and the junctions do not pop."""
     fallback: bool = True
     """Fill with the Kalman transition when the best candidate's two-sided L-score is higher
     than the Kalman transition's own."""
@@ -535,6 +547,66 @@ def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int, up: str) ->
     return out
 
 
+def _two_sided(onpath, fill, a, b, ctx: _Context, w: int, up: str, model) -> float:
+    """The two-sided L-score of filled frames ``fill`` (frames a..b-1 of ``onpath``), scored as
+    a library candidate is: L of the past window then the first gap frames, plus L of the last
+    gap frames then the future window, in body-local features."""
+    from mocapkit.stitch.transition import _join
+
+    g = b - a
+    wl = max(3, min(w, g))
+    part = _join(onpath[max(0, a - 3) : a], fill, onpath[b : b + 3])
+    f = motion_features(part, up)[min(3, a) :][:g]
+    if f.shape[0] < wl:  # a gap shorter than three frames: repeat its last frame, as a hold
+        f = np.concatenate([f, np.repeat(f[-1:], wl - f.shape[0], axis=0)])
+    start = window_lscores(ctx.past, f[:wl], 0, model)[0]
+    end = window_lscores(f[-wl:], ctx.future, 0, model)[0]
+    return float(start + end)
+
+
+def _lock_feet(motion: Motion, a: int, b: int, up: str, config: InbetweenConfig) -> Motion:
+    """``motion`` with the feet planted in frames a..b-1 held still (see
+    :attr:`InbetweenConfig.foot_lock`): contacts (:func:`mocapkit.features.foot_contacts`) on
+    the gap and some context, each contact run held where it began (ground-plane only), the
+    hold faded in and out at the gap's ends; only the legs' rotations of frames a..b-1 change."""
+    from mocapkit import ik
+    from mocapkit.body import body_of
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.features import foot_contacts, ground_frame
+
+    pad = motion.seconds_to_frames(config.lock_context_seconds)
+    lo, hi = max(0, a - pad), min(motion.num_frames, b + pad)
+    ex = motion[lo:hi]
+    body = body_of(ex)
+    try:
+        chains = list(ik.leg_chains(ex, body))
+    except ValueError:  # no legs to hold
+        return motion
+    effs = tuple(e for c in chains for e in c.effectors)
+    if not effs:
+        return motion
+    contacts = foot_contacts(ex, up=up)
+    F = ex.num_frames
+    flags = np.zeros((F, len(effs)), bool)
+    for k, j in enumerate(contacts.joints):
+        if j in effs:
+            flags[:, effs.index(j)] |= contacts.contacts[:, k]
+    pos, _ = forward_kinematics(ex)
+    lock = ik.FootLockConfig()
+    targets, weights = ik.lock_targets(
+        pos[:, list(effs)], flags, ex.seconds_to_frames(lock.blend), "first",
+        ground_frame(up)[1], "offset",
+    )  # fmt: skip
+    ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
+    i = np.arange(F) + lo
+    x = np.clip(np.minimum(i - (a - 1), b - i) / (ramp + 1), 0.0, 1.0)
+    weights = weights * (x * x * (3 - 2 * x))[:, None]
+    res = ik.solve(ex, chains, targets, weights, lock.ik, body)
+    out = motion.copy()
+    out.rotations[a:b] = res.motion.rotations[a - lo : b - lo]
+    return out
+
+
 def _back_to_clip(fill: Motion, clip: Motion, a: int, b: int, onpath: bool) -> Motion:
     """The filled frames in the clip's own root convention (see the module docstring)."""
     if not onpath:
@@ -775,17 +847,20 @@ def inbetween(
         ctx, b - a, lib, w=w, config=config, model=model, metres_per_unit=mpu
     )
     seconds = time.perf_counter() - t0
-    kal = kalman_lscore(ctx.past, ctx.future, b - a, model)
-    if method == "kalman" or (method == "auto" and config.fallback and cand.lscore > kal):
-        fill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
-        method = "kalman"
+    kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
+    kal = _two_sided(onpath, kfill, a, b, ctx, w, up, model)
+    use_kalman = method == "kalman" or (method == "auto" and config.fallback and cand.lscore > kal)
+    if use_kalman:
+        fill = kfill
     else:
         fill = library_fill(onpath, a, b, lib.motions[cand.clip], cand, up=up, config=config)
-        method = "library"
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip)
     motion = _join(clip[:a], fill, clip[b:])
+    if config.foot_lock:
+        motion = _lock_feet(motion, a, b, up, config)
+    how = "kalman" if use_kalman else "library"
     return Inbetween(
-        motion, (a, b), method, cand, lib.names[cand.clip], kal, count, seconds,
+        motion, (a, b), how, cand, lib.names[cand.clip], kal, count, seconds,
         str(clip_name), lib.names, None if output is None else str(output),
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
     )  # fmt: skip
