@@ -24,7 +24,9 @@ in-betweening). ``walk.bvh`` gets ``walk.provenance.json`` beside it::
 Frames are 0-based, ``*_stop`` excluded. Segment kinds: ``"clip"`` (frames copied from
 ``source``), ``"transition"`` (``source``'s frames blended with the clip the walk came from, which
 the matching ``transitions`` entry names), ``"generated"`` (frames made by mocapkit, e.g. a
-stitch's injected frames). Readers ignore keys they do not
+stitch's injected frames), ``"inbetween"`` (frames of ``source``, time-warped and moved onto
+the frames around a gap, their ends blended into them: ``mocapkit inbetween``). Readers ignore
+keys they do not
 know, so later tools may add some.
 """
 
