@@ -127,10 +127,12 @@ class InbetweenConfig:
     """Weight of the ground-path term against the L-scores (in L-score units per squared
     tolerance); on the tuning takes 5 beat 1 (L2P at 15 frames 0.69 vs 0.82 of interpolation)
     and 25 (0.73): the body-local L-scores alone let the body drift off the context's path."""
-    blend_seconds: float = 0.5
+    blend_seconds: float = 0.25
     """How long each end's pose offset takes to fade (inertialization; capped by the gap): long
     enough that removing the offset adds no visible acceleration, short enough that the middle
-    of a long gap is the library's own motion."""
+    of a long gap is the library's own motion (tuning takes, L2P / interpolation at 15 and 30
+    frames: 0.61 and 0.48 at 0.25 s, 0.60 and 0.47 at 0.15 s with more foot skate, 0.70 and
+    0.58 at 1 s)."""
     foot_lock: bool = True
     """Hold the feet the filled frames plant still (IK on the legs, :mod:`mocapkit.ik`): the
     ground warp and the end offsets move the whole body a little every frame, and the Kalman
