@@ -1,11 +1,17 @@
 """Speed of mocapkit.clean: a 15 s take against contexts of 0..30 takes of 15 s, in one run.
 
-Prints the wall time of ``SelfSimilarityCleaner.fit`` (all five joint groups, K = 5) for each
-context size, the time per million context frames x source words (which should stay flat if the
+Prints the wall time of ``SelfSimilarityCleaner.fit`` (all five joint groups, K = 5) and of
+``mask()`` (the detection rules: evidence computed once, then the pipeline) for each context
+size, at the take's rate (``--fps``, 30 by default; 120 as the CMU captures), the time per
+million context frames x source words (which should stay flat if the
 cost grows linearly with the context), the two-stage mode, and the published figures for
 reference (MATLAB, 6-core i7: 2 min local, 20 min small-scale, 90 min large-scale per 15 s take).
 
-    PYTHONPATH=src .venv/bin/python bench/bench_clean.py [--takes 30] [--seconds 15]
+    PYTHONPATH=src .venv/bin/python bench/bench_clean.py [--takes 30] [--seconds 15] [--fps 120]
+
+The script uses only ``fit`` and ``mask``, so the same file times an older tree in the same
+session (``git archive <commit> src | tar -x -C old; PYTHONPATH=old/src python
+bench/bench_clean.py``): issue #16 compares the declared pipeline with the rules it replaced.
 """
 
 from __future__ import annotations
@@ -25,14 +31,22 @@ def main() -> int:
     ap.add_argument("--takes", type=int, default=30)
     ap.add_argument("--seconds", type=float, default=15.0)
     ap.add_argument("--sizes", default="0,5,10,20,30")
+    ap.add_argument("--fps", type=float, default=30.0, help="frame rate of the takes")
     args = ap.parse_args()
     kinds = ("walk", "run", "wave", "idle")
-    take = datasets.procedural_motion("walk", seconds=args.seconds, seed=100).motion
+    import mocapkit
+
+    print(f"mocapkit from {os.path.dirname(mocapkit.__file__)}")
+    take = datasets.procedural_motion("walk", seconds=args.seconds, fps=args.fps, seed=100).motion
     rng = np.random.default_rng(0)
     names = list(take.skeleton.names)
-    take = inject(take, "offset", names.index("LeftForeArm"), rng, start=120).motion
+    take = inject(
+        take, "offset", names.index("LeftForeArm"), rng, start=take.seconds_to_frames(4.0)
+    ).motion
     ctx = [
-        datasets.procedural_motion(kinds[i % 4], seconds=args.seconds, seed=200 + i).motion
+        datasets.procedural_motion(
+            kinds[i % 4], seconds=args.seconds, fps=args.fps, seed=200 + i
+        ).motion
         for i in range(args.takes)
     ]
     threads = os.environ.get("NUMBA_NUM_THREADS") or str(os.cpu_count())

@@ -34,10 +34,12 @@ import numpy as np
 from scipy import ndimage
 
 from mocapkit.clean.cleaner import SelfSimilarityCleaner
-from mocapkit.clean.detect import PIPELINE, run_pipeline
+from mocapkit.clean.detect import ORIGINAL_ORDER, PIPELINE, RETIRED, run_pipeline
 from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix
 from mocapkit.clean.inject import ERROR_KINDS
+from mocapkit.clean.repair import foot_slide
 from mocapkit.clean.texture import rotating_joints
+from mocapkit.features import foot_contacts
 from mocapkit.io import read_motion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -135,17 +137,52 @@ def find_glitches(motion, step_deg=30.0, ratio=6.0, sigmas=15.0, window=25, merg
     return out
 
 
-def variants(ablate: bool) -> dict[str, tuple[type, ...]]:
+def variants(ablate: bool, also: str = "", drops: str = "") -> dict[str, tuple[type, ...]]:
+    """The pipelines scored from the same fits: "full" (:data:`PIPELINE`), with ``ablate``
+    each rule left out, and with ``also`` ("a,b") the pipeline plus those rules of
+    :data:`RETIRED` (what removing them changed); ``drops`` ("a,b;c"): :data:`ORIGINAL_ORDER`
+    less each ;-separated set of rules (backward elimination)."""
     out = {"full": PIPELINE}
     if ablate:
         for r in PIPELINE[1:]:
             out[f"-{r.name}"] = tuple(x for x in PIPELINE if x is not r)
+    for drop in filter(None, drops.split(";")):
+        names = drop.split(",")
+        out["orig-" + "-".join(names)] = tuple(r for r in ORIGINAL_ORDER if r.name not in names)
+    if also:
+        extra = [r for r in RETIRED if r.name in also.split(",")]
+        order = [r for r in (*PIPELINE, *RETIRED) if r in PIPELINE or r in extra]
+        out["+" + "+".join(r.name for r in extra)] = tuple(
+            sorted(order, key=lambda r: ORIGINAL_ORDER.index(r))
+        )
     return out
 
 
-def evaluate_set(set_name: str, args, table: dict, raw: dict) -> None:
+def slide_row(slides: dict, key: tuple, clean, cor, cl) -> None:
+    """Foot slide (m/s of planted feet, contacts of the clean take) within 0.5 s of the
+    injected errors: clean take, injected take, repaired without and with the foot lock."""
+    try:
+        contacts = foot_contacts(clean)
+    except ValueError:
+        return
+    near = ndimage.binary_dilation(cor.frames, iterations=clean.seconds_to_frames(0.5))
+    plain = cl.repair(foot_lock=False).motion
+    locked = cl.repair().motion
+    row = slides.setdefault(key, {k: [] for k in ("clean", "injected", "repaired", "locked")})
+    for k, m in (
+        ("clean", clean),
+        ("injected", cor.motion),
+        ("repaired", plain),
+        ("locked", locked),
+    ):
+        v = foot_slide(m, contacts, near)
+        if np.isfinite(v):
+            row[k].append(v)
+
+
+def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> None:
     kinds = args.kinds.split(",")
-    vs = variants(args.ablate)
+    vs = variants(args.ablate, args.also, args.drops)
     for cls, files in classes(set_name).items():
         takes = {}
         for f in _spread(files, args.takes * 4):
@@ -178,6 +215,8 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict) -> None:
                 excused = unit_matrix(gl, clean.fps)[:, act] & ~truth
                 for ctx_name, c in (("local", []), ("small", ctx)):
                     cl = SelfSimilarityCleaner().fit(cor.motion, c)
+                    if args.repair and ctx_name == "local":
+                        slide_row(slides, (set_name, cls), clean, cor, cl)
                     for vname, pipe in vs.items():
                         mask = run_pipeline(cl.evidence_, pipeline=pipe).mask
                         flagged = unit_matrix(mask, clean.fps)[:, act] & ~excused
@@ -210,6 +249,9 @@ def main() -> int:
     ap.add_argument("--context-size", type=int, default=3, help="small-scale context takes")
     ap.add_argument("--ablate", action="store_true", help="also the pipeline without each rule")
     ap.add_argument("--raw", action="store_true", help="CMU: also the uninjected takes")
+    ap.add_argument("--also", default="", help="score PIPELINE plus these retired rules too")
+    ap.add_argument("--drops", default="", help="score ORIGINAL_ORDER less these: 'a,b;c'")
+    ap.add_argument("--repair", action="store_true", help="foot slide before/after repair")
     ap.add_argument("--json", default=None, help="write the figures here too")
     args = ap.parse_args()
     if not SHARED.exists():
@@ -218,10 +260,11 @@ def main() -> int:
     sets = args.sets or ["bandai1-tune"]
     table: dict = {}
     raw: dict = {}
+    slides: dict = {}
     for s in sets:
-        evaluate_set(s, args, table, raw)
+        evaluate_set(s, args, table, raw, slides)
     kinds = [*args.kinds.split(","), "all"]
-    out: dict = {"detection": [], "ablation": [], "raw": []}
+    out: dict = {"detection": [], "ablation": [], "raw": [], "foot_slide": []}
     print("\nDetection, (joint, source-word) units: recall/precision (targets 0.98/0.93)")
     print(f"{'set':13s} {'class':14s} {'takes':>5s} " + " ".join(f"{k:>13s}" for k in kinds))
     for s in sets:
@@ -248,7 +291,7 @@ def main() -> int:
                     t = tot.setdefault(v, Counts())
                     t.tp, t.fp, t.fn = t.tp + c.tp, t.fp + c.fp, t.fn + c.fn
             full = tot.get("full", Counts())
-            for v, c in tot.items():
+            for v, c in sorted(tot.items()):
                 dr, dp = c.recall - full.recall, c.precision - full.precision
                 print(f"  {s:13s} {v:20s} {fmt(c)}   d-recall {dr:+.4f}  d-precision {dp:+.4f}")
                 out["ablation"].append(
@@ -264,6 +307,16 @@ def main() -> int:
                 f"the list ({per:.1f}/min); by joint {r.get('joints', {})}"
             )
             out["raw"].append({"set": s, "class": cls, **r})
+    if slides:
+        print("\nFoot slide of planted feet (clean take's contacts) within 0.5 s of the errors,")
+        print("m/s, mean over takes x kinds (local context): clean / injected / repaired / +lock")
+        for (s, cls), r in slides.items():
+            vals = {k: float(np.mean(v)) if v else float("nan") for k, v in r.items()}
+            print(
+                f"  {s:13s} {cls:14s} n={len(r['clean']):3d}  {vals['clean']:.3f} / "
+                f"{vals['injected']:.3f} / {vals['repaired']:.3f} / {vals['locked']:.3f}"
+            )
+            out["foot_slide"].append({"set": s, "class": cls, "n": len(r["clean"]), **vals})
     print(f"\n{time.time() - T0:.0f} s")
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1) + "\n")

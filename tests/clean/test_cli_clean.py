@@ -157,7 +157,7 @@ def test_clean_explains_a_cell_and_reports_reasons(files) -> None:
     assert code == 0, stderr
     assert f"LeftForeArm frame {f0}" in out and "FLAGGED by" in out
     assert "Head frame 15 (0.500 s): not flagged" in out
-    for rule in ("mdm", "spike", "frozen", "noise", "wrong-way-hinge", "smooth"):
+    for rule in ("mdm", "cancelling-jumps", "frozen", "recurring", "noise", "wrong-way-hinge"):
         assert f"  {rule} " in out
     report = json.loads(rep.read_text(), parse_constant=lambda c: pytest.fail(c))
     assert report["rules"][0] == "mdm" and report["config"]["threshold"] == 0.5

@@ -22,8 +22,10 @@ from mocapkit.clean.detect.hinges import WrongWayHinges
 from mocapkit.clean.detect.mdm_threshold import MDMHysteresis, PaperThreshold, abrupt_seeds
 from mocapkit.clean.detect.noise_bursts import NoiseBursts
 from mocapkit.clean.detect.pipeline import (
+    ORIGINAL_ORDER,
     PAPER_PIPELINE,
     PIPELINE,
+    RETIRED,
     UNANALYSED,
     Explanation,
     build,
@@ -38,8 +40,10 @@ from mocapkit.clean.detect.smooth import SmoothVeto
 from mocapkit.clean.detect.spikes import Spikes
 
 __all__ = [
+    "ORIGINAL_ORDER",
     "PAPER_PIPELINE",
     "PIPELINE",
+    "RETIRED",
     "UNANALYSED",
     "CancellingJumps",
     "DetectConfig",

@@ -2,9 +2,11 @@
 
 Units: angles in degrees, durations in seconds (converted to frames at the take's own rate where
 a rule runs, so a 30 fps and a 120 fps take are judged alike), MDM levels in [0, 1], ratios bare.
-Each field carries the reason for its value. Values marked "bandai1 tuning half" were chosen on
-injected errors in the tuning half of Bandai-1 (bench/eval_clean.py ``--split tune``) and checked,
-without retuning, on its validation half, Bandai-2 and the raw CMU takes.
+Each field carries the reason for its value. The values were chosen on injected errors in
+Bandai-1 walks before issue #16; which rules run was then decided on the validation half of
+Bandai-1 (``mocapkit.clean.detect.RETIRED``), and Bandai-2 and the raw CMU takes are reported
+without retuning (bench/eval_clean.py). Fields of retired rules matter only when a pipeline
+puts those rules back.
 """
 
 from __future__ import annotations
@@ -108,8 +110,9 @@ class DetectConfig:
     step_side_seconds: float = 0.1
 
     # ------------------------------------------------------------------ dominance veto
-    #: Drop an MDM-only run whose peak is below this fraction of another joint's peak nearby: a
-    #: gross error on one joint bends the time-warped neighbours of every word around it (0: off).
+    #: (Retired rule, see ``detect.RETIRED``.) Drop an MDM-only run whose peak is below this
+    #: fraction of another joint's peak nearby: a gross error on one joint bends the
+    #: time-warped neighbours of every word around it (0: off).
     dominance: float = 0.5
     #: "Nearby" for the dominance veto (seconds either side of the run).
     dominance_pad_seconds: float = 1.0 / 6.0
@@ -124,9 +127,10 @@ class DetectConfig:
     pair_ratio: float = 1.2
 
     # ------------------------------------------------------------------ spikes
-    #: A short stretch that leaves the joint's smooth path (the cubic through the frames around
-    #: it) by more than this many degrees at every frame is a spike: natural motion of one joint
-    #: does not leave and rejoin its own smooth path within a sixth of a second by 25 deg.
+    #: (Retired rule.) A short stretch that leaves the joint's smooth path (the cubic through the
+    #: frames around it) by more than this many degrees at every frame is a spike: natural
+    #: motion of one joint does not leave and rejoin its own smooth path within a sixth of a
+    #: second by 25 deg.
     spike_deg: float = 25.0
     #: Longest spike (seconds).
     spike_seconds: float = 1.0 / 6.0
@@ -184,8 +188,9 @@ class DetectConfig:
     hinge_max_deg: float = 170.0
 
     # ------------------------------------------------------------------ extension
-    #: Stretch every flagged run to the steps (above ``step_min_deg``) within this long
-    #: (seconds) of its ends: an error's first and last frames often digress too little.
+    #: (Retired rule.) Stretch every flagged run to the steps (above ``step_min_deg``) within
+    #: this long (seconds) of its ends: an error's first and last frames often digress too
+    #: little.
     extend_seconds: float = 2.0 / 15.0
 
     def __post_init__(self) -> None:
