@@ -43,7 +43,7 @@ def reference(library, clips, tmp_path_factory):
     paths = [p.name for p in _takes(clips)]
     g, db, _ = build_graph(motions, paths=paths)
     g.save(out / "graph.json")
-    mins = tiled_local_minima(db, 1, 16, np.float64, tiles_per_task=3)
+    mins = tiled_local_minima(db, 1, 16, np.float64, task_side=2)
     return {"dir": out, "clean": res, "convert": conv, "db": db, "minima": mins,
             "motions": motions, "paths": paths}  # fmt: skip
 
@@ -91,7 +91,7 @@ def test_local_cluster_same_bytes(reference, local_runner, library, tmp_path, tr
     ]
     assert [i.error for i in conv.items] == [i.error for i in reference["convert"].items]
     assert tree(tmp_path / "conv") == tree(ref / "conv")
-    mins = tiled_local_minima(reference["db"], 1, 16, np.float64, tiles_per_task=3,
+    mins = tiled_local_minima(reference["db"], 1, 16, np.float64, task_side=2,
                               runner=local_runner)  # fmt: skip
     _same_minima(mins, reference["minima"])
     with tile_runner(local_runner):
@@ -128,7 +128,7 @@ def test_scheduler_processes_same_bytes(reference, scheduler_address, library, c
     from mocapkit.graph.distance import tiled_local_minima as tlm
 
     with Runner(scheduler=scheduler_address) as runner:
-        mins = tlm(reference["db"], 1, 16, np.float64, tiles_per_task=3, runner=runner)
+        mins = tlm(reference["db"], 1, 16, np.float64, task_side=2, runner=runner)
         infos = runner.map(len, ["ab", "c"])
     _same_minima(mins, reference["minima"])
     assert infos == [2, 1]

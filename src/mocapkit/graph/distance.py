@@ -51,7 +51,7 @@ __all__ = [
     "DEFAULT_BUCKET_SECONDS",
     "DEFAULT_PER_BUCKET",
     "DEFAULT_WINDOW",
-    "TILES_PER_TASK",
+    "TASK_SIDE",
     "CostDatabase",
     "MinimaReducer",
     "TileMinima",
@@ -819,16 +819,18 @@ class MinimaReducer:
         return ci[first].astype(np.int64), cj[first].astype(np.int64), cc[first]
 
 
-#: Tiles per task of :func:`tiled_local_minima`: a fixed number, not a function of the number
+#: A task of :func:`tiled_local_minima` is a square of TASK_SIDE x TASK_SIDE tiles (fewer on the
+#: diagonal): its row and column features are built once for all its tiles (building them costs
+#: about as much as the products of a tile or two). A fixed size, not a function of the number
 #: of workers, so that the tasks, each task's reduction and the merge order (task order) are the
 #: same wherever and on however many workers the tiles run.
-TILES_PER_TASK = 16
+TASK_SIDE = 8
 
 
 @dataclass(frozen=True)
 class TileTask:
-    """One task of the tiled cost: consecutive tiles ``(row start, column start)`` (positions in
-    the plan's grid; upper triangle, row-major order)."""
+    """One task of the tiled cost: a square block of tiles ``(row start, column start)``
+    (positions in the plan's grid; upper triangle, row-major order within the block)."""
 
     index: int
     tiles: tuple[tuple[int, int], ...]
@@ -849,6 +851,7 @@ class TilePlan:
     per_bucket: int
     max_candidates: int
     tasks: tuple[TileTask, ...]
+    task_side: int = TASK_SIDE
 
     @property
     def num_tiles(self) -> int:
@@ -872,7 +875,8 @@ class TilePlan:
         K = len(db.window)
         P = db.coords.shape[1]
         n = self.tile + 2
-        side = n * K * P * (11 * 8 + 20 * item)
+        # a task keeps the packed features of its rows and columns (up to TASK_SIDE each)
+        side = n * K * P * (11 * 8 + 20 * item) * max(1, self.task_side)
         tile = n * n * (8 * item + 1 + 8)
         buckets = -(-db.num_frames // max(1, self.bucket_frames)) + db.num_clips
         reducer = buckets * max(1, self.per_bucket) * 32 + db.num_frames * 16
@@ -895,10 +899,11 @@ def plan_tiles(
     max_candidates: int = 200_000,
     bucket_seconds: float = DEFAULT_BUCKET_SECONDS,
     per_bucket: int = DEFAULT_PER_BUCKET,
-    tiles_per_task: int = TILES_PER_TASK,
+    task_side: int = TASK_SIDE,
 ) -> TilePlan:
     """The tiles and tasks of :func:`tiled_local_minima` (see its arguments); ``stride`` and
-    ``dtype`` None: :func:`mocapkit.graph.build_graph`'s defaults."""
+    ``dtype`` None: :func:`mocapkit.graph.build_graph`'s defaults. Tasks are squares of
+    ``task_side`` x ``task_side`` tiles of the upper triangle, in row-major order of squares."""
     if stride is None:
         from mocapkit.graph.graph import default_stride
 
@@ -907,18 +912,20 @@ def plan_tiles(
         dtype = np.float64 if db.num_frames <= 20000 else np.float32
     if tile < 8:
         raise ValueError("tile must be >= 8")
-    if tiles_per_task < 1:
-        raise ValueError(f"tiles_per_task must be >= 1, got {tiles_per_task}")
+    if task_side < 1:
+        raise ValueError(f"task_side must be >= 1, got {task_side}")
     if np.dtype(dtype) not in (np.dtype(np.float32), np.dtype(np.float64)):
         raise ValueError("dtype must be numpy.float64 or numpy.float32")
     grid = candidate_grid(db, stride)
     G = len(grid)
     starts = list(range(1, G - 1, tile))
-    tiles = [(ra, ca) for ra in starts for ca in starts if ca >= ra]
-    tasks = tuple(
-        TileTask(k, tuple(tiles[a : a + tiles_per_task]))
-        for k, a in enumerate(range(0, len(tiles), tiles_per_task))
-    )
+    blocks = [starts[a : a + task_side] for a in range(0, len(starts), task_side)]
+    squares = [
+        tuple((ra, ca) for ra in rows for ca in cols if ca >= ra)
+        for r, rows in enumerate(blocks)
+        for cols in blocks[r:]
+    ]
+    tasks = tuple(TileTask(k, sq) for k, sq in enumerate(squares))
     return TilePlan(
         grid,
         int(stride),
@@ -929,6 +936,7 @@ def plan_tiles(
         int(per_bucket),
         int(max_candidates),
         tasks,
+        int(task_side),
     )
 
 
@@ -985,6 +993,7 @@ def _tile_task_minima(shared: tuple[CostDatabase, TilePlan], task: TileTask) -> 
     mins_buf: np.ndarray | None = None
     row_at = -1
     rpack = None
+    cpacks: dict[int, _ColPack] = {}  # the square's columns, each built once
     pairs = 0
     for ra, ca in task.tiles:
         rb = min(ra + plan.tile, G - 1)
@@ -994,8 +1003,9 @@ def _tile_task_minima(shared: tuple[CostDatabase, TilePlan], task: TileTask) -> 
             row_at = ra
         cb = min(ca + plan.tile, G - 1)
         cols = np.arange(ca - 1, cb + 1)
-        cpack = _col_pack(_side(db, idx[cols], dtype), Wk_s)
-        t = _tile_cost_packed(rpack, cpack, bufs)
+        if ca not in cpacks:
+            cpacks[ca] = _col_pack(_side(db, idx[cols], dtype), Wk_s)
+        t = _tile_cost_packed(rpack, cpacks[ca], bufs)
         t[sep[rows], :] = np.inf
         t[:, sep[cols]] = np.inf
         pairs += t.size
@@ -1035,13 +1045,36 @@ class TileMapper:
         raise NotImplementedError
 
 
+def _threading_layer() -> str:
+    """numba's threading layer (started if need be): "tbb" and "omp" are thread-safe."""
+    from numba.np.ufunc import parallel
+
+    parallel._launch_threads()
+    return numba.threading_layer()
+
+
 def _in_process_imap(fn, items, shared, progress):
+    """``fn(shared, item)`` in input order, on one thread per core of this process (each task's
+    BLAS on one thread: the same bits as on a Dask worker, and every core busy)."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
     items = list(items)
-    for n, item in enumerate(items):
-        out = fn(shared, item)
-        if progress is not None:
-            progress(n + 1, len(items))
-        yield out
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    threads = max(1, min(cores or 1, len(items)))
+    if threads > 1 and _threading_layer() == "workqueue":
+        threads = 1  # numba's own layer aborts on parallel kernels launched from two threads
+    with ThreadPoolExecutor(threads) as pool:
+        futures = [pool.submit(fn, shared, item) for item in items]
+        try:
+            for n, fut in enumerate(futures, start=1):
+                out = fut.result()
+                if progress is not None:
+                    progress(n, len(items))
+                yield out
+        finally:
+            for f in futures:
+                f.cancel()
 
 
 def tiled_local_minima(
@@ -1056,7 +1089,7 @@ def tiled_local_minima(
     per_bucket: int = DEFAULT_PER_BUCKET,
     *,
     runner: TileMapper | None = None,
-    tiles_per_task: int = TILES_PER_TASK,
+    task_side: int = TASK_SIDE,
 ) -> MinimaResult:
     """Local minima of the cost matrix over a stride grid, computed tile by tile (upper
     triangle; the cost is symmetric), never holding more than one tile (+ 1-cell halo).
@@ -1066,7 +1099,8 @@ def tiled_local_minima(
     cheapest, plus, for every ``bucket_seconds`` piece of every clip, its cheapest minimum with
     each of its ``per_bucket`` cheapest partner clips (``per_bucket=0``: the global list only).
 
-    The tiles are grouped into tasks of ``tiles_per_task`` (:func:`plan_tiles`); each task
+    The tiles are grouped into square tasks of ``task_side`` x ``task_side`` tiles
+    (:func:`plan_tiles`); each task
     reduces its own tiles (:func:`tile_task_minima`) and the tasks' reductions are merged in
     task order, so the result is the same whether the tasks run here or on ``runner`` (e.g. a
     :class:`mocapkit.batch.Runner` on a Dask cluster), on any number of workers.
@@ -1076,7 +1110,7 @@ def tiled_local_minima(
 
     t0 = time.perf_counter()
     plan = plan_tiles(db, stride, tile, dtype, min_gap, max_candidates, bucket_seconds,
-                      per_bucket, tiles_per_task)  # fmt: skip
+                      per_bucket, task_side)  # fmt: skip
     with one_blas_thread():  # here too, for tasks run on this process's threads
         return merge_tile_minima(db, plan, _run_plan(db, plan, runner, progress), t0)
 
