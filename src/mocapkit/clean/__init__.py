@@ -7,7 +7,9 @@ sparse-joint reconstruction and the paper's rotation baselines.
     from mocapkit.clean import SelfSimilarityCleaner
     cleaner = SelfSimilarityCleaner().fit(take, context=[take2, take3])
     cleaner.mdm_                 # (F, J) in [0, 1] on the take's frames
-    cleaner.segments()           # flagged runs (joint, start, end, peak)
+    cleaner.segments()           # flagged runs (joint, start, end, peak, reasons, evidence)
+    print(cleaner.explain("LeftArm", 120))   # why that cell was or was not flagged
+    SelfSimilarityCleaner(config=DetectConfig(threshold=0.6))   # every threshold in one place
     fixed = cleaner.repair().motion
 
     from mocapkit.clean import run  # what `mocapkit clean` does: detect, repair, report
@@ -25,6 +27,7 @@ from mocapkit.clean.cleaner import (
     SelfSimilarityCleaner,
     clean,
 )
+from mocapkit.clean.detect import PIPELINE, DetectConfig, Explanation
 from mocapkit.clean.dtw import (
     MAX_RUN,
     constrained_dtw,
@@ -55,11 +58,14 @@ __all__ = [
     "GAIN",
     "K_NEIGHBOURS",
     "MAX_RUN",
+    "PIPELINE",
     "SCALE",
     "THRESHOLD",
     "CleanReport",
     "ContactConstraint",
     "Context",
+    "DetectConfig",
+    "Explanation",
     "GroupNeighbours",
     "Injected",
     "JointGroup",

@@ -160,6 +160,11 @@ def run(
     names = [str(n) for n in context_names] if context_names is not None else None
     if names is not None and len(names) != len(context):
         raise ValueError(f"{len(names)} context names for {len(context)} context takes")
+    if baseline is not None and explain:
+        raise ValueError(
+            "explain reads the self-similarity rules; a baseline (--baseline) decides by "
+            "rotation limits alone"
+        )
     if baseline is not None and not context:
         raise ValueError(
             "the baselines need context takes (--context): their limits are learned from clean "
@@ -183,9 +188,7 @@ def run(
         mask = flags.mask.copy()
         segments = tuple(cleaner.segments())
         rules = tuple(cleaner.rule_names())
-        reason_names = tuple(
-            r for r in rules if r in flags.added and (flags.added[r] & mask).any()
-        )
+        reason_names = tuple(r for r in rules if r in flags.added and (flags.added[r] & mask).any())
         decision = flags.primary(list(reason_names))
     else:
         mask = RotationBaseline(baseline).fit(list(context)).mask(motion)
