@@ -52,3 +52,32 @@ def test_detection_on_bandai_walks(shared_path) -> None:
     assert (t & f).sum() / t.sum() >= 0.9
     res = cl.repair()
     assert np.array_equal(res.motion.rotations[~res.written], cor.motion.rotations[~res.written])
+
+
+@pytest.mark.shared
+def test_reconstructed_bandai_take_walks_with_its_ground_root_under_it(shared_path) -> None:
+    """A Bandai body travels through its Hips' position channels (joint_Root stays at the
+    origin in the files): the reconstruction keeps that travel, and its ground root follows
+    the body's ground path with steps no larger than the body's (issue: root motion)."""
+    from mocapkit.body import body_of
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.edit.joints import drop_joints
+    from mocapkit.io import read_motion
+
+    d = shared_path("bandai2/data")
+    take = read_motion(d / "dataset-2_walk_normal_013.bvh")
+    db = [read_motion(d / f"dataset-2_walk_normal_{n:03d}.bvh") for n in (1, 5, 9)]
+    sparse = drop_joints(take, r".*(Lower|Hand|Foot|Toe).*")
+    full = reconstruct(sparse, db)
+    b = body_of(full)
+    p, _ = forward_kinematics(full)
+    q, _ = forward_kinematics(take)
+    ground = [0, 2]  # Y up
+    pel = p[:, b.pelvis][:, ground]
+    np.testing.assert_allclose(pel, q[:, b.pelvis][:, ground], atol=1e-6)  # the same travel
+    assert np.linalg.norm(pel[-1] - pel[0]) > 100.0  # cm: it walks
+    root = p[:, b.ground_root][:, ground]
+    step = np.linalg.norm(np.diff(root, axis=0), axis=1).max()
+    body = np.linalg.norm(np.diff(pel, axis=0), axis=1).max()
+    assert step <= 2.0 * body
+    assert np.linalg.norm(root - pel, axis=1).max() < 1.0  # under the body, not at the origin

@@ -193,8 +193,9 @@ def reconstruct(
         transition_weight: weight of the overlap pose distance when chaining words.
 
     Returns:
-        A Motion on the database skeleton at the input's frame rate: known joints and the root
-        translation copied from the input, the other joints reconstructed.
+        A Motion on the database skeleton at the input's frame rate: known joints and their
+        translations (the root's, and those of joints that animate their position) copied from
+        the input, the other joints reconstructed; a ground root on the body's ground path.
     """
     full = _database_skeleton(database)
     rots, kidx = _full_layout(sparse, full, known)
@@ -217,4 +218,16 @@ def reconstruct(
     out = _to_take_frames(rec, fps, sparse)
     out[:, kidx] = rots[:, kidx]
     root = np.asarray(sparse.root_positions, dtype=np.float64).copy()
-    return Motion(full, out, root, sparse.frame_time)
+    trans = None
+    if sparse.translations is not None or full.has_position[1:].any():
+        # joints that animate their position (a Bandai body under its ground root) keep the
+        # take's translations where the take has the joint, their offsets elsewhere
+        trans = np.broadcast_to(full.offsets, (sparse.num_frames, full.num_joints, 3)).copy()
+        have = sparse.local_translations()
+        src_names = list(sparse.skeleton.names)
+        for j, name in enumerate(full.names):
+            if name in src_names and full.has_position[j]:
+                trans[:, j] = have[:, src_names.index(name)]
+        trans[:, 0] = root
+    # a ground root (Bandai's joint_Root) stands under the body, turned with it
+    return features.ground_root_on_path(Motion(full, out, root, sparse.frame_time, trans))
