@@ -231,6 +231,51 @@ def _interp_rows(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     return x[i0] * (1.0 - f) + x[i1] * f
 
 
+def _leg_length(motion: Motion) -> float | None:
+    """Hip-to-ankle length of the first leg at the first frame (file units), None without."""
+    from mocapkit.body import body_of
+
+    body = body_of(motion)
+    hips, ankles = body.both("hip"), body.both("ankle")
+    if not hips or not ankles or motion.num_frames == 0:
+        return None
+    tr = motion.local_translations()[0]
+    sk = motion.skeleton
+    for ank in ankles:
+        chain = [ank, *sk.ancestors(ank)]
+        for h in hips:
+            if h in chain[1:]:
+                return float(sum(np.linalg.norm(tr[j]) for j in chain[: chain.index(h)]))
+    return None
+
+
+def _fit_proportions(m: Motion, original: Motion, reference: Motion) -> Motion:
+    """``m`` (a library motion already on ``reference``'s skeleton) with ``reference``'s bone
+    lengths: the local translations of the joints below the pelvis's chain are the reference's
+    (first frame), and the root motion (root and pelvis translations) is scaled by the ratio of
+    the two people's leg lengths, so a taller actor's pelvis does not float above the clip's
+    feet and its strides shrink to the clip's person. Relies on bones not changing length
+    during a take (rigid segments)."""
+    from mocapkit.body import body_of
+
+    ref_leg, lib_leg = _leg_length(reference), _leg_length(original)
+    ratio = ref_leg / lib_leg if ref_leg and lib_leg else 1.0
+    pel = body_of(reference).pelvis
+    carry = {pel, *reference.skeleton.ancestors(pel)}
+    out = m.copy()
+    tr = out.local_translations()
+    ref_tr = reference.local_translations()[0]
+    body_rows = [j for j in range(reference.num_joints) if j not in carry]
+    tr[:, body_rows] = ref_tr[body_rows]
+    rows = sorted(carry)
+    tr[:, rows] *= ratio
+    out.root_positions = m.root_positions * ratio
+    tr[:, 0] = out.root_positions
+    if m.translations is not None or reference.translations is not None:
+        out.translations = tr
+    return out
+
+
 def prepare_library(
     motions: Sequence[Motion],
     reference: Motion,
@@ -241,8 +286,10 @@ def prepare_library(
 ) -> InbetweenLibrary:
     """The library of ``motions`` for in-betweening clips like ``reference``: each conformed to
     its skeleton and frame time (:func:`mocapkit.stitch.search.conform`; ValueError naming the
-    clip when the joints differ), ground root put on the body's path, body-local features,
-    pelvis ground path and heading computed, then resampled at every warp of ``config``."""
+    clip when the joints differ) and to its person's proportions (bone lengths from the
+    reference, root motion scaled by leg length), ground root put on the body's path,
+    body-local features, pelvis ground path and heading computed, then resampled at every warp
+    of ``config``."""
     from mocapkit import features
 
     if not motions:
@@ -253,7 +300,8 @@ def prepare_library(
     up = up or features.detect_up_axis(reference)
     prepped, feats, ground, heading = [], [], [], []
     for m, n in zip(motions, names, strict=True):
-        m = features.ground_root_on_path(conform(m, reference, n), up)
+        m = _fit_proportions(conform(m, reference, n), m, reference)
+        m = features.ground_root_on_path(m, up)
         prepped.append(m)
         feats.append(motion_features(m, up).astype(np.float32))
         ground.append(features.root_trajectory(m, up))
