@@ -55,7 +55,8 @@ def main() -> int:
         f"context takes of {args.seconds:g} s; {threads} threads"
     )
     # warm-up (numba compilation / cache load)
-    SelfSimilarityCleaner().fit(take[:60], [ctx[0][:60]])
+    n = take.seconds_to_frames(2.0)
+    SelfSimilarityCleaner().fit(take[:n], [ctx[0][:n]])
     sizes = [int(s) for s in args.sizes.split(",") if int(s) <= args.takes]
     rows = []
     for n in sizes:
