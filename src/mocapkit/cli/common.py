@@ -428,3 +428,11 @@ def echo_json(obj: Any) -> None:
 def write_json(path: str | Path, obj: Any) -> Path:
     """Write ``obj`` as strict JSON, atomically."""
     return atomic_write_text(path, to_json_text(obj) + "\n")
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """``a`` and ``b`` name one file (under any spelling or link)."""
+    try:
+        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
+    except OSError:
+        return False

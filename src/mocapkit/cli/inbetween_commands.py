@@ -19,6 +19,7 @@ from mocapkit.cli.common import (
     load_all,
     main,
     naming,
+    same_file,
     up_option,
     write_json,
 )
@@ -96,7 +97,7 @@ def inbetween_cmd(
         raise CLIError(str(e)) from None
     check_input_file(clip)
     lib_paths = expand_inputs(library, MOTION_SUFFIXES)
-    others = [p for p in lib_paths if not _same_file(p, clip)]
+    others = [p for p in lib_paths if not same_file(p, clip)]
     if len(others) < len(lib_paths):
         click.echo(f"mocapkit: note: {clip} left out of the library (it is the clip)", err=True)
         lib_paths = others
@@ -149,18 +150,10 @@ def inbetween_cmd(
         click.echo(line)
 
 
-def _same_file(a: str | Path, b: str | Path) -> bool:
-    try:
-        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
-    except OSError:
-        return False
-
-
 # ------------------------------------------------------------------------------------ demo
 def inbetween_demo_step(out: Path) -> None:
     """Blank out a second of the procedural walk and fill it from a small generated library."""
     from mocapkit import datasets
-    from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.stitch.inbetween import inbetween
 
     walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
@@ -175,9 +168,7 @@ def inbetween_demo_step(out: Path) -> None:
     )  # fmt: skip
     write_motion(res.motion, bvh)
     side = res.provenance(bvh).write(bvh)
-    P, _ = forward_kinematics(res.motion[a:b])
-    T, _ = forward_kinematics(walk[a:b])
-    err = float(abs(P - T).max())
+    err = res.difference_to(walk)
     s0, s1 = res.source_frames
     click.echo(
         f"  gap {a}:{b} of the walk filled by {res.method}: {res.source} frames {s0}:{s1} "

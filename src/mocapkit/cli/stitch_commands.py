@@ -18,6 +18,7 @@ from mocapkit.cli.common import (
     load_all,
     main,
     naming,
+    same_file,
     up_option,
     write_json,
 )
@@ -144,7 +145,7 @@ def stitch_cmd(
     data_paths = expand_inputs(data, MOTION_SUFFIXES)
     # a library folder that holds the query would offer the query's own next frames as the
     # best continuation; a query given alone as DATA (to loop it) stays
-    others = [p for p in data_paths if not _same_file(p, query)]
+    others = [p for p in data_paths if not same_file(p, query)]
     if others and len(others) < len(data_paths):
         click.echo(f"mocapkit: note: {query} left out of the library (it is the query)", err=True)
         data_paths = others
@@ -257,10 +258,3 @@ def stitch_demo_step(out: Path) -> None:
 
 
 DEMO_STEPS.append((10, "stitching: Three-Circles and walk → idle by effort", stitch_demo_step))
-
-
-def _same_file(a: str | Path, b: str | Path) -> bool:
-    try:
-        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
-    except OSError:
-        return False

@@ -790,6 +790,16 @@ class Inbetween:
     def source_frames(self) -> tuple[int, int]:
         return self.candidate.source_frames(self.gap[1] - self.gap[0])
 
+    def difference_to(self, reference: Motion) -> float:
+        """The largest joint position difference (file units) between the filled frames and
+        the same frames of ``reference`` (e.g. the take before its gap was blanked)."""
+        from mocapkit.core.kinematics import forward_kinematics
+
+        a, b = self.gap
+        filled, _ = forward_kinematics(self.motion[a:b])
+        truth, _ = forward_kinematics(reference[a:b])
+        return float(np.abs(filled - truth).max())
+
     def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
         """The sidecar (:mod:`mocapkit.provenance`): the clip's frames, the filled frames (kind
         "inbetween", with the library clip and frames; "generated" for the Kalman fallback),
