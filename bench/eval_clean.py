@@ -108,6 +108,19 @@ def glitch_cells(take_path: str, motion, pad_seconds: float = 0.1) -> np.ndarray
     return ndimage.binary_dilation(out, structure=np.ones((2 * pad + 1, 1), dtype=bool))
 
 
+def listed_glitches(take_path: str, motion) -> list[tuple[int, int, int]]:
+    """(joint, first, last frame) of the listed glitches of a CMU take within its frames."""
+    if not GLITCHES.exists() or not take_path.endswith(".amc"):
+        return []
+    names = list(motion.skeleton.names)
+    out = []
+    for g in json.loads(GLITCHES.read_text())["glitches"]:
+        a, b = g["frames"]
+        if g["take"] == Path(take_path).stem and g["glitch"] and a < motion.num_frames:
+            out.append((names.index(g["joint"]), a, min(b, motion.num_frames - 1)))
+    return out
+
+
 def find_glitches(motion, step_deg=30.0, ratio=6.0, sigmas=15.0, window=25, merge=6) -> list:
     """The blind glitch signal (independent of the cleaner): per joint, the frame-to-frame
     rotation angle far above its local median and above ``step_deg``; events within ``merge``
@@ -208,6 +221,12 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
                 for s in off:
                     r.setdefault("joints", {}).setdefault(s.joint, 0)
                     r["joints"][s.joint] += 1
+                # the listed glitches (within the cut) that a flag overlaps
+                hit_mask = cl.mask()
+                for g in listed_glitches(f, clean):
+                    j, a, b = g
+                    r["listed"] = r.get("listed", 0) + 1
+                    r["listed_hit"] = r.get("listed_hit", 0) + int(hit_mask[a : b + 1, j].any())
             for ki, kind in enumerate(kinds):
                 rng = np.random.default_rng([args.seed, ti, ki, len(cls), len(set_name)])
                 cor = corrupt(clean, rng, kinds=[kind], joints=act)
@@ -304,7 +323,9 @@ def main() -> int:
             per = r["off"] / max(r["minutes"], 1e-9)
             print(
                 f"  {s} {cls}: {r['minutes']:.1f} min, {r['segments']} segments, {r['off']} off "
-                f"the list ({per:.1f}/min); by joint {r.get('joints', {})}"
+                f"the list ({per:.1f}/min); listed glitches flagged "
+                f"{r.get('listed_hit', 0)}/{r.get('listed', 0)}; off-list by joint "
+                f"{r.get('joints', {})}"
             )
             out["raw"].append({"set": s, "class": cls, **r})
     if slides:
