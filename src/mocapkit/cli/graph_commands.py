@@ -357,13 +357,14 @@ def graph_step(out: Path) -> None:
         write_motion(m, p)
         paths.append(p.name)
         motions.append(m)
-    g, db, _ = build_graph(motions, "dynamics", paths=paths, transitions=40)
+    g, db, _ = build_graph(motions, "dynamics", paths=paths)  # the default rule
     gp = g.save(out / "humanoid_graph.json")
     r = g.report(motions=motions)
     click.echo(
         f"  {db.num_frames} frames -> {r.transitions} transitions, "
         f"{r.transitions_in_scc} in the strongly connected component; wrote {gp}"
     )
+    click.echo(f"  {g.coverage().summary()}")
     walk = synthesize(g, motions, seconds=10.0, seed=0)
     wp = write_motion(walk.motion, out / "graph_random_walk.bvh")
     walk.provenance(g, str(wp), {"seconds": 10.0, "seed": 0}, [str(out / p) for p in paths]).write(
