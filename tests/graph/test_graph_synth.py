@@ -306,3 +306,23 @@ def test_bandai_walk_reaches_the_l_paths_end(bandai_l_walk):
     small graph enters its right turns at few frames (measured: 75 cm, max 90 cm off)."""
     _res, err = bandai_l_walk
     assert err.end * err.cm_per_unit < 100.0, err.line()
+
+
+def test_random_walk_does_not_play_into_a_clip_end_that_only_loops_back():
+    """The demo's graph: a walk clip whose end leads only back into frames just played. The
+    walk leaves before that end (another way out exists) instead of looping there for good."""
+    kinds = (("walk", 4.0), ("run", 3.0), ("walk", 4.0), ("idle", 3.0))
+    motions = [datasets.procedural_motion(k, seconds=s, seed=10 + n).motion
+               for n, (k, s) in enumerate(kinds)]  # fmt: skip
+    g, _, _ = build_graph(motions, "dynamics")
+    syn = Synthesizer(g, motions)
+    for seed in range(4):
+        steps = syn.random_walk(10.0, seed=seed)
+        fps = motions[0].fps
+        at, seen = 0, {}
+        for s in steps:  # the same transition at most once per 3 s
+            if s.kind == "transition":
+                assert at - seen.get(s.index, -1e9) > 3.0 * fps, (seed, s.index, at)
+                seen[s.index] = at
+            at += s.frames
+        assert len({s.clip for s in steps}) >= 2, seed

@@ -351,7 +351,8 @@ class Synthesizer:
           few frames is a chain of blends (:data:`MIN_PLAY_S`);
         * **no return**: a transition whose landing (its blend, then ``min_play`` seconds) falls
           on frames of the same clip played in the last ``recent`` seconds is not taken while
-          another way out exists: it would replay them, a visible loop (:data:`RECENT_S`);
+          another way out exists: it would replay them, a visible loop (:data:`RECENT_S`); nor
+          is the clip's own continuation when every way out further along it returns so;
         * **choice**: the remaining edges are weighted ``exp(-cost / median cost)`` (a
           transition's cost is the pose difference its blend must hide; the graph's median
           transition is the reference, a continuation costs 0) times ``1 / (1 + t)``, ``t`` the
@@ -387,15 +388,33 @@ class Synthesizer:
                 c == c1 and a < hi and lo < b and total - end < window for c, a, b, end in history
             )
 
+        def trapped(e: dict) -> bool:
+            """Playing on along the clip reaches only transitions that return (the clip's end
+            leads back into frames just played): take another way out while there is one."""
+            v = e["v"]
+            for _ in range(len(self.nodes)):
+                out = self.out[v]
+                if any(x["kind"] != "clip" and not returns(x) for x in out):
+                    return False
+                on = [x for x in out if x["kind"] == "clip"]
+                if not on:
+                    return True
+                v = on[0]["v"]
+            return False
+
         while total < need:
             choices = self.out[node]
             if not choices:  # cannot happen inside a strongly connected component
                 raise RuntimeError(f"dead end at node {self.nodes[node]}")
             onward = [e for e in choices if e["kind"] == "clip"]
-            if onward and since < dwell:
+            if onward and since < dwell and not trapped(onward[0]):
                 e = onward[0]
             else:
-                allowed = [e for e in choices if e["kind"] == "clip" or not returns(e)] or choices
+                allowed = (
+                    [e for e in choices if not (returns(e) if e["kind"] != "clip" else trapped(e))]
+                    or [e for e in choices if e["kind"] == "clip" or not returns(e)]
+                    or choices
+                )
                 w = np.array([
                     (1.0 if e["kind"] == "clip" else math.exp(-float(g.cost[e["index"]]) / ref))
                     / (1.0 + played[self.nodes[e["v"]][0]] / fps)
