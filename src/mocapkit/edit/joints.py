@@ -9,6 +9,7 @@ any run of consecutive transforms can be multiplied out into one.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Iterable, Mapping
 
@@ -39,17 +40,7 @@ def rename_joints(motion: Motion, mapping: Mapping[str, str]) -> Motion:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise ValueError(f"rename: two joints would be called {dup[0]!r}")
-    new_sk = Skeleton(
-        tuple(names),
-        sk.parents,
-        sk.offsets,
-        sk.channels,
-        sk.end_site_parents,
-        sk.end_site_offsets,
-        sk.end_site_names,
-        sk.metres_per_unit,
-    )
-    return motion.with_skeleton(new_sk)
+    return motion.with_skeleton(dataclasses.replace(sk, names=tuple(names)))
 
 
 def joints_matching(skeleton: Skeleton, pattern: str) -> list[int]:
