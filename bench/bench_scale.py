@@ -67,6 +67,8 @@ def bench_clean(lib: Path, takes: int) -> None:
             f"  {label:24s} {dt:7.1f} s  {res.cleaned / dt:6.2f} takes/s  speed-up "
             f"{base / dt:4.2f}x  peak memory per worker {mb(peak)}  failed {len(res.failed)}"
         )
+        for r in res.failed:
+            print(f"    failed: {r['error']}")
         shutil.rmtree(out, ignore_errors=True)
     shutil.rmtree(sub, ignore_errors=True)
 

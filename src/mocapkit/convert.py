@@ -218,7 +218,7 @@ def convert_many(
     ``progress(done, total)`` counts its finished conversions.
     """
     from mocapkit.io import MocapFileError
-    from mocapkit.io.atomic import refuse_overwrite
+    from mocapkit.io.atomic import refuse_overwrite, remove_stale_temporaries
 
     srcs = [Path(s) for s in sources]
     results: dict[int, ItemResult] = {}
@@ -270,4 +270,6 @@ def convert_many(
                 written[key] = srcs[k]
             emit()
         pending = later
+        if runner is not None:  # a worker killed mid-write leaves a temporary file
+            remove_stale_temporaries(out for _, out, _ in wave)
     return ConvertedMany(tuple(results[k] for k in range(len(srcs))))

@@ -44,8 +44,26 @@ def reference(library, clips, tmp_path_factory):
     g, db, _ = build_graph(motions, paths=paths)
     g.save(out / "graph.json")
     mins = tiled_local_minima(db, 1, 16, np.float64, task_side=2)
+    st = _stitch(library, out)
     return {"dir": out, "clean": res, "convert": conv, "db": db, "minima": mins,
-            "motions": motions, "paths": paths}  # fmt: skip
+            "motions": motions, "paths": paths, "stitch": st}  # fmt: skip
+
+
+def _stitch(library: Path, out: Path, *runner: str) -> dict:
+    """``mocapkit stitch`` of the first walk onto the library (broken take included), in shards
+    of 32 takes; its JSON (wall time left out) and the stitched take's bytes."""
+    data = sorted(library.glob("*.bvh"))
+    query = library / "walk_000.bvh"
+    out.mkdir(parents=True, exist_ok=True)
+    r = CliRunner().invoke(main, ["stitch", str(query), *map(str, data), "--takeoff", "20:40",
+                                  "--json", str(out / "st.json"), "--out", str(out / "st.bvh"),
+                                  *runner])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert "left out of the library: " in r.output and "broken_000.bvh" in r.output
+    js = json.loads((out / "st.json").read_text())
+    js.pop("search_seconds")
+    js.pop("output")
+    return {"json": js, "bvh": (out / "st.bvh").read_bytes()}
 
 
 def _same_minima(a, b) -> None:
@@ -99,13 +117,21 @@ def test_local_cluster_same_bytes(reference, local_runner, library, tmp_path, tr
     g.save(tmp_path / "graph.json")
     assert _graph_json(tmp_path / "graph.json") == _graph_json(ref / "graph.json")
     assert len(local_runner.stats.peak_rss) == 2  # both workers ran tasks
+    from mocapkit.stitch.library import stitch_library
+
+    data = sorted(library.glob("*.bvh"))
+    q = read_motion(library / "walk_000.bvh")
+    here = stitch_library(q, "20:40", data, shard_files=3)
+    there = stitch_library(q, "20:40", data, shard_files=3, runner=local_runner)
+    assert here.transition.as_dict() == there.transition.as_dict()
+    np.testing.assert_array_equal(here.motion.rotations, there.motion.rotations)
 
 
 def test_scheduler_processes_same_bytes(reference, scheduler_address, library, clips, tmp_path,
                                         tree):  # fmt: skip
     ref = reference["dir"]
     cli = CliRunner()
-    r = cli.invoke(main, ["clean-library", str(library), "--out-dir", str(tmp_path / "fixed"),
+    r = cli.invoke(main, ["clean", str(library), "--out-dir", str(tmp_path / "fixed"),
                           "--report-dir", str(tmp_path / "reports"), "--context-by", "all",
                           "--context-max", "3", "--scheduler", scheduler_address])  # fmt: skip
     assert r.exit_code == 2, r.output  # the broken take
@@ -132,6 +158,9 @@ def test_scheduler_processes_same_bytes(reference, scheduler_address, library, c
         infos = runner.map(len, ["ab", "c"])
     _same_minima(mins, reference["minima"])
     assert infos == [2, 1]
+    assert _stitch(library, tmp_path / "st", "--scheduler", scheduler_address) == (
+        reference["stitch"]
+    )
 
 
 def test_info_folder_same_json_on_cluster(scheduler_address, library):
@@ -162,6 +191,7 @@ def test_worker_killed_mid_job(reference, local_runner, library, tmp_path, tree)
     assert res.cleaned == 13
     assert tree(tmp_path / "fixed") == tree(reference["dir"] / "fixed")
     assert tree(tmp_path / "reports") == tree(reference["dir"] / "reports")
+    assert not [p for p in tmp_path.rglob("*.tmp")], "a killed write's temporary file is left"
     client.wait_for_workers(2, timeout=60)
     assert killed[0] not in local_runner.worker_pids().values()
 
@@ -215,3 +245,24 @@ def test_output_inside_library_refused(library):
 def test_unreachable_scheduler_is_one_line():
     with pytest.raises(JobError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
         Runner(scheduler="tcp://127.0.0.1:9", timeout=2).start()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--out", "x.bvh"], "is a folder: --out work on one take"),
+        (["--out-dir", "F"], "give --out-dir DIR and --report-dir DIR"),
+        (["--out-dir", "F", "--report-dir", "R", "--explain", "Hips:3"], "--explain work on one"),
+    ],
+)
+def test_clean_folder_mode_misuse_is_one_line(library, tmp_path, args, message):
+    r = CliRunner().invoke(main, ["clean", str(library), *args])
+    assert r.exit_code == 2 and message in r.output, r.output
+    assert len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output
+
+
+def test_clean_file_refuses_folder_options(library, tmp_path):
+    take = _takes(library)[0]
+    r = CliRunner().invoke(main, ["clean", str(take), "--out-dir", str(tmp_path), "--workers", "2"])
+    assert r.exit_code == 2 and "--out-dir, --workers: only for a folder of takes" in r.output
+    assert not any(tmp_path.iterdir())

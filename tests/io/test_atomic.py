@@ -167,3 +167,22 @@ def test_all_or_nothing_nested_joins_the_outer(tmp_path: Path) -> None:
             atomic_write_text(tmp_path / "a", "1")
         assert not (tmp_path / "a").exists()
     assert (tmp_path / "a").read_text() == "1"
+
+
+def test_remove_stale_temporaries_takes_only_what_a_killed_write_leaves(tmp_path):
+    from mocapkit.io.atomic import remove_stale_temporaries
+
+    out = tmp_path / "take.bvh"
+    atomic_write_text(out, "kept")
+    stale = tmp_path / ".take.bvh.ab12_x9z.tmp"  # mkstemp's 8 characters
+    stale.write_text("half")
+    others = [
+        tmp_path / name
+        for name in (".take.bvh.tmp", ".other.bvh.ab12_x9z.tmp", "take.bvh.ab12_x9z.tmp",
+                     ".take.bvh.long_name_here.tmp")
+    ]  # fmt: skip
+    for p in others:
+        p.write_text("not ours")
+    assert remove_stale_temporaries([out, tmp_path / "missing" / "x.bvh"]) == 1
+    assert not stale.exists() and out.read_text() == "kept"
+    assert all(p.exists() for p in others)

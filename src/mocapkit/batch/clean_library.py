@@ -29,6 +29,7 @@ from typing import Any
 
 from mocapkit.batch.manifest import Manifest, file_sha256, input_key
 from mocapkit.batch.runner import Runner
+from mocapkit.viz.reasons import REASON_TEXT, reason_colour
 
 __all__ = [
     "CONTEXT_BY",
@@ -160,6 +161,11 @@ def _record(report: Any, task: TakeTask) -> dict[str, Any]:
         {"joint": report.joints[j], "flagged_seconds": round(float(per_joint[j]) / fps, 4)}
         for j in sorted(np.flatnonzero(per_joint).tolist(), key=lambda j: (-per_joint[j], j))[:5]
     ]
+    segments = js.get("segments", [])
+    reasons: dict[str, int] = {}
+    for seg in segments:
+        for r in seg.get("reasons", ()):
+            reasons[r] = reasons.get(r, 0) + 1
     return {
         "take": task.name,
         "frames": int(report.frames),
@@ -170,7 +176,8 @@ def _record(report: Any, task: TakeTask) -> dict[str, Any]:
         "repaired_cells": js.get("repaired_cells"),
         "worst_joints": worst,
         "flagged_spans": [list(r) for r in true_runs(any_f)],
-        "segments": js.get("segments", []),
+        "reasons": dict(sorted(reasons.items(), key=lambda kv: (-kv[1], kv[0]))),
+        "segments": segments,
         "context": list(task.context),
         "report": task.report_name,
         "output": task.output_name,
@@ -283,7 +290,7 @@ def clean_library(
     ``report_dir/summary.json`` and ``report_dir/overview.html``. ``runner`` says where the
     takes are cleaned (default: in this process); ``progress(done, total)`` counts the takes
     to clean; ``on_take(record)`` is called with every take's record in name order."""
-    from mocapkit.io.atomic import atomic_write_text
+    from mocapkit.io.atomic import atomic_write_text, remove_stale_temporaries
     from mocapkit.jsonio import to_json_text
 
     config = config or LibraryCleanConfig()
@@ -327,6 +334,10 @@ def clean_library(
             records[t] = next(fresh)
         if on_take is not None:
             on_take(records[t])
+    # a worker killed mid-write leaves a temporary file; its task was rerun elsewhere
+    remove_stale_temporaries(
+        [p for t in tasks for p in (t.output, t.report, manifest.entry_path(t.name))]
+    )
     ordered = tuple(records[t] for t in takes)
     summary = library_summary(lib, config, ordered)
     summary_path = atomic_write_text(rep / "summary.json", to_json_text(summary) + "\n")
@@ -356,14 +367,23 @@ def library_summary(
     }
 
 
-def _timeline_svg(r: dict[str, Any], width: int = 360, row: int = 9) -> str:
-    """A take's timeline: one row for the whole body (frames with any joint flagged), then one
-    per worst joint (its segments), time left to right."""
+def _first_reason(segment: dict[str, Any]) -> str:
+    reasons = segment.get("reasons") or ["flagged"]
+    return str(reasons[0])
+
+
+def _timeline_svg(r: dict[str, Any], seen: list[str], width: int = 360, row: int = 9) -> str:
+    """A take's timeline: one row for the whole body (frames with any joint flagged, dark),
+    then one per worst joint (its segments, coloured by their first reason), time left to
+    right; ``seen``: the reasons without a colour of their own met so far."""
     frames = max(int(r["frames"]), 1)
     joints = [w["joint"] for w in r["worst_joints"][:4]]
-    rows = [("any joint", [tuple(s) for s in r["flagged_spans"]])]
+    rows = [("any joint", [(a, b, "") for a, b in r["flagged_spans"]])]
     for j in joints:
-        rows.append((j, [(s["start"], s["end"]) for s in r["segments"] if s.get("joint") == j]))
+        rows.append(
+            (j, [(s["start"], s["end"], _first_reason(s)) for s in r["segments"]
+                 if s.get("joint") == j])
+        )  # fmt: skip
     label = 110
     h = row * len(rows) + 2
     parts = [f'<svg width="{label + width}" height="{h}" role="img">']
@@ -373,12 +393,14 @@ def _timeline_svg(r: dict[str, Any], width: int = 360, row: int = 9) -> str:
             f'<text x="{label - 4}" y="{y + row - 2}" text-anchor="end">{html.escape(name)}</text>'
             f'<rect x="{label}" y="{y}" width="{width}" height="{row - 2}" fill="#e8e8e8"/>'
         )
-        for a, b in spans:
+        for a, b, why in spans:
             x = label + width * a / frames
             w = max(1.0, width * (b - a + 1) / frames)
+            fill = reason_colour(why, seen) if why else "#333"
+            tip = f"<title>{html.escape(why)}</title>" if why else ""
             parts.append(
                 f'<rect x="{x:.1f}" y="{y}" width="{w:.1f}" height="{row - 2}" '
-                f'fill="{"#c62828" if k == 0 else "#ef6c00"}"/>'
+                f'fill="{fill}">{tip}</rect>'
             )
     parts.append("</svg>")
     return "".join(parts)
@@ -406,20 +428,40 @@ def overview_html(summary: dict[str, Any]) -> str:
         out.append("<h2>Takes that could not be cleaned</h2><ul>")
         out += [f"<li class='err'>{esc(e['error'])}</li>" for e in summary["errors"]]
         out.append("</ul>")
-    out.append(
-        "<h2>Takes by flagged seconds</h2><table><tr><th>#</th><th>take</th><th>flagged</th>"
-        "<th>worst joints (s)</th><th>timeline</th></tr>"
-    )
+    seen: list[str] = []
+    rows = []
+    counts: dict[str, int] = {}
     for n, name in enumerate(summary["ranking"], 1):
         r = by_name[name]
         worst = ", ".join(
             f"{esc(w['joint'])} {w['flagged_seconds']:.2f}" for w in r["worst_joints"]
         )
-        out.append(
+        why = r.get("reasons", {})
+        for k, v in why.items():
+            counts[k] = counts.get(k, 0) + v
+        reasons = "<br>".join(
+            f"<span style='color:{reason_colour(k, seen)}'>&#9632;</span> {esc(k)} &times;{v}"
+            for k, v in why.items()
+        )
+        rows.append(
             f"<tr><td>{n}</td><td><a href='{esc(_report_link(r, summary))}'>{esc(name)}</a></td>"
             f"<td>{r['flagged_seconds']:.2f} s of {r['seconds']:.2f} s</td>"
-            f"<td>{worst or '-'}</td><td>{_timeline_svg(r)}</td></tr>"
+            f"<td>{worst or '-'}</td><td>{reasons or '-'}</td>"
+            f"<td>{_timeline_svg(r, seen)}</td></tr>"
         )
+    if counts:
+        out.append("<h2>Why frames were flagged</h2><ul>")
+        out += [
+            f"<li><span style='color:{reason_colour(k, seen)}'>&#9632;</span> <b>{esc(k)}</b> "
+            f"({v} segment{'s' if v != 1 else ''}): {esc(REASON_TEXT.get(k, k))}</li>"
+            for k, v in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))
+        ]
+        out.append("</ul>")
+    out.append(
+        "<h2>Takes by flagged seconds</h2><table><tr><th>#</th><th>take</th><th>flagged</th>"
+        "<th>worst joints (s)</th><th>reasons (segments)</th><th>timeline</th></tr>"
+    )
+    out += rows
     out.append("</table></body></html>\n")
     return "\n".join(out)
 

@@ -1,5 +1,5 @@
 """Library jobs on the command line: the ``--workers`` / ``--scheduler`` options every library
-command takes, the job progress bar, and ``mocapkit clean-library`` (registered on import)."""
+command takes, the job progress bar, and ``mocapkit clean LIB/`` (:func:`clean_folder`)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from typing import Any
 import click
 
 from mocapkit.batch.runner import RUNNER_HELP, JobError, Runner
-from mocapkit.cli.common import CLIError, friendly_errors, main, one_line
+from mocapkit.cli.common import CLIError, one_line
 
 
 def runner_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -102,48 +102,7 @@ def peak_memory_line(runner: Runner) -> str:
     return f"peak memory per worker: {_mb(max(peaks.values()))} ({where})"
 
 
-@main.command("clean-library")
-@click.argument("library", metavar="LIB", type=click.Path(file_okay=False, exists=True))
-@click.option(
-    "--out-dir",
-    required=True,
-    metavar="DIR",
-    help="Where the repaired takes go (DIR/<take>.bvh; not inside LIB).",
-)
-@click.option(
-    "--report-dir",
-    required=True,
-    metavar="DIR",
-    help="Where the reports go: DIR/takes/<take>.json, DIR/summary.json (every flagged segment) "
-    "and DIR/overview.html (takes ranked by flagged seconds).",
-)
-@click.option(
-    "--context-by",
-    type=click.Choice(["folder", "prefix", "all"]),
-    default="prefix",
-    show_default=True,
-    help="Related takes: the same folder (CMU's subject folders), the same folder and name up "
-    "to its last '_' (Bandai's content_style_NNN), or every take.",
-)
-@click.option(
-    "--context-max",
-    type=click.IntRange(min=0),
-    default=8,
-    show_default=True,
-    help="At most this many related takes per take (the nearest in name order).",
-)
-@click.option("--threshold", type=click.FloatRange(0.0, 1.0), default=None,
-              help="MDM threshold (default: mocapkit clean's).")  # fmt: skip
-@click.option("--two-stage", is_flag=True, help="As in mocapkit clean.")
-@click.option(
-    "--lenient",
-    is_flag=True,
-    help="Repair what is safe when reading (frame-count mismatch, blank or truncated rows).",
-)
-@runner_options
-@click.option("--quiet", is_flag=True, help="No progress bar and no line per take.")
-@friendly_errors
-def clean_library_command(
+def clean_folder(
     library: str,
     out_dir: str,
     report_dir: str,
@@ -156,23 +115,9 @@ def clean_library_command(
     scheduler: str | None,
     quiet: bool,
 ) -> None:
-    """Clean every take of a library folder against its related takes (mocapkit clean on each
-    take), with one report per take and a library summary.
-
-    Each take's outputs are written atomically, then its manifest entry (hashes of the take, its
-    context takes, the settings and the mocapkit version): a rerun skips the takes that are
-    complete and unchanged, so an interrupted job resumes. A take that cannot be read or cleaned
-    is listed in the summary and the others go on (exit status 2 at the end). The outputs are
-    the same bytes in-process, with --workers or on --scheduler.
-
-    \b
-    Examples:
-      mocapkit clean-library bandai/ --out-dir fixed/ --report-dir reports/
-      mocapkit clean-library cmu/ --out-dir fixed/ --report-dir reports/ --context-by folder
-      mocapkit clean-library lib/ --out-dir fixed/ --report-dir reports/ --workers 8
-      mocapkit clean-library lib/ --out-dir fixed/ --report-dir reports/ \\
-          --scheduler tcp://127.0.0.1:8786
-    """
+    """``mocapkit clean LIB/``: every take of a library folder cleaned against its related takes
+    (:func:`mocapkit.batch.clean_library`), one line per take with flags, one summary line;
+    exit status 2 when a take failed (the others are done)."""
     from mocapkit.batch.clean_library import LibraryCleanConfig, clean_library
 
     config = LibraryCleanConfig(context_by, context_max, threshold, two_stage, lenient)

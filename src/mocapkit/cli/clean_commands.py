@@ -8,7 +8,9 @@ from typing import Any
 import click
 
 from mocapkit import clean
+from mocapkit.batch.clean_library import CONTEXT_BY
 from mocapkit.clean import THRESHOLD
+from mocapkit.cli.batch_commands import clean_folder, runner_options
 from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
@@ -165,6 +167,36 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     help="Print why this cell was or was not flagged: every detection rule's verdict and what "
     "it measured there (FRAME: 0-based, or seconds like 1.5s). Repeatable; also in --report.",
 )
+@click.option(
+    "--out-dir",
+    default=None,
+    metavar="DIR",
+    help="Folder mode (IN is a folder of takes): where the repaired takes go (DIR/<take>; not "
+    "inside IN).",
+)
+@click.option(
+    "--report-dir",
+    default=None,
+    metavar="DIR",
+    help="Folder mode: where the reports go: DIR/takes/<take>.json, DIR/summary.json (every "
+    "flagged segment with its reasons) and DIR/overview.html (takes ranked by flagged seconds).",
+)
+@click.option(
+    "--context-by",
+    type=click.Choice(CONTEXT_BY),
+    default=None,
+    help="Folder mode: each take's related takes are the same folder (CMU's subject folders), "
+    "the same folder and name up to its last '_' (Bandai's content_style_NNN; the default), "
+    "or every take.",
+)
+@click.option(
+    "--context-max",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Folder mode: at most this many related takes per take, the nearest in name order "
+    "(default 8).",
+)
+@runner_options
 @LENIENT
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")
 @friendly_errors
@@ -180,10 +212,18 @@ def clean_command(
     baseline: str | None,
     contact_specs: tuple[str, ...],
     explain_specs: tuple[str, ...],
+    out_dir: str | None,
+    report_dir: str | None,
+    context_by: str | None,
+    context_max: int | None,
+    workers: int | None,
+    scheduler: str | None,
     lenient: bool,
     quiet: bool,
 ) -> None:
     """Find which joints are wrong when in a take, and repair them (self-similarity analysis).
+    IN is a take, or a folder of takes (folder mode: every take cleaned against its related
+    takes, in this process or on a Dask cluster; see "Running on a cluster" in the README).
 
     Every short window of each joint group ("motion-word") is compared by constrained DTW with
     every window of the context; joints whose rotation digresses from their nearest neighbours'
@@ -198,7 +238,44 @@ def clean_command(
       mocapkit clean take.bvh --context takes/ --out fixed.bvh --mdm mdm.npy
       mocapkit clean take.bvh --context takes/ --two-stage --threshold 0.6 --out fixed.bvh
       mocapkit clean take.bvh --out fixed.bvh --contact LeftHand@1.8s:2.4s
+      mocapkit clean bandai/ --out-dir fixed/ --report-dir reports/
+      mocapkit clean cmu/ --out-dir fixed/ --report-dir reports/ --context-by folder --workers 8
+      mocapkit clean lib/ --out-dir fixed/ --report-dir reports/ \\
+          --scheduler tcp://127.0.0.1:8786
+
+    In folder mode each take's outputs are written atomically, then its manifest entry (hashes
+    of the take, its context takes, the settings and the mocapkit version): a rerun skips the
+    takes that are complete and unchanged, so an interrupted job resumes. A take that cannot be
+    read or cleaned is listed in the summary and the others go on (exit status 2 at the end).
+    The outputs are the same bytes in-process, with --workers or on --scheduler.
     """
+    single = {"--out": out_path, "--report": report_path, "--mdm": mdm_path,
+              "--plot": plot_path, "--baseline": baseline, "--contact": contact_specs,
+              "--explain": explain_specs, "--context": contexts}  # fmt: skip
+    folder = {"--out-dir": out_dir, "--report-dir": report_dir, "--context-by": context_by,
+              "--context-max": context_max, "--workers": workers,
+              "--scheduler": scheduler}  # fmt: skip
+    if Path(input_path).is_dir():
+        given = [k for k, v in single.items() if v]
+        if given:
+            raise CLIError(
+                f"{input_path} is a folder: {', '.join(given)} work on one take; a folder "
+                "takes --out-dir and --report-dir (and --context-by, --context-max)"
+            )
+        if not out_dir or not report_dir:
+            raise CLIError(f"{input_path} is a folder: give --out-dir DIR and --report-dir DIR")
+        # the library's own default threshold unless one was given (it keys the manifest)
+        source = click.get_current_context().get_parameter_source("threshold")
+        given_threshold = None if source is click.core.ParameterSource.DEFAULT else threshold
+        clean_folder(
+            input_path, out_dir, report_dir, context_by or "prefix",
+            8 if context_max is None else context_max, given_threshold, two_stage, lenient,
+            workers, scheduler, quiet,
+        )  # fmt: skip
+        return
+    given = [k for k, v in folder.items() if v is not None]
+    if given:
+        raise CLIError(f"{', '.join(given)}: only for a folder of takes ({input_path} is a file)")
     check_input_file(input_path)
     ctx_paths = expand_inputs(contexts, MOTION_SUFFIXES, exclude=[input_path])
     check_outputs(

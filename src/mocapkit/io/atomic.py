@@ -263,6 +263,27 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     return path
 
 
+def remove_stale_temporaries(paths: Iterable[str | Path]) -> int:
+    """Remove what atomic writes of ``paths`` left behind when their process was killed
+    mid-write (a SIGKILL runs no clean-up): the ``.NAME.XXXXXXXX.tmp`` files beside each path.
+    Call it only when no write of these paths is under way, e.g. when a library job that a
+    lost worker was writing for has finished. Returns how many files were removed."""
+    removed = 0
+    for path in paths:
+        path = Path(path)
+        prefix = f".{path.name}."
+        try:
+            names = os.listdir(path.parent if str(path.parent) else ".")
+        except OSError:
+            continue
+        for name in names:
+            middle = name[len(prefix) : -len(".tmp")]
+            if name.startswith(prefix) and name.endswith(".tmp") and len(middle) == 8:
+                _unlink(str(path.parent / name))
+                removed += 1
+    return removed
+
+
 def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 

@@ -238,35 +238,37 @@ def _rank_k(scores: np.ndarray, inject: int | None) -> np.ndarray:
     return scores.min(axis=1) if inject is None else scores[:, inject]
 
 
-def _best_at_landing(Q, takeoffs, clips, b, w, k_max, model, score, inject=None):
-    """((value, clip, take-off, landing), candidates) over one landing frame of every clip."""
-    ok = [i for i, c in enumerate(clips) if 0 <= b <= c.shape[0] - w]
-    if not ok:
-        raise ValueError(
-            f"landing frame {b} has no full landing window {b}..{b + w - 1} "
-            f"in any data clip (w = {w})"
-        )
-    best = None
-    for a in takeoffs:
-        wins = np.stack([sliding_windows(Q, a, clips[i], w, landings=[b])[0] for i in ok])
-        vals = (
-            _rank_k(elastic_lscores(wins, model, w, k_max), inject)
-            if score == "lscore"
-            else windowed_euclidean(wins, w)
-        )
-        j = int(np.argmin(vals))
-        if best is None or vals[j] < best[0]:
-            best = (float(vals[j]), ok[j], a, b)
-    return best, len(ok) * len(takeoffs)
+Best = tuple[float, int, int]
+"""A take-off's best candidate: (value, clip index, landing frame)."""
 
 
-def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype, inject=None):
-    """((value, clip, take-off, landing), candidates) over every landing frame of every clip:
-    one batched search over the concatenated clips per take-off, windows that would cross a
-    clip boundary discarded."""
+def best_per_takeoff(Q, takeoffs, clips, landing, w, k_max, model, score, dtype, inject=None):
+    """(per take-off: its best ``(value, clip, landing)`` or None, candidates scored) over
+    ``clips``: every landing frame of every clip (``landing`` None; one batched search over the
+    concatenated clips per take-off, windows that would cross a clip boundary discarded), or
+    the frame ``landing`` of each clip that has a full window there. Ties go to the first clip,
+    then the first landing, so that the best of several groups of clips, taken group by group
+    in order (:func:`merge_per_takeoff`), is the best of all of them."""
+    if landing is not None:
+        b = int(landing)
+        ok = [i for i, c in enumerate(clips) if 0 <= b <= c.shape[0] - w]
+        out: list[Best | None] = []
+        for a in takeoffs:
+            if not ok:
+                out.append(None)
+                continue
+            wins = np.stack([sliding_windows(Q, a, clips[i], w, landings=[b])[0] for i in ok])
+            vals = (
+                _rank_k(elastic_lscores(wins, model, w, k_max), inject)
+                if score == "lscore"
+                else windowed_euclidean(wins, w)
+            )
+            j = int(np.argmin(vals))
+            out.append((float(vals[j]), ok[j], b))
+        return out, len(ok) * len(takeoffs)
     usable = [i for i, c in enumerate(clips) if c.shape[0] >= w]
     if not usable:
-        raise ValueError(f"no data clip has at least w = {w} frames")
+        return [None] * len(takeoffs), 0
     X = np.concatenate([clips[i] for i in usable]) if len(usable) > 1 else clips[usable[0]]
     lengths = np.array([clips[i].shape[0] for i in usable])
     starts = np.r_[0, np.cumsum(lengths)[:-1]]
@@ -274,7 +276,7 @@ def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype, inject
     owner = np.repeat(np.arange(len(usable)), lengths)[:n_land]
     local = np.arange(n_land) - starts[owner]
     valid = local <= lengths[owner] - w
-    best = None
+    out = []
     for a in takeoffs:
         if score == "lscore":
             res = search_landings(Q, a, X, w, k_max, model, dtype=dtype)
@@ -283,9 +285,77 @@ def _best_over_library(Q, takeoffs, clips, w, k_max, model, score, dtype, inject
             vals = euclidean_landings(Q, a, X, w)
         vals[~valid] = np.inf
         g = int(np.argmin(vals))
-        if best is None or vals[g] < best[0]:
-            best = (float(vals[g]), usable[int(owner[g])], a, int(local[g]))
-    return best, int(valid.sum()) * len(takeoffs)
+        out.append((float(vals[g]), usable[int(owner[g])], int(local[g])))
+    return out, int(valid.sum()) * len(takeoffs)
+
+
+def merge_per_takeoff(parts, offsets):
+    """The best ``(value, clip, take-off index)`` of groups of clips: ``parts`` are the groups'
+    :func:`best_per_takeoff` lists in group order, ``offsets`` the index of each group's first
+    clip. Per take-off the first group wins ties; over take-offs the first take-off does. None
+    when no group has a candidate."""
+    best = None
+    per: list[Best | None] = []
+    for part, off in zip(parts, offsets, strict=True):
+        for t, cand in enumerate(part):
+            if t == len(per):
+                per.append(None)
+            if (
+                cand is not None
+                and np.isfinite(cand[0])
+                and (per[t] is None or cand[0] < per[t][0])
+            ):
+                per[t] = (cand[0], cand[1] + off, cand[2])
+    for t, cand in enumerate(per):
+        if cand is not None and (best is None or cand[0] < best[0][0]):
+            best = (cand, t)
+    return best
+
+
+def transition_at(Q, a, clip, ci, b, w, model, k_show, inject, score, candidates) -> Transition:
+    """The :class:`Transition` of take-off ``a`` onto frame ``b`` of ``clip`` (features; index
+    ``ci``), re-scored in float64: its L_0..L_k_show, k_opt (or ``inject``), and Euclidean."""
+    window = sliding_windows(Q, a, clip, w, landings=[b]).astype(float)
+    scores = elastic_lscores(window, model, w, k_show)[0]
+    k = int(np.argmin(scores)) if inject is None else inject
+    eu = float(windowed_euclidean(window, w)[0])
+    return Transition(ci, a, b, k, float(scores[k]), scores, eu, w, score, candidates)
+
+
+def check_search(k_max, inject, w, score):
+    """Validated ``(k_max, k_show, inject, w, score)`` of a search: with ``inject`` candidates
+    are ranked at that k and L_k is shown up to ``max(k_max, inject)``."""
+    if int(k_max) != k_max or k_max < 0:
+        raise ValueError(f"k_max must be an integer >= 0, got {k_max}")
+    k_show = int(k_max)
+    if inject is not None:
+        if int(inject) != inject or inject < 0:
+            raise ValueError(f"inject must be an integer >= 0, got {inject}")
+        inject = int(inject)
+        k_max, k_show = inject, max(k_show, inject)
+    return int(k_max), k_show, inject, check_w(w), _check_score(score)
+
+
+def check_takeoffs(takeoffs, n_query: int, w: int) -> list[int]:
+    """The take-off frames of ``takeoffs`` (:func:`parse_takeoffs`), each with its full
+    take-off window in a query of ``n_query`` frames."""
+    takeoffs = parse_takeoffs(takeoffs)
+    for a in takeoffs:
+        if not w - 1 <= a < n_query:
+            raise ValueError(
+                f"take-off frame {a} outside [{w - 1}, {n_query - 1}] (the take-off window "
+                f"{a - w + 1}..{a} must lie in the query; w = {w})"
+            )
+    return takeoffs
+
+
+def no_candidate(landing: int | None, w: int) -> ValueError:
+    if landing is not None:
+        return ValueError(
+            f"landing frame {landing} has no full landing window {landing}..{landing + w - 1} "
+            f"in any data clip (w = {w})"
+        )
+    return ValueError(f"no data clip has at least w = {w} frames")
 
 
 def search_features(
@@ -314,17 +384,7 @@ def search_features(
     ``max(k_max, inject)``, so that the optimum the user overrode is seen beside it. Returns a
     :class:`Transition`.
     """
-    if int(k_max) != k_max or k_max < 0:
-        raise ValueError(f"k_max must be an integer >= 0, got {k_max}")
-    k_show = int(k_max)
-    if inject is not None:
-        if int(inject) != inject or inject < 0:
-            raise ValueError(f"inject must be an integer >= 0, got {inject}")
-        inject = int(inject)
-        k_max, k_show = inject, max(k_show, inject)
-    w = check_w(w)
-    score = _check_score(score)
-    k_max = int(k_max)
+    k_max, k_show, inject, w, score = check_search(k_max, inject, w, score)
     Q = np.asarray(query_feats, dtype=float)
     if Q.ndim != 2:
         raise ValueError(f"query features must be (frames, m), got shape {Q.shape}")
@@ -338,27 +398,16 @@ def search_features(
             raise ValueError(
                 f"data clip {i} features have shape {c.shape}, expected (frames, {Q.shape[1]})"
             )
-    takeoffs = parse_takeoffs(takeoffs)
-    for a in takeoffs:
-        if not w - 1 <= a < Q.shape[0]:
-            raise ValueError(
-                f"take-off frame {a} outside [{w - 1}, {Q.shape[0] - 1}] (the take-off window "
-                f"{a - w + 1}..{a} must lie in the query; w = {w})"
-            )
-    if landing is not None:
-        best, candidates = _best_at_landing(
-            Q, takeoffs, clips, int(landing), w, k_max, model, score, inject
-        )
-    else:
-        best, candidates = _best_over_library(
-            Q, takeoffs, clips, w, k_max, model, score, dtype, inject
-        )
-    _, ci, a, b = best
-    window = sliding_windows(Q, a, clips[ci], w, landings=[b]).astype(float)
-    scores = elastic_lscores(window, model, w, k_show)[0]
-    k = int(np.argmin(scores)) if inject is None else inject
-    eu = float(windowed_euclidean(window, w)[0])
-    return Transition(ci, a, b, k, float(scores[k]), scores, eu, w, score, candidates)
+    takeoffs = check_takeoffs(takeoffs, Q.shape[0], w)
+    per, candidates = best_per_takeoff(
+        Q, takeoffs, clips, landing, w, k_max, model, score, dtype, inject
+    )
+    best = merge_per_takeoff([per], [0])
+    if best is None:
+        raise no_candidate(landing, w)
+    (_, ci, b), t = best
+    return transition_at(Q, takeoffs[t], clips[ci], ci, b, w, model, k_show, inject, score,
+                         candidates)  # fmt: skip
 
 
 def find_transition(

@@ -64,6 +64,7 @@ __all__ = [
     "METHODS",
     "Stitched",
     "align_data",
+    "build_stitch",
     "crossfade",
     "interpolate_gap",
     "stitch",
@@ -96,7 +97,9 @@ class Stitched:
     Set by :func:`stitch`: ``transition`` (the search result), ``up`` (the up axis used),
     ``query_name``/``data_names`` (labels of the query and of the data clips, e.g. their
     paths), ``takeoff_spec`` (the take-off argument as given), ``search_seconds`` (wall time of
-    the search) and ``output`` (where the motion is written; recorded only).
+    the search) and ``output`` (where the motion is written; recorded only); by
+    :func:`mocapkit.stitch.library.stitch_library`: ``skipped`` (library files left out, with
+    why).
     """
 
     motion: Motion
@@ -118,6 +121,7 @@ class Stitched:
     takeoff_spec: Any = None
     search_seconds: float | None = None
     output: str | None = None
+    skipped: tuple[tuple[str, str], ...] = ()
 
     def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
         """The stitch as a provenance sidecar (:mod:`mocapkit.provenance`): the query's frames,
@@ -176,6 +180,8 @@ class Stitched:
         if self.search_seconds is not None:
             out["search_seconds"] = round(self.search_seconds, 4)
         out["output"] = self.output
+        if self.skipped:
+            out["skipped"] = [{"path": p, "error": e} for p, e in self.skipped]
         return out
 
 
@@ -336,6 +342,35 @@ def _join(*parts: Motion) -> Motion:
     return concatenate(parts)
 
 
+def build_stitch(
+    query: Motion,
+    tr: Transition,
+    chosen: Motion,
+    *,
+    method: str = "kalman",
+    window: int = DEFAULT_W,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    align: bool = True,
+    up: str | None = None,
+    joints: Sequence[str] | None = None,
+    blend_seconds: float = DEFAULT_BLEND_SECONDS,
+) -> Stitched:
+    """The stitch of ``query`` onto ``chosen`` (the data clip ``tr`` chose) at ``tr``'s
+    take-off, landing and k, made by ``method`` (:data:`METHODS`)."""
+    if method == "kalman":
+        return stitch_motions(
+            query, tr.takeoff, chosen, tr.landing, tr.k, window=window, model=model,
+            align=align, up=up, joints=joints,
+        )  # fmt: skip
+    if method == "crossfade":
+        return crossfade(query, chosen, tr.takeoff, tr.landing, blend_seconds, align=align, up=up)
+    if method in METHODS:
+        return interpolate_gap(
+            query, chosen, tr.takeoff, tr.landing, tr.k, method, align=align, up=up
+        )
+    raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+
+
 def stitch(
     query: Motion,
     takeoff,
@@ -397,26 +432,10 @@ def stitch(
         inject=inject,
     )
     search_seconds = time.perf_counter() - t0
-    chosen = clips[tr.clip]
-    if method == "kalman":
-        res = stitch_motions(
-            query,
-            tr.takeoff,
-            chosen,
-            tr.landing,
-            tr.k,
-            window=window,
-            model=model,
-            align=align,
-            up=up,
-            joints=joints,
-        )
-    elif method == "crossfade":
-        res = crossfade(query, chosen, tr.takeoff, tr.landing, blend_seconds, align=align, up=up)
-    else:
-        res = interpolate_gap(
-            query, chosen, tr.takeoff, tr.landing, tr.k, method, align=align, up=up
-        )
+    res = build_stitch(
+        query, tr, clips[tr.clip], method=method, window=window, model=model, align=align,
+        up=up, joints=joints, blend_seconds=blend_seconds,
+    )  # fmt: skip
     if isinstance(takeoff, str):
         spec: Any = takeoff
     elif isinstance(takeoff, (int, np.integer)):

@@ -16,23 +16,12 @@ from typing import Any
 import numpy as np
 
 from mocapkit.viz.figures import figsize, pyplot, save, short_labels, thin_ticks, wrap
+from mocapkit.viz.reasons import REASON_COLOURS, reason_colour
 
 __all__ = ["REASON_COLOURS", "plot_clean_report", "plot_mdm"]
 
 _MAX_ROW_LABELS = 60  # joint names readable at 7 pt on the tallest figure
 _MAX_COLUMNS = 3000  # time columns drawn: a longer take is max-pooled (a flagged frame survives)
-
-REASON_COLOURS = {
-    "mdm": "#d62728",
-    "cancelling-jumps": "#ff7f0e",
-    "spike": "#e377c2",
-    "frozen": "#1f77b4",
-    "noise": "#9467bd",
-    "wrong-way-hinge": "#8c564b",
-    "extend": "#f7b6d2",
-}
-"""Colour of each rule's cells in the decision panel (others: a fixed cycle)."""
-_OTHER = ("#bcbd22", "#17becf", "#7f7f7f", "#2ca02c")
 
 
 def _seg(s: Any) -> tuple[int, int, int, tuple[str, ...]]:
@@ -101,8 +90,8 @@ def plot_mdm(
     fig, (ax_d, ax_m) = plt.subplots(
         2, 1, figsize=figsize(w_in, h_in), sharex=True, sharey=True, constrained_layout=True
     )
-    other = iter(_OTHER * 4)
-    colours = [REASON_COLOURS.get(r) or next(other) for r in reason_names]
+    seen: list[str] = []
+    colours = [reason_colour(r, seen) for r in reason_names]
     dec = _pool(decision.astype(np.int16), np.max)
     img = np.ones((*dec.T.shape, 3))
     for i, c in enumerate(colours):

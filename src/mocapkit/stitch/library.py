@@ -1,0 +1,217 @@
+"""Stitching onto a library of files, in shards: each shard (a fixed run of files) is read and
+searched by one task, which returns only its best candidate per take-off; the shards' bests are
+merged in shard order. The tasks run wherever ``runner`` runs them (in this process, or on a
+Dask cluster through :class:`mocapkit.batch.Runner`): no process but the workers reads the
+library, none holds more than one shard's features, and the result is the same however many
+workers there are, since the shards and the merge order depend on the file list only.
+
+    from mocapkit.stitch.library import stitch_library
+    res = stitch_library(query, "40:80", paths, runner=runner)   # a Stitched
+    res.transition.clip          # index into paths; res.skipped: unreadable files
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocapkit.core.motion import Motion
+from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel
+from mocapkit.stitch.lscore import DEFAULT_W
+from mocapkit.stitch.search import (
+    best_per_takeoff,
+    check_search,
+    check_takeoffs,
+    conform,
+    feature_joint_indices,
+    merge_per_takeoff,
+    motion_features,
+    no_candidate,
+    transition_at,
+)
+from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, build_stitch
+
+__all__ = ["SHARD_FILES", "LibraryShard", "ShardBest", "search_shard", "stitch_library"]
+
+#: Files per shard: a fixed number (not a function of the number of workers), so the shards and
+#: the merge are the same wherever the search runs; 32 Bandai takes are about 4,000 frames.
+SHARD_FILES = 32
+
+
+@dataclass(frozen=True)
+class LibraryShard:
+    """One task: ``paths[first:first + len(paths)]`` of the library."""
+
+    index: int
+    first: int
+    paths: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ShardBest:
+    """What a shard's task returns: per take-off its best ``(value, clip, landing)`` (clip: the
+    index in the whole library) or None, the candidates it scored, and the files it could not
+    read or use (``(index, one-line reason)``)."""
+
+    index: int
+    per_takeoff: tuple[tuple[float, int, int] | None, ...]
+    candidates: int
+    skipped: tuple[tuple[int, str], ...]
+
+
+@dataclass(frozen=True)
+class _Search:
+    """What every shard task needs (sent once to each worker)."""
+
+    query: Motion
+    features: np.ndarray
+    takeoffs: tuple[int, ...]
+    landing: int | None
+    window: int
+    k_max: int
+    inject: int | None
+    score: str
+    model: ConstantAccelerationModel
+    up: str
+    joints: tuple[str, ...]
+    lenient: bool
+
+
+def _clip_features(path: str, s: _Search) -> np.ndarray:
+    from mocapkit.io import read_motion
+
+    motion = read_motion(path, lenient=s.lenient)
+    return motion_features(conform(motion, s.query, path), s.up, list(s.joints))
+
+
+def search_shard(search: _Search, shard: LibraryShard) -> ShardBest:
+    """Read one shard's files and search them (on whichever process runs the task)."""
+    from mocapkit.io import MocapFileError
+
+    clips: list[np.ndarray] = []
+    where: list[int] = []
+    skipped: list[tuple[int, str]] = []
+    for k, path in enumerate(shard.paths):
+        try:
+            clips.append(_clip_features(path, search))
+            where.append(shard.first + k)
+        except (MocapFileError, ValueError, KeyError, OSError, IndexError) as e:
+            msg = " ".join(str(e).split()) or type(e).__name__
+            skipped.append((shard.first + k, msg if path in msg else f"{path}: {msg}"))
+    per: list[tuple[float, int, int] | None] = [None] * len(search.takeoffs)
+    candidates = 0
+    if clips:
+        best, candidates = best_per_takeoff(
+            search.features, list(search.takeoffs), clips, search.landing, search.window,
+            search.k_max, search.model, search.score, np.float32, search.inject,
+        )  # fmt: skip
+        per = [None if b is None else (b[0], where[b[1]], b[2]) for b in best]
+    return ShardBest(shard.index, tuple(per), candidates, tuple(skipped))
+
+
+def plan_shards(paths: Sequence[str | Path], shard_files: int = SHARD_FILES) -> list[LibraryShard]:
+    """The library cut into runs of ``shard_files`` files, in the given order."""
+    if shard_files < 1:
+        raise ValueError(f"shard_files must be >= 1, got {shard_files}")
+    ps = [str(p) for p in paths]
+    return [
+        LibraryShard(n, a, tuple(ps[a : a + shard_files]))
+        for n, a in enumerate(range(0, len(ps), shard_files))
+    ]
+
+
+def stitch_library(
+    query: Motion,
+    takeoff,
+    paths: Sequence[str | Path],
+    landing: int | None = None,
+    *,
+    method: str = "kalman",
+    window: int = DEFAULT_W,
+    max_inject_seconds: float = 1.0,
+    k_max: int | None = None,
+    inject: int | None = None,
+    score: str = "lscore",
+    blend_seconds: float = DEFAULT_BLEND_SECONDS,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    align: bool = True,
+    up: str | None = None,
+    joints: Sequence[str] | None = None,
+    lenient: bool = False,
+    query_name: str = "query",
+    output: str | None = None,
+    runner: Any = None,
+    progress: Callable[[int, int], None] | None = None,
+    shard_files: int = SHARD_FILES,
+) -> Any:
+    """:func:`mocapkit.stitch.stitch` of ``query`` onto the best of the library files ``paths``,
+    searched shard by shard (see the module docstring) on ``runner`` (anything with
+    ``imap(fn, items, *, shared, progress, name)``, e.g. :class:`mocapkit.batch.Runner`;
+    default: one after the other in this process). Only the chosen file is read here. A file
+    that cannot be read or does not fit the query's skeleton is left out and listed in the
+    result's ``skipped`` (``(path, reason)``); no usable file at all is a ValueError.
+    Returns the :class:`~mocapkit.stitch.Stitched` with ``data_names`` = ``paths``."""
+    from mocapkit.features import detect_up_axis
+    from mocapkit.io import read_motion
+
+    paths = [str(p) for p in paths]
+    if not paths:
+        raise ValueError("no data clip given")
+    if k_max is not None:
+        if int(k_max) != k_max or k_max < 0:
+            raise ValueError(f"k_max (--max-inject) must be an integer >= 0, got {k_max}")
+        max_inject_seconds = int(k_max) * query.frame_time
+    if not max_inject_seconds >= 0:
+        raise ValueError(f"max_inject_seconds must be >= 0, got {max_inject_seconds}")
+    kmax, k_show, inject, w, score = check_search(
+        query.seconds_to_frames(max_inject_seconds), inject, window, score
+    )
+    up = up or detect_up_axis(query)
+    names = tuple(query.skeleton.names[j] for j in feature_joint_indices(query.skeleton, joints))
+    qf = np.asarray(motion_features(query, up, list(names)), dtype=float)
+    takeoffs = check_takeoffs(takeoff, qf.shape[0], w)
+    search = _Search(query, qf, tuple(takeoffs), landing, w, kmax, inject, score, model, up,
+                     names, lenient)  # fmt: skip
+    shards = plan_shards(paths, shard_files)
+    t0 = time.perf_counter()
+    if runner is None:
+        parts: list[ShardBest] = []
+        for n, sh in enumerate(shards, 1):
+            parts.append(search_shard(search, sh))
+            if progress is not None:
+                progress(n, len(shards))
+    else:
+        parts = list(runner.imap(search_shard, shards, shared=search, progress=progress,
+                                 name="stitch-shard"))  # fmt: skip
+    skipped = [(paths[i], why) for p in parts for i, why in p.skipped]
+    best = merge_per_takeoff([p.per_takeoff for p in parts], [0] * len(parts))
+    if best is None:
+        if len(skipped) == len(paths):
+            raise ValueError(f"no data clip could be used: {skipped[0][1]}")
+        raise no_candidate(landing, w)
+    (_, ci, b), t = best
+    chosen = conform(read_motion(paths[ci], lenient=lenient), query, paths[ci])
+    clip = motion_features(chosen, up, list(names))
+    tr = transition_at(qf, takeoffs[t], clip, ci, b, w, model, k_show, inject, score,
+                       sum(p.candidates for p in parts))  # fmt: skip
+    search_seconds = time.perf_counter() - t0
+    res = build_stitch(
+        query, tr, chosen, method=method, window=window, model=model, align=align, up=up,
+        joints=joints, blend_seconds=blend_seconds,
+    )  # fmt: skip
+    return replace(
+        res,
+        transition=tr,
+        up=up,
+        query_name=str(query_name),
+        data_names=tuple(paths),
+        takeoff_spec=takeoff if isinstance(takeoff, (str, int)) else list(takeoffs),
+        search_seconds=search_seconds,
+        output=None if output is None else str(output),
+        skipped=tuple(skipped),
+    )

@@ -1,0 +1,67 @@
+"""Stitching onto a library in shards (mocapkit.stitch.library) finds what one search over all
+the clips finds, whatever the shard size; unreadable files are left out and named."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit import datasets
+from mocapkit.io import write_motion
+from mocapkit.stitch import stitch
+from mocapkit.stitch.library import plan_shards, stitch_library
+
+KINDS = ("walk", "run", "idle", "wave", "walk", "run", "walk")
+
+
+@pytest.fixture(scope="module")
+def lib(tmp_path_factory) -> tuple[list[Path], list]:
+    root = tmp_path_factory.mktemp("stitchlib")
+    paths, motions = [], []
+    for n, kind in enumerate(KINDS):
+        m = datasets.procedural_motion(kind, seconds=2.0, seed=40 + n).motion
+        p = root / f"{n:02d}_{kind}.bvh"
+        write_motion(m, p)
+        paths.append(p)
+    from mocapkit.io import read_motion
+
+    motions = [read_motion(p) for p in paths]  # as the shards read them
+    return paths, motions
+
+
+@pytest.mark.parametrize("shard_files", [1, 2, 3, 100])
+@pytest.mark.parametrize(("takeoff", "landing"), [("20:45", None), ("30", 12)])
+def test_shards_find_what_one_search_finds(lib, shard_files, takeoff, landing):
+    paths, motions = lib
+    q = datasets.procedural_motion("walk", seconds=2.0, seed=7).motion
+    ref = stitch(q, takeoff, motions, landing, data_names=[str(p) for p in paths])
+    got = stitch_library(q, takeoff, paths, landing, shard_files=shard_files)
+    assert got.transition.as_dict() == ref.transition.as_dict()
+    np.testing.assert_array_equal(got.motion.rotations, ref.motion.rotations)
+    np.testing.assert_array_equal(got.motion.root_positions, ref.motion.root_positions)
+    assert got.data_names == tuple(str(p) for p in paths) and got.skipped == ()
+
+
+def test_unreadable_files_are_left_out_and_named(lib, tmp_path):
+    paths, motions = lib
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n")
+    q = datasets.procedural_motion("walk", seconds=2.0, seed=7).motion
+    got = stitch_library(q, "20:45", [bad, *paths], shard_files=2)
+    ref = stitch(q, "20:45", motions)
+    assert got.transition.clip == ref.transition.clip + 1  # indexes the given paths
+    assert got.transition.lscore == ref.transition.lscore
+    assert [p for p, _ in got.skipped] == [str(bad)] and str(bad) in got.skipped[0][1]
+    assert got.to_json()["skipped"][0]["path"] == str(bad)
+    with pytest.raises(ValueError, match=r"no data clip could be used: .*bad\.bvh"):
+        stitch_library(q, "20:45", [bad])
+
+
+def test_shards_are_fixed_runs_of_files():
+    shards = plan_shards([f"f{i}" for i in range(70)], 32)
+    assert [(s.index, s.first, len(s.paths)) for s in shards] == [(0, 0, 32), (1, 32, 32),
+                                                                  (2, 64, 6)]  # fmt: skip
+    with pytest.raises(ValueError, match="shard_files must be >= 1"):
+        plan_shards(["a"], 0)
