@@ -424,8 +424,27 @@ class Body:
 # finding parts by name
 
 
+_NAME_PARTS: dict[tuple, tuple[dict, dict]] = {}
+_NAME_PARTS_MAX = 256
+
+
 def _name_parts(sk: Skeleton) -> tuple[dict[str, int], dict[tuple[str, str], tuple[int, float]]]:
-    """Centre parts {name: joint} and sided parts {(side, name): (joint, confidence)}."""
+    """Centre parts {name: joint} and sided parts {(side, name): (joint, confidence)}, kept per
+    skeleton content (names, parents, offsets): a library's takes are read into separate
+    Skeleton objects of one rig, and matching its names again for each cost a tenth of a
+    library clean."""
+    key = (tuple(sk.names), np.asarray(sk.parents).tobytes(), np.asarray(sk.offsets).tobytes())
+    hit = _NAME_PARTS.get(key)
+    if hit is None:
+        hit = _name_parts_of(sk)
+        if len(_NAME_PARTS) >= _NAME_PARTS_MAX:
+            _NAME_PARTS.clear()
+        _NAME_PARTS[key] = hit
+    return dict(hit[0]), dict(hit[1])
+
+
+def _name_parts_of(sk: Skeleton) -> tuple[dict[str, int], dict[tuple[str, str], tuple[int, float]]]:
+    """:func:`_name_parts`, computed."""
     depth = sk.depth()
     split = [split_name(n) for n in sk.names]
     usable = [not _HELPER.search(base) for _, base in split]

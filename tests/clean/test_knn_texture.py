@@ -170,3 +170,20 @@ def test_untainted_bars_neighbour_frames_on_bad_cells_per_joint() -> None:
         g, gn.starts, np.array([[2, 30, 9], [7, 20, -1]]), gn.distance, words
     )
     assert np.array_equal(knn.untainted(inside, everything, 7).usable_mask(), inside.usable_mask())
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_warp_word_filter_is_resample_polys_own(dtype):
+    """The FIR filter made once per ratio is the one resample_poly designs: the same bits."""
+    from scipy.signal import resample_poly
+
+    from mocapkit.clean.knn import _resample_filter
+
+    rng = np.random.default_rng(3)
+    for n, p in [(8, 7), (12, 9), (5, 11), (16, 19), (24, 30)]:
+        x = rng.normal(size=(p, 3, 4)).astype(dtype)
+        ref = resample_poly(x, n, p, axis=0, padtype="line")
+        got = resample_poly(x, n, p, axis=0, window=_resample_filter(n, p, x.dtype.str),
+                            padtype="line")  # fmt: skip
+        assert got.dtype == ref.dtype
+        np.testing.assert_array_equal(got, ref)

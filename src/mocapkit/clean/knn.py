@@ -8,6 +8,8 @@ fit inside that take; a target word is identified by its centre ``start + M // 2
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -178,6 +180,22 @@ def untainted(gn: GroupNeighbours, tainted: np.ndarray, target_len: int) -> Grou
     return GroupNeighbours(gn.group, gn.starts, gn.index, gn.distance, gn.words, usable)
 
 
+@functools.lru_cache(maxsize=1024)
+def _resample_filter(up: int, down: int, dtype: str = "<f8") -> np.ndarray:
+    """The FIR filter ``resample_poly(x, up, down)`` designs by default (a Kaiser window,
+    beta 5, cut-off at the lower of the two Nyquist rates) in the signal's ``dtype`` (as
+    resample_poly casts it), made once per ratio: designing it cost as much as the resampling.
+    Read-only; resample_poly copies it."""
+    from scipy.signal import firwin
+
+    g = math.gcd(up, down)  # resample_poly reduces the ratio first
+    max_rate = max(up // g, down // g)
+    h = firwin(2 * 10 * max_rate + 1, 1.0 / max_rate, window=("kaiser", 5.0))
+    h = np.asarray(h, dtype=np.dtype(dtype) if np.dtype(dtype).kind == "f" else None)
+    h.setflags(write=False)
+    return h
+
+
 def warp_word(target: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:
     """A target word brought onto a source word of ``n`` frames: the frames of ``target``
     (M, m, 4) visited by the DTW path (p, 2) of (source, target) frame pairs, i.e. the target
@@ -190,7 +208,9 @@ def warp_word(target: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:
         return seq.copy()
     if p == 1:
         return np.repeat(seq, n, axis=0)
-    out = resample_poly(seq, n, p, axis=0, padtype="line")
+    out = resample_poly(
+        seq, n, p, axis=0, window=_resample_filter(n, p, seq.dtype.str), padtype="line"
+    )
     if out.shape[0] != n:  # resample_poly gives ceil(p * n / p) == n; guard anyway
         out = out[:n] if out.shape[0] > n else np.concatenate([out, out[-1:]], axis=0)
     return out / np.linalg.norm(out, axis=-1, keepdims=True)
