@@ -127,6 +127,7 @@ class ItemResult:
     frames: int | None = None
     fps: float | None = None
     error: str | None = None
+    resumed: bool = False
 
     @property
     def ok(self) -> bool:
@@ -151,9 +152,15 @@ class ConvertedMany:
     def failed(self) -> list[ItemResult]:
         return [i for i in self.items if not i.ok]
 
+    @property
+    def resumed(self) -> int:
+        """Inputs found complete and unchanged from an earlier run, not converted again."""
+        return sum(1 for i in self.items if i.resumed)
+
     def to_json(self) -> dict[str, Any]:
         return {
             "converted": len(self.items) - len(self.failed),
+            "resumed": self.resumed,
             "failed": len(self.failed),
             "items": [i.to_json() for i in self.items],
         }
@@ -196,6 +203,24 @@ def convert_one(task: tuple[str | Path, str | Path, dict[str, Any]]) -> ItemResu
     return ItemResult(src, res.output, res.motion.num_frames, res.motion.fps)
 
 
+def _resume_key(src: Path, to: str, options: dict[str, Any]) -> str:
+    """The manifest key of one conversion (:mod:`mocapkit.batch.manifest`): the source's path
+    and sha256, an AMC's ASF beside it, the target format, the options, the version."""
+    from mocapkit.batch.manifest import file_sha256, input_key
+
+    context = []
+    if src.suffix.lower() == ".amc":
+        from mocapkit.io import MocapFileError, find_asf
+
+        try:
+            asf = find_asf(src)
+            context.append((str(asf), file_sha256(asf)))
+        except (MocapFileError, OSError, ValueError):
+            context.append(("asf", "missing"))
+    config = {"to": to, **{k: options[k] for k in sorted(options)}}
+    return input_key(str(src), file_sha256(src), context, config)
+
+
 def convert_many(
     sources: Sequence[str | Path],
     out_dir: str | Path,
@@ -216,10 +241,17 @@ def convert_many(
     as it is done. ``runner`` (a :class:`mocapkit.batch.Runner`) runs the conversions, in this
     process by default or on a Dask cluster: the files written are the same;
     ``progress(done, total)`` counts its finished conversions.
+
+    Each written output gets an entry in ``out_dir/.mocapkit-manifest`` (the source's sha256,
+    the options, the version; the output's sha256): a rerun skips the inputs whose output is
+    there unchanged and whose source and options are the same (``resumed``), so an
+    interrupted folder convert resumes.
     """
+    from mocapkit.batch.manifest import Manifest
     from mocapkit.io import MocapFileError
     from mocapkit.io.atomic import refuse_overwrite, remove_stale_temporaries
 
+    manifest = Manifest(Path(out_dir))
     srcs = [Path(s) for s in sources]
     results: dict[int, ItemResult] = {}
     written: dict[Path, Path] = {}
@@ -253,23 +285,31 @@ def convert_many(
                     later.append(k)
                     continue
                 refuse_overwrite(out, srcs)  # never over any input, not only this one
+                resume = _resume_key(src, to, options)
             except (MocapFileError, ValueError, KeyError, OSError) as e:
                 results[k] = ItemResult(src, None, error=_error_line(src, e))
                 continue
             claimed.add(key)
-            wave.append((k, out, key))
+            entry = manifest.is_complete(out.name, resume)
+            if entry is not None and entry.get("result"):
+                r = entry["result"]
+                results[k] = ItemResult(src, out, r["frames"], r["fps"], resumed=True)
+                written[key] = src
+                continue
+            wave.append((k, out, key, resume))
         emit()
-        tasks = [(str(srcs[k]), str(out), options) for k, out, _ in wave]
+        tasks = [(str(srcs[k]), str(out), options) for k, out, _, _ in wave]
         if runner is None:
             done = (convert_one(t) for t in tasks)
         else:
             done = runner.imap(convert_one, tasks, progress=progress, name="convert")
-        for (k, _, key), item in zip(wave, done, strict=True):
+        for (k, out, key, resume), item in zip(wave, done, strict=True):
             results[k] = item
             if item.ok:
                 written[key] = srcs[k]
+                manifest.record(out.name, resume, [out], {"frames": item.frames, "fps": item.fps})
             emit()
         pending = later
         if runner is not None:  # a worker killed mid-write leaves a temporary file
-            remove_stale_temporaries(out for _, out, _ in wave)
+            remove_stale_temporaries(out for _, out, _, _ in wave)
     return ConvertedMany(tuple(results[k] for k in range(len(srcs))))

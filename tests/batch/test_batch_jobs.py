@@ -266,3 +266,38 @@ def test_clean_file_refuses_folder_options(library, tmp_path):
     r = CliRunner().invoke(main, ["clean", str(take), "--out-dir", str(tmp_path), "--workers", "2"])
     assert r.exit_code == 2 and "--out-dir, --workers: only for a folder of takes" in r.output
     assert not any(tmp_path.iterdir())
+
+
+def test_folder_convert_resumes(library, tmp_path, tree):
+    """A rerun of a folder convert skips what is complete and unchanged; a changed source, a
+    removed output or other options are converted again."""
+    import shutil
+
+    lib = tmp_path / "lib"
+    shutil.copytree(library, lib)
+    out = tmp_path / "out"
+    srcs = sorted(lib.glob("*.bvh"))
+    first = convert_many(srcs, out, "bvh", fps=24.0)
+    assert first.resumed == 0 and len(first.failed) == 1
+    before = tree(out)
+    again = convert_many(srcs, out, "bvh", fps=24.0)
+    assert again.resumed == 12 and [i.error for i in again.failed] == [
+        i.error for i in first.failed
+    ]
+    assert [i.to_json() for i in again.items] == [i.to_json() for i in first.items]
+    walk = lib / "walk_001.bvh"
+    walk.write_text(walk.read_text().replace("Frame Time:", "Frame Time: ", 1))
+    (out / "run_000.bvh").unlink()
+    third = convert_many(srcs, out, "bvh", fps=24.0)
+    redone = sorted(i.source.name for i in third.items if i.ok and not i.resumed)
+    assert redone == ["run_000.bvh", "walk_001.bvh"] and third.resumed == 10
+    assert tree(out) == before
+    assert convert_many(srcs, out, "bvh", fps=30.0).resumed == 0
+    args = ["convert", str(lib), "--out-dir", str(out), "--to", "bvh", "--fps", "30"]
+    r = CliRunner().invoke(main, args)
+    assert "converted 12 of 13 inputs" in r.output and "already complete" not in r.output
+    r = CliRunner().invoke(main, args)
+    assert "converted 12 of 13 inputs" in r.output and "(12 already complete and unchanged)" in (
+        r.output
+    )
+    assert r.output.count("wrote ") == 0 and r.exit_code == 2  # the broken take, again

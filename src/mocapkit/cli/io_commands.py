@@ -384,6 +384,8 @@ def _convert_folder(
             unique.append(f)
 
     def report(item: ItemResult) -> None:
+        if item.resumed:
+            return  # counted in the last line
         if item.ok:
             click.echo(f"wrote {item.output} ({item.frames} frames at {item.fps:.6g} fps)")
         else:
@@ -398,6 +400,7 @@ def _convert_folder(
     done = len(res.items) - len(res.failed)
     click.echo(
         f"converted {done} of {done + failed} inputs into {out}"
+        + (f" ({res.resumed} already complete and unchanged)" if res.resumed else "")
         + (f"; {failed} failed" if failed else "")
     )
     if failed:
