@@ -459,7 +459,8 @@ def overview_html(summary: dict[str, Any]) -> str:
         out.append("</ul>")
     out.append(
         "<h2>Takes by flagged seconds</h2><table><tr><th>#</th><th>take</th><th>flagged</th>"
-        "<th>worst joints (s)</th><th>reasons (segments)</th><th>timeline</th></tr>"
+        "<th>worst joints (s)</th><th>reasons (segments)</th>"
+        "<th>timeline (whole take, start to end)</th></tr>"
     )
     out += rows
     out.append("</table></body></html>\n")
