@@ -13,9 +13,15 @@ are analysed too: flagged segments off the glitch list per minute, and the liste
 
     PYTHONPATH=src .venv/bin/python bench/eval_clean.py --set bandai1-tune [--ablate]
     PYTHONPATH=src .venv/bin/python bench/eval_clean.py --set bandai2 --set cmu --raw
+    PYTHONPATH=src .venv/bin/python bench/eval_clean.py --set bandai1-tune --fps 120 \
+        --class gestures
+
+``--fps 120`` resamples the takes (slerp) before injecting: the tuning stand-in for CMU's rate.
+``--class`` keeps one motion class.
 
 Sets: bandai1-tune, bandai1-val, bandai2, cmu. Classes: Bandai-1 locomotion (walk, walk-back,
--left, -right, run, dash) and dance/fight (dance, kick, punch, slash); Bandai-2 locomotion
+-left, -right, run, dash), dance/fight (dance, kick, punch, slash) and gestures (bow, bye,
+byebye, call, guide, respond); Bandai-2 locomotion
 (walk, walk-turn-left/right, run) and gestures (raise-up-*, wave-*); CMU 01 playground and
 03 walking.
 """
@@ -39,7 +45,7 @@ from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix
 from mocapkit.clean.inject import ERROR_KINDS
 from mocapkit.clean.repair import foot_slide
 from mocapkit.clean.texture import rotating_joints
-from mocapkit.features import foot_contacts
+from mocapkit.features import foot_contacts, resample
 from mocapkit.io import read_motion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -66,8 +72,13 @@ def classes(set_name: str) -> dict[str, list[str]]:
     if set_name.startswith("bandai1"):
         loco = _bvh("bandai1", ("walk", "walk-back", "walk-left", "walk-right", "run", "dash"))
         dance = _bvh("bandai1", ("dance-short", "dance-long", "kick", "punch", "slash"))
+        gest = _bvh("bandai1", ("bow", "bye", "byebye", "call", "guide", "respond"))
         half = 0 if set_name == "bandai1-tune" else 1
-        return {"locomotion": loco[half::2], "dance/fight": dance[half::2]}
+        return {
+            "locomotion": loco[half::2],
+            "dance/fight": dance[half::2],
+            "gestures": gest[half::2],
+        }
     if set_name == "bandai2":
         loco = _bvh("bandai2", ("walk", "walk-turn-left", "walk-turn-right", "run"))
         gest = _bvh(
@@ -197,9 +208,13 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
     kinds = args.kinds.split(",")
     vs = variants(args.ablate, args.also, args.drops)
     for cls, files in classes(set_name).items():
+        if args.classes and cls not in args.classes:
+            continue
         takes = {}
         for f in _spread(files, args.takes * 4):
             m = load(f, args.seconds)
+            if args.fps:
+                m = resample(m, args.fps)
             if m.duration >= MIN_SECONDS:
                 takes[f] = m
         chosen = _spread(sorted(takes), args.takes)
@@ -261,8 +276,19 @@ T0 = time.time()
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--set", dest="sets", action="append", default=None)
+    ap.add_argument(
+        "--class",
+        dest="classes",
+        action="append",
+        default=None,
+        help="only this motion class (repeatable)",
+    )
     ap.add_argument("--takes", type=int, default=4, help="takes per class")
     ap.add_argument("--seconds", type=float, default=20.0, help="takes cut to this long")
+    ap.add_argument(
+        "--fps", type=float, default=0.0,
+        help="resample every take to this rate first (Bandai-1 at 120 fps: CMU's rate)",
+    )  # fmt: skip
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--kinds", default=",".join(ERROR_KINDS))
     ap.add_argument("--context-size", type=int, default=3, help="small-scale context takes")
@@ -288,6 +314,8 @@ def main() -> int:
     print(f"{'set':13s} {'class':14s} {'takes':>5s} " + " ".join(f"{k:>13s}" for k in kinds))
     for s in sets:
         for cls in classes(s):
+            if args.classes and cls not in args.classes:
+                continue
             n = table.get((s, cls, "n"), 0)
             for ctx in ("local", "small"):
                 row = f"{s:13s} {cls + ' ' + ctx:14s} {n:5d} "

@@ -236,3 +236,90 @@ def test_run_pipeline_records_reasons_and_never_flags_unanalysed_joints() -> Non
     assert fl.reasons_at(slice(40, 42), 0) == ["spike"]
     ev.analysed = np.array([False, True])
     assert not run_pipeline(ev, pipeline=ORIGINAL_ORDER).mask[:, 0].any()
+
+
+def test_noise_bursts_judge_each_joint_against_its_own_roughness() -> None:
+    # a joint rough all along the take (a hand waved fast at 30 fps) is not a burst; a burst
+    # far above its own roughness is
+    q = smooth(F=150)
+    rng = np.random.default_rng(1)
+    rough = q.copy()
+    rough[:, 1] = rot.quat_mul(
+        q[:, 1], rot.rotvec_to_quat(rng.normal(scale=np.radians(6), size=(150, 3)))
+    )
+    ev = evidence(rough)
+    assert np.degrees(np.median(ev.roughness[2:-2, 1])) > 1.5 * DetectConfig().noise_deg
+    fl = Flags((150, 2))
+    NoiseBursts.from_config(ev.config).apply(ev, fl)
+    assert not fl.mask.any()
+    fl = Flags((150, 2))  # the fixed level alone flags it all along
+    NoiseBursts.from_config(DetectConfig(noise_ratio=0.0)).apply(
+        evidence(rough, config=DetectConfig(noise_ratio=0.0)), fl
+    )
+    assert fl.mask[:, 1].mean() > 0.5
+    burst = rough.copy()
+    burst[60:80, 1] = rot.quat_mul(
+        rough[60:80, 1], rot.rotvec_to_quat(rng.normal(scale=np.radians(40), size=(20, 3)))
+    )
+    fl = Flags((150, 2))
+    NoiseBursts().apply(evidence(burst), fl)
+    assert fl.mask[60:80, 1].sum() >= 8 and not fl.mask[:55, 1].any()
+
+
+def test_smooth_veto_a_step_vouches_for_the_nearest_run_only() -> None:
+    bad = turn(smooth(), slice(30, 40), 0, 30.0)  # an offset: steps at its two ends
+    # an error's run and, 4 frames after its exit step, a run of natural motion: the exit step
+    # is the error's, not the neighbour's
+    fl = flagged(90, 2, [(30, 40, 0), (44, 60, 0)])
+    SmoothVeto().apply(evidence(bad), fl)
+    assert fl.mask[30:40, 0].all() and not fl.mask[44:60, 0].any()
+    fl = flagged(90, 2, [(30, 40, 0), (44, 60, 0)])
+    SmoothVeto(nearest=False).apply(evidence(bad), fl)  # any step near: both kept
+    assert fl.mask[44:60, 0].all()
+    # one run holding the error and natural motion after it: cut past the last step + pad
+    fl = flagged(90, 2, [(30, 70, 0)])
+    SmoothVeto().apply(evidence(bad), fl)
+    pad = round(DetectConfig().abrupt_seconds * FPS)
+    assert fl.mask[30:40, 0].all() and not fl.mask[42 + pad : 70, 0].any()
+    fl = flagged(90, 2, [(30, 70, 0)])
+    SmoothVeto(trim=False).apply(evidence(bad), fl)
+    assert fl.mask[30:70, 0].all()
+    # an error cut off by the take's end has no exit step: not trimmed there
+    end = turn(smooth(), slice(70, 90), 0, 30.0)
+    fl = flagged(90, 2, [(70, 90, 0)])
+    SmoothVeto().apply(evidence(end), fl)
+    assert fl.mask[70:90, 0].all()
+
+
+def test_wrong_way_hinge_axis_is_the_takes_own() -> None:
+    F = 90
+    rv = np.zeros((F, 1, 3))
+    rv[:, 0, 0] = np.radians(30.0) * (1 + np.sin(np.arange(F) / 8.0)) / 2 + np.radians(20)
+    other = np.zeros((3 * F, 1, 3))  # another style's elbow bends far about -x
+    other[:, 0, 0] = -np.radians(60.0) * (1 + np.sin(np.arange(3 * F) / 8.0)) / 2
+    ctx = [rot.rotvec_to_quat(other)]
+    q = rot.rotvec_to_quat(rv)
+    fl = Flags((F, 1))
+    WrongWayHinges().apply(evidence(q, hinges=[0], context_rotations=ctx), fl)
+    assert not fl.mask.any()
+    cfg = DetectConfig(hinge_context=True)  # the pooled axis turned the take's flexion over
+    fl = Flags((F, 1))
+    WrongWayHinges().apply(evidence(q, hinges=[0], context_rotations=ctx, config=cfg), fl)
+    assert fl.mask.all()
+
+
+def test_frozen_straight_hinge_is_parked() -> None:
+    q = smooth()
+    held = q.copy()
+    held[10:80, 0] = np.array([1.0, 0.0, 0.0, 0.0])  # a knee locked straight, exactly
+    dig = np.full((90, 2), np.radians(10.0))
+    fl = Flags((90, 2))
+    FrozenJoints().apply(evidence(held, dig=dig, hinges=[0]), fl)
+    assert not fl.mask.any()
+    fl = Flags((90, 2))  # not a hinge, or held bent: frozen
+    FrozenJoints().apply(evidence(held, dig=dig), fl)
+    assert fl.mask[12:78, 0].all()
+    bent = turn(held, slice(10, 80), 0, 30.0, axis=(1.0, 0.0, 0.0))
+    fl = Flags((90, 2))
+    FrozenJoints().apply(evidence(bent, dig=dig, hinges=[0]), fl)
+    assert fl.mask[12:78, 0].all()

@@ -5,8 +5,10 @@ a rule runs, so a 30 fps and a 120 fps take are judged alike), MDM levels in [0,
 Each field carries the reason for its value. The values were chosen on injected errors in
 Bandai-1 walks before issue #16; which rules run was then decided on the validation half of
 Bandai-1 (``mocapkit.clean.detect.RETIRED``), and Bandai-2 and the raw CMU takes are reported
-without retuning (bench/eval_clean.py). Fields of retired rules matter only when a pipeline
-puts those rules back.
+without retuning (bench/eval_clean.py). ``noise_ratio``, ``abrupt_nearest``, ``abrupt_trim``,
+``hinge_context`` and ``frozen_straight_deg`` were then set on the Bandai-1 tuning half, its
+gesture takes and its takes resampled to 120 fps (a stand-in for CMU's rate), and kept on its
+validation half. Fields of retired rules matter only when a pipeline puts those rules back.
 """
 
 from __future__ import annotations
@@ -151,6 +153,10 @@ class DetectConfig:
     #: ... for this long in all (seconds) is parked at a limit (a straight elbow, flat toes),
     #: not frozen; also the margin around the run that does not count.
     frozen_recur_seconds: float = 0.1
+    #: A straight-at-rest knee or elbow held within this angle (degrees) of straight is parked
+    #: at its limit (a locked knee while standing: the solver clamps it there, exactly), not
+    #: frozen, even when it never leaves that pose in the take (0: off).
+    frozen_straight_deg: float = 5.0
 
     # ------------------------------------------------------------------ smooth veto
     #: Drop a run with no step above this (degrees) near it: capture errors enter or leave with
@@ -158,6 +164,16 @@ class DetectConfig:
     abrupt_deg: float = 12.0
     #: "Near" for the smooth veto (seconds either side of the run).
     abrupt_seconds: float = 0.2
+    #: A step vouches only for the flagged run nearest to it (one step enters or leaves one
+    #: error), and a frozen run inside a flagged run is judged apart from the cells around it: an
+    #: error's edge must not keep a run of natural motion the context lacks alive beside it
+    #: (False: any step within ``abrupt_seconds`` keeps a run, the whole run spared by a frozen
+    #: cell).
+    abrupt_nearest: bool = True
+    #: ... and a flagged run ends ``abrupt_seconds`` past the first and last steps it owns: an
+    #: error lies between the steps that enter and leave it; the MDM beyond them is motion the
+    #: context lacks, joined to the error by the hysteresis (only with ``abrupt_nearest``).
+    abrupt_trim: bool = True
 
     # ------------------------------------------------------------------ recurring veto
     #: Drop a short run whose excursion the joint repeats elsewhere within this (degrees): a
@@ -177,6 +193,10 @@ class DetectConfig:
     #: Shortest noise burst (seconds): an error's edge or a limb stopping at once raises the
     #: roughness for a few frames only.
     noise_seconds: float = 0.2
+    #: ... and above this many times the joint's median roughness in the take: a hand waved fast
+    #: at 30 fps is rough all the time (each joint is judged against its own, as steps are);
+    #: injected or marker noise stands tens of times above it (0: the fixed level alone).
+    noise_ratio: float = 4.0
 
     # ------------------------------------------------------------------ wrong-way hinges
     #: A knee or elbow bent more than this (degrees) past straight the wrong way: anatomically
@@ -186,6 +206,10 @@ class DetectConfig:
     hinge_straight_deg: float = 20.0
     #: Hinges whose rotations reach this (degrees) are skipped: rotation vectors wrap at 180.
     hinge_max_deg: float = 170.0
+    #: Fit the hinge's flexion axis on the context takes too. Off: a Bandai elbow turns about
+    #: one axis in one style and another in the next (forearm twist), and a context of other
+    #: styles turned a take's whole normal flexion into a wrong-way bend.
+    hinge_context: bool = False
 
     # ------------------------------------------------------------------ extension
     #: (Retired rule.) Stretch every flagged run to the steps (above ``step_min_deg``) within

@@ -16,6 +16,7 @@ import numpy as np
 from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.detect.config import DetectConfig, seconds_to_frames
 from mocapkit.core import rotations as rot
+from mocapkit.core.runs import true_runs
 from mocapkit.core.skeleton import Skeleton
 from mocapkit.features import limb_hinges
 
@@ -48,7 +49,7 @@ class Evidence:
         hinges: joint indices of the straight-at-rest knees and elbows (wrong-way bends).
         context_rotations: (F_i, J, 4) rotations of context takes at the same frame rate (the
             recurring veto looks for the same excursion there; the hinge axis is fitted on them
-            too).
+            too if the config's ``hinge_context``).
         names: the J joint names (for explanations).
 
     The maps are set by :meth:`set_maps` after the search: ``mdm`` (F, J) in [0, 1], ``z`` the
@@ -200,21 +201,31 @@ class Evidence:
     @cached_property
     def noise_bursts(self) -> np.ndarray:
         """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`)."""
+        return mdm_mod.noise_bursts(
+            self.roughness, self.noise_level, self.frames(self.config.noise_seconds, 2)
+        )
+
+    @cached_property
+    def noise_level(self) -> np.ndarray:
+        """(J,) radians: the roughness a noise burst must exceed on each joint, ``noise_deg``
+        or ``noise_ratio`` times the joint's median roughness in the take if that is more."""
         c = self.config
-        n = self.frames(c.noise_seconds, 2)
-        return mdm_mod.noise_bursts(self.roughness, np.radians(c.noise_deg), n)
+        r = self.roughness
+        F = r.shape[0]
+        med = np.median(r[1 : F - 2], axis=0) if F > 4 else np.zeros(r.shape[1])
+        return np.maximum(np.radians(c.noise_deg), c.noise_ratio * med)
 
     @cached_property
     def hinge_flexion(self) -> np.ndarray:
-        """(F, J) radians: flexion of the straight hinges about their main axis (positive: the
-        usual way), NaN on other joints and on hinges whose rotations wrap."""
+        """(F, J) radians: flexion of the straight hinges about their main axis (the principal
+        direction of the take's rotation vectors, with the context's if ``hinge_context``;
+        positive: the usual way), NaN on other joints and on hinges whose rotations wrap."""
         q = self.rotations
         out = np.full(q.shape[:2], np.nan)
+        others = self.context_rotations if self.config.hinge_context else []
         for j in self.hinges:
             own = rot.quat_to_rotvec(q[:, j])
-            pool = np.concatenate(
-                [own, *(rot.quat_to_rotvec(c[:, j]) for c in self.context_rotations)]
-            )
+            pool = np.concatenate([own, *(rot.quat_to_rotvec(c[:, j]) for c in others)])
             if len(pool) == 0:
                 continue
             if np.linalg.norm(pool, axis=1).max() > np.radians(self.config.hinge_max_deg):
@@ -234,11 +245,12 @@ class Evidence:
     # ------------------------------------------------------------------ needing the maps
     @cached_property
     def frozen(self) -> np.ndarray:
-        """(F, J) bool: frozen runs (:func:`mdm.frozen_cells`)."""
+        """(F, J) bool: frozen runs (:func:`mdm.frozen_cells`), less the straight hinges held
+        within ``frozen_straight_deg`` of straight (parked at their limit)."""
         self._need_maps()
         c = self.config
         recur = self.frames(c.frozen_recur_seconds)
-        return mdm_mod.frozen_cells(
+        out = mdm_mod.frozen_cells(
             self.rotations,
             self.digression,
             self.frames(c.frozen_seconds, 2),
@@ -248,3 +260,11 @@ class Evidence:
             max_recur=recur,
             margin=recur,
         )
+        if c.frozen_straight_deg > 0:
+            # a straight hinge held straight is parked at its limit
+            for j in self.hinges:
+                for a, b in true_runs(out[:, j]):
+                    w = abs(float(self.rotations[a, j, 0]))
+                    if 2.0 * np.arccos(min(w, 1.0)) <= np.radians(c.frozen_straight_deg):
+                        out[a : b + 1, j] = False
+        return out

@@ -14,22 +14,26 @@ from mocapkit.clean.detect.flags import Flags
 @dataclass(frozen=True)
 class NoiseBursts:
     """Flag runs of at least ``min_seconds`` whose roughness (second difference of the angular
-    velocity, :func:`~mocapkit.clean.mdm.burst_roughness`) exceeds ``min_deg`` at nearly every
-    frame (:func:`~mocapkit.clean.mdm.noise_bursts`), whatever the MDM.
+    velocity, :func:`~mocapkit.clean.mdm.burst_roughness`) exceeds ``min_deg``, and
+    ``ratio`` times the joint's median roughness in the take, at nearly every frame
+    (:func:`~mocapkit.clean.mdm.noise_bursts`), whatever the MDM.
 
     Relies on: smooth motion keeps the roughness small (it grows with the cube of the
-    frequency); marker noise is white, about 4.5 times its size per axis. The KNN words of a
-    weakly jittered fast joint may follow the jitter, so the MDM alone misses it."""
+    frequency); marker noise is white, about 4.5 times its size per axis, and comes in bursts,
+    while a joint that moves fast for the whole take (a hand waved at 30 fps) is rough all the
+    time. The KNN words of a weakly jittered fast joint may follow the jitter, so the MDM alone
+    misses it."""
 
     name: ClassVar[str] = "noise"
     veto: ClassVar[bool] = False
     signal: ClassVar[bool] = True
     min_deg: float = 20.0
     min_seconds: float = 0.2
+    ratio: float = 4.0
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> NoiseBursts:
-        return cls(config.noise_deg, config.noise_seconds)
+        return cls(config.noise_deg, config.noise_seconds, config.noise_ratio)
 
     def cells(self, ev: Evidence):
         return ev.noise_bursts
@@ -39,6 +43,7 @@ class NoiseBursts:
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         return (
-            f"roughness {deg(ev.roughness[frame, joint])} (burst: above {self.min_deg:g} deg "
-            f"for {self.min_seconds:g} s)"
+            f"roughness {deg(ev.roughness[frame, joint])} (burst: above "
+            f"{deg(ev.noise_level[joint])}, the larger of {self.min_deg:g} deg and "
+            f"{self.ratio:g} x the joint's median, for {self.min_seconds:g} s)"
         )

@@ -12,36 +12,119 @@ from mocapkit.clean.detect._runs import deg
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
+from mocapkit.core.runs import true_runs
+
+
+def unowned_runs(
+    mask: np.ndarray,
+    steps: np.ndarray,
+    keep: np.ndarray,
+    min_step: float,
+    pad: int,
+    trim: bool = False,
+    z: np.ndarray | None = None,
+    width: int = 3,
+) -> np.ndarray:
+    """(F, J) bool: the runs of ``mask & ~keep`` (per joint) that own no step of at least
+    ``min_step`` radians. Each such step within ``pad`` frames of a run belongs to the runs
+    nearest to it (0 frames: inside), the runs of ``keep`` (frozen cells) competing too; a step
+    between two runs vouches for the nearer only (ties for both). With ``trim``, also the cells
+    of a run more than ``pad`` frames before its first owned step or after its last (unless the
+    run comes within ``pad`` frames of the take's first or last frame on that side: an error
+    cut off there has no step there). A run owning one step is cut on one side only, the side
+    away from the error: the error lies where the normalised digression ``z`` is higher over
+    the ``width`` frames after the step than before it, or before (:func:`mdm.step_sides`);
+    without ``z`` such a run is kept whole."""
+    mask = np.asarray(mask, dtype=bool)
+    keep = np.asarray(keep, dtype=bool) & mask
+    out = np.zeros_like(mask)
+    for j in np.flatnonzero(mask.any(axis=0)):
+        judged = true_runs(mask[:, j] & ~keep[:, j])
+        if not judged:
+            continue
+        spans = np.array(judged + true_runs(keep[:, j]), dtype=np.int64).reshape(-1, 2)
+        first = np.full(len(spans), np.iinfo(np.int64).max)
+        last = np.full(len(spans), -1)
+        count = np.zeros(len(spans), dtype=np.int64)
+        for p in np.flatnonzero(steps[:, j] >= min_step):
+            d = np.maximum(np.maximum(spans[:, 0] - p, p - spans[:, 1]), 0)
+            near = d.min()
+            if near <= pad:
+                own = d == near
+                first[own] = np.minimum(first[own], p)
+                last[own] = np.maximum(last[own], p)
+                count[own] += 1
+        for i, (a, b) in enumerate(judged):
+            if last[i] < 0:
+                out[a : b + 1, j] = True
+            elif trim:
+                lo, hi = a > pad, b < len(mask) - 1 - pad
+                if count[i] == 1:
+                    # one step: the error lies on its digressing side, the run beyond the
+                    # step on the other side is not vouched for
+                    if z is None:
+                        continue
+                    p = int(first[i])
+                    after = z[p : p + width, j].mean()
+                    before = z[max(0, p - width) : p, j].mean() if p > 0 else -np.inf
+                    if after >= before:
+                        hi = False
+                    else:
+                        lo = False
+                # an error cut off by the take's start or end has no step there
+                if lo:
+                    out[a : max(first[i] - pad, a), j] = True
+                if hi:
+                    out[min(last[i] + pad, b) + 1 : b + 1, j] = True
+    return out
 
 
 @dataclass(frozen=True)
 class SmoothVeto:
-    """Clear a flagged run (frozen runs aside) whose largest step within ``pad_seconds`` stays
-    below ``min_deg`` (:func:`~mocapkit.clean.mdm.smooth_runs`).
+    """Clear a flagged run (frozen runs aside) that owns no step of ``min_deg`` or more: with
+    ``nearest``, a step within ``pad_seconds`` belongs to the flagged run nearest to it
+    (:func:`unowned_runs`); without, any step within ``pad_seconds`` keeps a run
+    (:func:`~mocapkit.clean.mdm.smooth_runs`).
 
     Relies on: capture errors (pops, flips, offsets, noise, wrong bends) enter or leave with a
     frame-to-frame step far from the steps around it; a digression reached smoothly is motion
-    the context does not hold (a dancer's head whip), not an error."""
+    the context does not hold (a dancer's head whip), not an error. A step vouches for one
+    run: the edge of an error beside such motion (a unique gesture of a short take, whose words
+    the take alone cannot match) must not keep that motion flagged."""
 
     name: ClassVar[str] = "smooth"
     veto: ClassVar[bool] = True
     signal: ClassVar[bool] = False
     min_deg: float = 12.0
     pad_seconds: float = 0.2
+    nearest: bool = True
+    trim: bool = True
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> SmoothVeto:
-        return cls(config.abrupt_deg, config.abrupt_seconds)
+        return cls(
+            config.abrupt_deg, config.abrupt_seconds, config.abrupt_nearest, config.abrupt_trim
+        )
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.min_deg <= 0:
             return
         keep = flags.added.get("frozen", np.zeros(flags.mask.shape, dtype=bool))
         pad = ev.frames(self.pad_seconds)
-        flags.veto(
-            self.name,
-            mdm_mod.smooth_runs(flags.mask, ev.steps, keep, np.radians(self.min_deg), pad),
-        )
+        if self.nearest:
+            cells = unowned_runs(
+                flags.mask,
+                ev.steps,
+                keep,
+                np.radians(self.min_deg),
+                pad,
+                self.trim,
+                ev.z,
+                ev.frames(ev.config.step_side_seconds),
+            )
+        else:
+            cells = mdm_mod.smooth_runs(flags.mask, ev.steps, keep, np.radians(self.min_deg), pad)
+        flags.veto(self.name, cells)
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         pad = ev.frames(self.pad_seconds)
