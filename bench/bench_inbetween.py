@@ -32,7 +32,11 @@ benchmark code for LaFAN1), on Bandai-Namco data (30 fps, cm, Y up):
   frame held) and interpolation (root position and animated translations lerped, local
   rotations slerped, between the last context frame and the target frame); plus today's Kalman
   transition (:func:`mocapkit.stitch.inbetween.kalman_fill`, 5 past frames, the 1 future
-  frame). Every method sees the same context: 10 past frames and 1 future frame.
+  frame), and the issue's "forty-line" nearest-segment search (:class:`NearestSegment`: half
+  of the library's walks and runs, the last two context poses and the target pose matched in
+  hips-relative positions, aligned on the ground, end offsets blended linearly). Every method
+  sees the same context: 10 past frames and 1 future frame. ``library`` is the default
+  (Kalman fallback on), ``library-nofb`` the same fill never falling back.
 * **Foot skate** (cm/s): ankles and toes, horizontal speed weighted by ``clip(2 - 2^(h/H), 0,
   1)`` with h the joint's height above its ground (5th percentile over the take) and H = 5 cm
   (the weighting of Zhang et al. 2018), averaged over the transition frames; the test takes'
@@ -60,7 +64,7 @@ WINDOW, OFFSET = 65, 40
 STATS_WINDOW, STATS_OFFSET = 50, 20
 TEST_CLASSES = ("walk", "walk-back", "walk-left", "walk-right", "run", "dash")
 TUNE_CLASSES = ("walk", "walk-turn-left", "walk-turn-right", "run")
-METHODS = ("zerov", "interp", "kalman", "library", "library-nofb")
+METHODS = ("zerov", "interp", "kalman", "nearest", "library", "library-nofb")
 SKATE_H_CM = 5.0
 
 
@@ -195,10 +199,74 @@ def zero_velocity(win, n: int):
     return Motion(win.skeleton, rots, tr[:, 0], win.frame_time, tr)
 
 
+class NearestSegment:
+    """The issue's "forty-line" baseline: over half of the library's walks and runs (every
+    other take in name order, prepared as the library is: clip's bone lengths, ground root on
+    the path), the segment whose frames s-1, s and s+g+1 best match the last two context poses
+    and the target pose in hips-relative positions (body-local, pelvis subtracted; sum of
+    squared distances), aligned on the ground at the last context frame, its end offsets (every
+    joint's local rotation and translation, at A-1 and at B) blended in linearly over the gap."""
+
+    def __init__(self, lib, body_idx):
+        from mocapkit.features import local_positions
+
+        keep = [
+            i for i, n in enumerate(lib.names) if take_class(Path(n)).startswith(("walk", "run"))
+        ]
+        self.motions = [lib.motions[i] for i in keep[::2]]
+        self.body_idx = body_idx
+        feats = [self._feats(m, local_positions) for m in self.motions]
+        self.F = np.concatenate(feats)
+        self.clip = np.concatenate([np.full(len(f), i) for i, f in enumerate(feats)])
+        self.time = np.concatenate([np.arange(len(f)) for f in feats])
+
+    def _feats(self, m, local_positions):
+        from mocapkit.features import pelvis_index
+
+        lp = local_positions(m, "Y")
+        return (lp[:, self.body_idx] - lp[:, pelvis_index(m.skeleton)][:, None]).reshape(
+            len(lp), -1
+        )
+
+    def fill(self, win, a, b):
+        from mocapkit import features
+        from mocapkit.core import rotations as rot
+        from mocapkit.core.motion import Motion
+        from mocapkit.stitch.inbetween import _back_to_clip
+
+        g = b - a
+        on = features.ground_root_on_path(win, "Y")
+        c = self._feats(on, features.local_positions)
+        F, N = self.F, len(self.F)
+        s = np.arange(1, N - g - 1)
+        cost = (((F[s - 1] - c[a - 2]) ** 2).sum(1) + ((F[s] - c[a - 1]) ** 2).sum(1)
+                + ((F[s + g + 1] - c[b]) ** 2).sum(1))  # fmt: skip
+        cost[self.clip[s - 1] != self.clip[s + g + 1]] = np.inf
+        i = int(s[np.argmin(cost)])
+        src = self.motions[self.clip[i]]
+        t0 = int(self.time[i])
+        seg = src[t0 : t0 + g + 2]
+        seg = features.apply_ground_transform(
+            seg, features.ground_alignment(on, a - 1, seg, 0, "Y")
+        )
+        u = (np.arange(g + 2) / (g + 1))[:, None, None]
+        r, tr, ct = seg.rotations, seg.local_translations(), on.local_translations()
+        d0 = rot.quat_mul(on.rotations[a - 1], rot.quat_inv(r[0]))
+        d1 = rot.quat_mul(on.rotations[b], rot.quat_inv(r[-1]))
+        d0, d1 = (np.where(d[..., :1] < 0, -d, d) for d in (d0, d1))
+        off = rot.quat_exp(rot.quat_log(d0)[None] * (1 - u) + rot.quat_log(d1)[None] * u)
+        r = rot.quat_normalize(rot.quat_mul(off, r))[1:-1]
+        tr = (tr + (ct[a - 1] - tr[0])[None] * (1 - u) + (ct[b] - tr[-1])[None] * u)[1:-1]
+        fill = Motion(win.skeleton, r, tr[:, 0], win.frame_time, tr)
+        return _back_to_clip(fill, win, a, b, on is not win)
+
+
 # ------------------------------------------------------------------------------------ run
 
 
-def evaluate(test_files, lib, stats, body_idx, feet_idx, config, max_takes=None, log=print):
+def evaluate(
+    test_files, lib, stats, body_idx, feet_idx, config, max_takes=None, log=print, nearest=None
+):
     """Per (class, method, n): lists of per-window L2Q, L2P and the quaternion sequences."""
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.core.motion import concatenate
@@ -231,7 +299,9 @@ def evaluate(test_files, lib, stats, body_idx, feet_idx, config, max_takes=None,
                 res_lib = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
                                     future_frames=1, method="library")  # fmt: skip
                 res = res_lib
-                if config.fallback and res_lib.candidate.lscore > res_lib.kalman_lscore:
+                if config.fallback and (
+                    res_lib.library_lscore > config.fallback_margin * res_lib.kalman_lscore
+                ):
                     res = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
                                     future_frames=1, method="kalman")  # fmt: skip
                 times.append(time.perf_counter() - t0)
@@ -244,6 +314,9 @@ def evaluate(test_files, lib, stats, body_idx, feet_idx, config, max_takes=None,
                     "zerov": concatenate([win[:N_PAST], zero_velocity(win, n), win[N_PAST + n :]]),
                     "interp": concatenate([win[:N_PAST], interpolation(win, n), win[N_PAST + n :]]),
                     "kalman": concatenate([win[:N_PAST], kal, win[N_PAST + n :]]),
+                    "nearest": concatenate(
+                        [win[:N_PAST], nearest.fill(win, N_PAST, N_PAST + n), win[N_PAST + n :]]
+                    ),
                     "library": res.motion,
                     "library-nofb": res_lib.motion,
                 }
@@ -400,7 +473,7 @@ def main(argv=None) -> int:
           f"({'tuning' if args.tune else 'bandai1'}); config {config}")  # fmt: skip
     rec, fallbacks, times = evaluate(
         test_files, lib, stats, body_idx, feet_idx, config, args.max_takes,
-        log=lambda s: print(s, file=sys.stderr),
+        log=lambda s: print(s, file=sys.stderr), nearest=NearestSegment(lib, body_idx),
     )  # fmt: skip
     rows = summarise(rec, fallbacks, classes)
     print_table([r for r in rows if r["class"] == "all"], "All classes")

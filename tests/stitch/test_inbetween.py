@@ -23,9 +23,11 @@ from mocapkit.stitch.inbetween import (
     inbetween,
     prepare_library,
     search_inbetween,
+    search_inbetween_top,
 )
 
 naive = load_sibling(__file__, "naive")
+inbetween_naive = load_sibling(__file__, "inbetween_naive")
 with_ground_root = load_sibling(__file__, "motions").with_ground_root
 
 
@@ -64,7 +66,10 @@ def _synthetic_library(seed: int, lengths, m: int, rates) -> InbetweenLibrary:
 def test_search_matches_brute_force(gap):
     rng = np.random.default_rng(gap)
     m = 3
-    config = InbetweenConfig(warps=(0.8, 1.0, 1.25))
+    # the L-score search (the score before the pose term), against naive.py's reference
+    config = InbetweenConfig(
+        warps=(0.8, 1.0, 1.25), pose_weight=0.0, lscore_weight=1.0, travel_weight=5.0
+    )
     lib = _synthetic_library(1, (30, 9, 26), m, config.warps)
     ctx = _Context(
         np.cumsum(rng.normal(size=(5, m)), 0),
@@ -79,6 +84,69 @@ def test_search_matches_brute_force(gap):
     assert (best.clip, best.rate) == (ref[1], ref[3])
     assert best.start == pytest.approx(ref[2])
     assert best.score == pytest.approx(ref[0], rel=1e-4)
+
+
+def _random_context(rng, m):
+    return _Context(
+        np.cumsum(rng.normal(size=(5, m)), 0),
+        np.cumsum(rng.normal(size=(2, m)), 0),
+        rng.normal(0, 10, 2),
+        0.1,
+        rng.normal(0, 2, 2),
+    )
+
+
+@pytest.mark.parametrize("gap", [2, 7])
+@pytest.mark.parametrize("lscore_weight", [0.0, 0.5])
+def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
+    """The pose term (frames s-1, s, s+g+1 against A-2, A-1, B), with and without the
+    L-scores in the score: the best candidate and its score are the brute force's, and the
+    chosen candidate reports its own L-scores even when they are not in the score."""
+    rng = np.random.default_rng(10 + gap)
+    m = 6
+    config = InbetweenConfig(
+        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0
+    )
+    lib = _synthetic_library(3, (30, 9, 26), m, config.warps)
+    ctx = _random_context(rng, m)
+    best, count = search_inbetween(ctx, gap, lib, w=5, config=config, metres_per_unit=0.01)
+    ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
+    assert count == len(ref)
+    assert (best.clip, best.rate) == (ref[0][1], ref[0][3])
+    assert best.start == pytest.approx(ref[0][2])
+    assert best.score == pytest.approx(ref[0][0], rel=1e-4)
+    assert best.pose > 0 and best.lscore_start > 0 and best.lscore_end > 0
+    # the reported L-scores are the segment's own, whatever their weight in the score
+    with_ls = inbetween_naive.inbetween_scores_reference(
+        ctx, gap, lib, 5,
+        InbetweenConfig(warps=config.warps, pose_weight=0.0, travel_weight=0.0, lscore_weight=1.0),
+        0.01,
+    )  # fmt: skip
+    own = next(x for x in with_ls if (x[1], x[3]) == (best.clip, best.rate)
+               and x[2] == pytest.approx(best.start))  # fmt: skip
+    assert best.lscore == pytest.approx(own[0], rel=1e-3)
+
+
+def test_top_k_sorted_and_apart():
+    """search_inbetween_top: the k best candidates in score order, each the best of those not
+    overlapping a better one (brute force), the first the single search's."""
+    rng = np.random.default_rng(5)
+    m, gap, k = 4, 4, 4
+    config = InbetweenConfig(warps=(0.8, 1.0, 1.25), pose_weight=1.0, lscore_weight=0.0)
+    lib = _synthetic_library(4, (40, 35, 30), m, config.warps)
+    ctx = _random_context(rng, m)
+    top, _ = search_inbetween_top(ctx, gap, lib, k, w=5, config=config, metres_per_unit=0.01)
+    best, _ = search_inbetween(ctx, gap, lib, w=5, config=config, metres_per_unit=0.01)
+    assert len(top) == k and top[0] == best
+    ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
+    picked = []
+    for score, c, t, r in ref:
+        if any(pc == c and abs(pt - t) <= max(r, pr) * (gap + 1) for _, pc, pt, pr in picked):
+            continue
+        picked.append((score, c, t, r))
+    for cand, (score, c, t, r) in zip(top, picked[:k], strict=True):
+        assert (cand.clip, cand.rate) == (c, r)
+        assert cand.start == pytest.approx(t) and cand.score == pytest.approx(score, rel=1e-4)
 
 
 @pytest.fixture(scope="module")
@@ -119,17 +187,57 @@ def test_meets_context_exactly(humanoid):
     assert prov["segments"][1]["source"] == res.source
 
 
+@pytest.mark.parametrize("neighbours", [1, 3])
+def test_default_config_meets_context_exactly(humanoid, neighbours):
+    """The default (pose-matched, several neighbours averaged) fill: context frames untouched,
+    the filled frames join them without a jump, and the sidecar names the best segment."""
+    from dataclasses import replace
+
+    from mocapkit.stitch.inbetween import DEFAULT_CONFIG
+
+    walk, lib = humanoid
+    a, b = 40, 70
+    config = replace(DEFAULT_CONFIG, neighbours=neighbours)
+    res = inbetween(walk, (a, b), lib, up="Y", method="library", config=config)
+    out = res.motion
+    np.testing.assert_array_equal(out.rotations[:a], walk.rotations[:a])
+    np.testing.assert_array_equal(out.rotations[b:], walk.rotations[b:])
+    np.testing.assert_array_equal(out.local_translations()[b:], walk.local_translations()[b:])
+    P, _ = forward_kinematics(out)
+    T, _ = forward_kinematics(walk)
+    step = np.linalg.norm(np.diff(T, axis=0), axis=-1).max()
+    assert np.linalg.norm(P[a] - P[a - 1], axis=-1).max() < 1.5 * step
+    assert np.linalg.norm(P[b] - P[b - 1], axis=-1).max() < 1.5 * step
+    assert np.isfinite(P).all()
+    assert np.isfinite(res.library_lscore) and res.candidate.pose >= 0
+    # a filled frame is no farther from the truth than the clip's own stride would carry it
+    assert np.abs(P[a:b] - T[a:b]).max() < 60 * step
+
+
 def test_fallback_when_kalman_scores_lower(humanoid):
+    """The fallback compares like with like: the two-sided L-score of the library fill and of
+    the Kalman fill, both on the final filled frames; it fires when the library's is more than
+    fallback_margin times the Kalman's, and says so."""
     walk, lib = humanoid
     idle = [lib[3]]  # a standing library cannot continue a walk over 2 frames
     res = inbetween(walk, (60, 62), idle, up="Y")
-    assert res.candidate.lscore > res.kalman_lscore
-    assert res.fell_back and res.method == "kalman"
-    assert res.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
-    np.testing.assert_array_equal(res.motion.rotations[:60], walk.rotations[:60])
-    np.testing.assert_array_equal(res.motion.rotations[62:], walk.rotations[62:])
-    kept = inbetween(walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback=False))
+    margin = InbetweenConfig().fallback_margin
+    assert res.fell_back == (res.library_lscore > margin * res.kalman_lscore)
+    low = inbetween(walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback_margin=1e-9))
+    assert low.library_lscore > 1e-9 * low.kalman_lscore
+    assert low.fell_back and low.method == "kalman"
+    assert low.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
+    np.testing.assert_array_equal(low.motion.rotations[:60], walk.rotations[:60])
+    np.testing.assert_array_equal(low.motion.rotations[62:], walk.rotations[62:])
+    # the scores do not depend on the decision
+    assert low.library_lscore == pytest.approx(res.library_lscore)
+    assert low.kalman_lscore == pytest.approx(res.kalman_lscore)
+    kept = inbetween(
+        walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback=False, fallback_margin=1e-9)
+    )
     assert kept.method == "library"
+    high = inbetween(walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback_margin=1e9))
+    assert high.method == "library"
 
 
 @pytest.mark.parametrize(

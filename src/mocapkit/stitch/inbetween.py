@@ -1,18 +1,18 @@
-"""In-betweening from a library of real motion: fill frames ``A..B-1`` of a clip with the library
-segment that best continues the frames before ``A`` (the past context) and leads into the frames
-from ``B`` on (the future context).
+"""In-betweening from a library of real motion: fill frames ``A..B-1`` of a clip with library
+segments that continue the frames before ``A`` (the past context) and lead into the frames from
+``B`` on (the future context).
 
 A smoother cannot invent a step: over 30 frames the Kalman transition of the elastic L-score
 (:func:`kalman_fill`) is a smooth glide between two poses. A library of captured motion holds
-the steps, so the gap is filled with one of its segments, found by the same effort score that
-stitching uses. The fact relied on: a captured segment whose first frames continue the past
-context with little effort, whose last frames lead into the future context with little effort
-and whose body travels over the ground like the context's does over the gap, is a plausible
-motion for the gap; its remaining pose differences at both ends are small and are blended away.
+the steps, so the gap is filled with its segments. The fact relied on: a captured segment whose
+poses just before and at the gap's start are the context's last two poses, whose pose at the
+gap's end is the first future pose, and whose body travels over the ground like the context's
+does over the gap, is a plausible motion for the gap; its remaining differences at both ends
+are small and are blended away.
 
 **Candidates.** A candidate is a library clip, a frame ``s`` and a time warp ``r`` (a speed
 factor from :attr:`InbetweenConfig.warps`): the library clip resampled at times ``s + i r``,
-i = 0..g+1 (g = B - A), so segments of nearby lengths ``r g`` are time-warped to fit. Its frame
+i = -1..g+1 (g = B - A), so segments of nearby lengths ``r g`` are time-warped to fit. Its frame
 i = 0 takes the place of the last past frame A-1, frames 1..g fill the gap, and frame g+1 takes
 the place of the first future frame B.
 
@@ -20,32 +20,42 @@ the place of the first future frame B.
 (:func:`mocapkit.stitch.search.motion_features`: joint positions with the pelvis' ground
 position and heading removed):
 
-* ``L_start``: the L-score (Li et al., Eq. 2; :mod:`mocapkit.stitch.lscore`) of the window
-  ``w_p`` past frames ``A-w_p..A-1`` then the candidate's first ``w`` gap frames — how much
-  effort the constant-acceleration smoother spends going from the past into the candidate;
-* ``L_end``: the L-score of the candidate's last ``w`` gap frames then the ``w_f`` future
-  frames ``B..``;
+* ``pose``: the squared distances of the candidate's frames i = -1, 0 and g+1 to the context's
+  frames A-2, A-1 and B, over the number of joints and the squared
+  :attr:`InbetweenConfig.pose_tolerance_m`, times :attr:`InbetweenConfig.pose_weight`: the
+  pose and velocity the segment starts with, and the pose it must arrive at;
 * ``travel``: the ground path: the pelvis' ground displacement and heading change from frame
   A-1 to B, in the body frame at A-1, against the candidate's from i = 0 to g+1, and the pelvis'
   ground velocity at the last past frame against the candidate's at i = 0
   (:attr:`InbetweenConfig.travel_tolerance_m`, :attr:`InbetweenConfig.turn_tolerance_deg`,
-  weighted by :attr:`InbetweenConfig.travel_weight`). The body-local features cannot see it.
+  weighted by :attr:`InbetweenConfig.travel_weight`). The body-local features cannot see it;
+* ``L_start + L_end`` times :attr:`InbetweenConfig.lscore_weight` (0 by default): the L-score
+  (Li et al., Eq. 2; :mod:`mocapkit.stitch.lscore`) of the window ``w_p`` past frames
+  ``A-w_p..A-1`` then the candidate's first ``w`` gap frames, and of the candidate's last ``w``
+  gap frames then the ``w_f`` future frames ``B..`` (plain L, k = 0: the candidate's own frames
+  are the transition and the time warp is the elastic freedom of its length). The two
+  L-scores of the chosen candidates are always computed and reported.
 
-The two L-scores are plain L (k = 0 injected frames), not L*: the candidate's own frames are the
-transition, and the elastic freedom of the length is the time warp ``r`` (a candidate
-continuing the past too slowly scores high at r = 1 and low at a faster r). Windows are
-asymmetric when the context is short (``w_p`` = min(w, A), ``w_f`` = min(w, frames after B),
-``w_f`` may be 1: the smoother's first three observed frames, which set its prior, are always
-the window's first side). Every window uses the same Kalman model as stitching.
+Why the L-scores are out of the score by default: the L-score measures the smoother's effort
+(step times acceleration), not how far a pose is from another, and the LaFAN1 protocol gives
+one future frame, which a smoother with observation noise all but ignores — a candidate that
+misses the target pose scores almost as well as one that reaches it. On the tuning takes
+(bench/bench_inbetween.py --tune, L2P over interpolation at 15 and 30 frames), the L-score
+search reached 0.53 and 0.50; the pose term with L-scores at weight 1 the same (the L-scores,
+hundreds of times larger, decide); the pose term alone 0.33 and 0.40, about the issue's
+nearest-segment baseline (0.34, 0.39). The defaults (pose term, ground path at weight 1, three
+neighbours averaged, foot lock) reach 0.23, 0.26, 0.30 and 0.33 at 5, 15, 30 and 45 frames on
+all 64 tuning windows, the nearest-segment baseline 0.28, 0.31, 0.34 and 0.40 in the same run.
 
-**Search** (:func:`search_inbetween`): for each warp, both L-scores of every library frame are
-computed by the batched numba kernel of the stitching search
-(:func:`mocapkit.stitch.lscore.search_landings`' kernel: one side of the window fixed, the other
-sliding along the concatenated library), the ground-path term is vectorised, and candidates
-whose frames would cross a clip boundary are discarded. The readable twin is
-``inbetween_search_reference`` in tests/stitch/naive.py.
+**Search** (:func:`search_inbetween`, :func:`search_inbetween_top`): for each warp the pose
+term is three matrix-vector products with the library's features (squared norms cached), the
+ground-path term is vectorised, the L-scores (only with a non-zero weight) come from the
+batched numba kernel of the stitching search (:func:`mocapkit.stitch.lscore.search_landings`'
+kernel), and candidates whose frames would cross a clip boundary are discarded. The best
+:attr:`InbetweenConfig.neighbours` candidates are kept, a candidate overlapping a better one's
+library frames passed over. The readable twin is tests/stitch/inbetween_naive.py.
 
-**Fill** (:func:`library_fill`): the segment is sampled from the library motion (slerp of
+**Fill** (:func:`library_fill`): each segment is sampled from the library motion (slerp of
 rotations, lerp of translations) and moved over the ground by a transform that varies along the
 gap: at i = 0 it puts the segment's pelvis ground position and facing on the context's at A-1,
 at i = g+1 on the context's at B, in between the heading and position corrections grow linearly
@@ -53,19 +63,29 @@ with i. The remaining differences of every joint's local rotation (``log(q_ctx q
 local translation at both ends are then blended in (inertialization: each end's offset decays to
 zero over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights), so
 frames A-1 and B of the result are the context's exactly and the frames between are the
-library's motion. On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the
-root on the body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are
-written back in the clip's own convention (its root interpolated between A-1 and B, the joint
-below re-expressed), so the context frames are untouched.
+library's motion. The fills of the :attr:`InbetweenConfig.neighbours` candidates are averaged
+(normalised quaternion sum, mean translation): each meets the context exactly, so their mean
+does too, and it is the better estimate of the unknown motion where the candidates disagree.
+On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the root on the
+body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are written
+back in the clip's own convention (its root interpolated between A-1 and B, the joint below
+re-expressed), so the context frames are untouched.
 
-**Fallback.** The Kalman transition (:func:`kalman_fill`) is scored as a candidate is: its
-two-sided L-score, L of the past window then its first gap frames plus L of its last gap frames
-then the future window (same windows, same features). When the best library candidate's
-two-sided L-score is higher, the gap is filled by the Kalman transition instead and the result
-says so (:attr:`Inbetween.fell_back`). (Comparing with the Kalman window's plain ``L_g``, the
-smoother's effort over the whole gap, :func:`kalman_lscore`, is not like for like: on the
-tuning takes it sent 52 of 64 five-frame gaps to the Kalman transition, which with one future
-frame is worse than the library there.)
+**Fallback.** The library fill and the Kalman transition (:func:`kalman_fill`) are scored
+alike: the two-sided L-score of the filled frames, L of the past window then the first gap
+frames plus L of the last gap frames then the future window (same windows, same features, both
+on the final filled frames, :attr:`Inbetween.library_lscore` and
+:attr:`Inbetween.kalman_lscore`). When the library fill's is more than
+:attr:`InbetweenConfig.fallback_margin` times the Kalman transition's, the gap is filled by the
+Kalman transition instead and the result says so (:attr:`Inbetween.fell_back`). The Kalman
+transition is by construction the smoother's least-effort path, so it wins a like-for-like
+comparison on many gaps while being the worse fill on nearly all of them, the more so with one
+future frame (LaFAN1): on 24 tuning windows (one library candidate), the like-for-like rule
+without a margin sent 10, 11, 1 and 0 of the gaps of 5, 15, 30 and 45 frames to the Kalman
+transition, which was the better fill on 5, 0, 0 and 0 of them (L2P at 15 frames 4.9 against
+1.55 never falling back). The ratio of the two scores does not tell the better fill (ratios of
+the Kalman's wins 0.6 to 1.3, of the library's 0.1 to 2.3); the margin keeps the fallback for a
+library that has nothing like the context.
 
 **Feet.** Finally the feet the filled frames plant are held still by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`).
@@ -103,6 +123,7 @@ __all__ = [
     "library_fill",
     "prepare_library",
     "search_inbetween",
+    "search_inbetween_top",
     "window_lscores",
 ]
 
@@ -123,10 +144,10 @@ class InbetweenConfig:
     costs as much as ``travel_weight``: a tenth of a stride."""
     turn_tolerance_deg: float = 10.0
     """Heading-change difference over the gap that costs as much as ``travel_weight``."""
-    travel_weight: float = 5.0
-    """Weight of the ground-path term against the L-scores (in L-score units per squared
-    tolerance); on the tuning takes 5 beat 1 (L2P at 15 frames 0.69 vs 0.82 of interpolation)
-    and 25 (0.73): the body-local L-scores alone let the body drift off the context's path."""
+    travel_weight: float = 1.0
+    """Weight of the ground-path term (score units per squared tolerance). With the L-scores
+    in the score, 5 beat 1 and 25 on the tuning takes; with the pose term instead, 1 (L2P over
+    interpolation at 15 and 30 frames 0.34 and 0.37 on 24 tuning windows, 0.32 and 0.39 at 0)."""
     blend_seconds: float = 0.25
     """How long each end's pose offset takes to fade (inertialization; capped by the gap): long
     enough that removing the offset adds no visible acceleration, short enough that the middle
@@ -146,8 +167,24 @@ class InbetweenConfig:
     """The foot lock fades in after the last past frame and out before the first future frame,
     so the context frames are untouched and the junctions do not pop."""
     fallback: bool = True
-    """Fill with the Kalman transition when the best candidate's two-sided L-score is higher
-    than the Kalman transition's own."""
+    """Fill with the Kalman transition when the library fill's two-sided L-score is more than
+    ``fallback_margin`` times the Kalman transition's own."""
+    fallback_margin: float = 4.0
+    """See :attr:`fallback` and the module docstring (Fallback): above every ratio seen on the
+    tuning takes where the library fill was the better one."""
+    pose_weight: float = 1.0
+    """Weight of the pose term: the candidate's body-local poses at i = -1, 0 (on the last two
+    past frames A-2, A-1) and g+1 (on the first future frame B) against the context's."""
+    pose_tolerance_m: float = 0.05
+    """Per-joint RMS position difference that costs as much as ``pose_weight`` per frame."""
+    lscore_weight: float = 0.0
+    """Weight of the two L-scores in the candidate score (module docstring: why 0)."""
+    neighbours: int = 3
+    """How many of the best non-overlapping candidates fill the gap together: each is
+    ground-warped and end-blended on its own, then their poses are averaged (rotations by
+    normalised quaternion sum, translations by mean). On the tuning takes (foot lock off) L2P
+    over interpolation at 15 and 30 frames was 0.27 and 0.32 with one, 0.23 and 0.28 with
+    three, 0.23 and 0.28 with five."""
 
     def __post_init__(self) -> None:
         if not (self.window_seconds > 0 and self.blend_seconds >= 0):
@@ -158,6 +195,12 @@ class InbetweenConfig:
             raise ValueError("travel and turn tolerances must be > 0")
         if not self.travel_weight >= 0:
             raise ValueError(f"travel_weight must be >= 0, got {self.travel_weight}")
+        if not (self.pose_weight >= 0 and self.lscore_weight >= 0 and self.pose_tolerance_m > 0):
+            raise ValueError("pose_weight and lscore_weight must be >= 0, pose_tolerance_m > 0")
+        if not self.fallback_margin > 0:
+            raise ValueError(f"fallback_margin must be > 0, got {self.fallback_margin}")
+        if not (isinstance(self.neighbours, int) and self.neighbours >= 1):
+            raise ValueError(f"neighbours must be an int >= 1, got {self.neighbours!r}")
 
 
 DEFAULT_CONFIG = InbetweenConfig()
@@ -411,6 +454,7 @@ class Candidate:
     lscore_start: float
     lscore_end: float
     travel: float
+    pose: float = 0.0
 
     @property
     def lscore(self) -> float:
@@ -493,6 +537,36 @@ def _travel_costs(
     return cost, valid
 
 
+def _pose_costs(
+    W: _Warped, ctx: _Context, g: int, config: InbetweenConfig, mpu: float
+) -> np.ndarray:
+    """(N,) per warped frame s (the frame on A-1): the pose term, squared body-local distances
+    of frames s-1, s, s+g+1 to the context's A-2, A-1, B over joints and squared tolerance
+    (inf where a frame is outside the library; clip boundaries are checked by the caller)."""
+    N, m = W.feats.shape
+    cost = np.full(N, np.inf)
+    if config.pose_weight == 0:
+        cost[:] = 0.0
+        return cost
+    lo, hi = 1, N - g - 1
+    if hi <= lo:
+        return cost
+    X = W.feats
+    n2 = W.__dict__.get("_sqnorm")
+    if n2 is None:  # squared norms of the rows, once per prepared library
+        n2 = np.einsum("nm,nm->n", X, X, dtype=np.float64)
+        object.__setattr__(W, "_sqnorm", n2)
+    C = np.stack([ctx.past[-2], ctx.past[-1], ctx.future[0]]).astype(float)  # on s-1, s, s+g+1
+    XC = (X @ C.T.astype(np.float32)).astype(np.float64)  # (N, 3)
+    cc = np.einsum("km,km->k", C, C)
+    total = np.zeros(hi - lo)
+    for j, k in enumerate((-1, 0, g + 1)):
+        total += n2[lo + k : hi + k] - 2.0 * XC[lo + k : hi + k, j] + cc[j]
+    tol = config.pose_tolerance_m / mpu
+    cost[lo:hi] = config.pose_weight * np.maximum(total, 0.0) / ((m / 3) * tol**2)
+    return cost
+
+
 def search_inbetween(
     ctx: _Context,
     gap: int,
@@ -504,8 +578,29 @@ def search_inbetween(
     metres_per_unit: float = 0.01,
 ) -> tuple[Candidate, int]:
     """The best :class:`Candidate` for a gap of ``gap`` frames and the number scored."""
+    cands, count = search_inbetween_top(
+        ctx, gap, library, 1, w=w, config=config, model=model, metres_per_unit=metres_per_unit
+    )
+    return cands[0], count
+
+
+def search_inbetween_top(
+    ctx: _Context,
+    gap: int,
+    library: InbetweenLibrary,
+    k: int = 1,
+    *,
+    w: int = 5,
+    config: InbetweenConfig = DEFAULT_CONFIG,
+    model: ConstantAccelerationModel = DEFAULT_MODEL,
+    metres_per_unit: float = 0.01,
+) -> tuple[list[Candidate], int]:
+    """The ``k`` best :class:`Candidate` s (lowest score first) for a gap of ``gap`` frames, no
+    two of them on overlapping library frames (a candidate whose segment overlaps a better
+    one's in the same clip is passed over), and the number scored."""
     g = int(gap)
-    best, count = None, 0
+    k = max(1, int(k))
+    pool, count = [], 0
     wl = min(w, g)  # the gap frames seen by each junction's window
     if wl < 3:
         wl = 3
@@ -516,27 +611,47 @@ def search_inbetween(
         travel, valid = _travel_costs(W, ctx, g, config, metres_per_unit)
         ls = np.full(N, np.inf)
         le = np.full(N, np.inf)
-        start = _sliding_lscores(ctx.past, W.feats, True, wl, model)  # b = first gap frame
-        end = _sliding_lscores(ctx.future, W.feats, False, wl, model)  # b = last - wl + 1
         s = np.arange(N)
         ok = (s + 1 + wl <= N) & (s + g - wl + 1 >= 0) & (s + g + 1 < N)
-        ls[ok] = start[np.minimum(s[ok] + 1, start.shape[0] - 1)]
-        le[ok] = end[np.clip(s[ok] + g - wl + 1, 0, end.shape[0] - 1)]
+        if config.lscore_weight > 0:
+            start = _sliding_lscores(ctx.past, W.feats, True, wl, model)  # b = first gap frame
+            end = _sliding_lscores(ctx.future, W.feats, False, wl, model)  # b = last - wl + 1
+            ls[ok] = start[np.minimum(s[ok] + 1, start.shape[0] - 1)]
+            le[ok] = end[np.clip(s[ok] + g - wl + 1, 0, end.shape[0] - 1)]
+        else:  # not in the score: computed for the chosen candidates only, below
+            ls[ok] = le[ok] = 0.0
         # the windows must stay in the candidate's clip
         first = np.clip(s + g - wl + 1, 0, N - 1)
         last = np.clip(s + wl, 0, N - 1)
         valid &= ok & (W.clip[first] == W.clip) & (W.clip[last] == W.clip)
-        total = np.where(valid, ls + le + travel, np.inf)
+        pose = _pose_costs(W, ctx, g, config, metres_per_unit)
+        lw = config.lscore_weight
+        lsum = lw * (ls + le) if lw > 0 else np.zeros(N)
+        total = np.where(valid, lsum + travel + pose, np.inf)
         count += int(valid.sum())
-        i = int(np.argmin(total))
-        if np.isfinite(total[i]) and (best is None or total[i] < best.score):
-            best = Candidate(
-                int(W.clip[i]), float(W.time[i]), W.rate, float(total[i]),
-                float(ls[i]), float(le[i]), float(travel[i]),
-            )  # fmt: skip
-    if best is None:
+        # enough of this warp's best to leave k non-overlapping ones after the overlap check
+        m = min(N, k * (2 * g + 8))
+        top = np.argpartition(total, m - 1)[:m] if m < N else np.arange(N)
+        top = top[np.isfinite(total[top])]
+        pool += [(float(total[i]), W, int(i), float(ls[i]), float(le[i]), float(travel[i]),
+                  float(pose[i])) for i in top]  # fmt: skip
+    if not pool:
         raise ValueError(f"no library clip is long enough for a gap of {g} frames")
-    return best, count
+    pool.sort(key=lambda x: x[0])
+    chosen: list[Candidate] = []
+    for score, W, i, l0, l1, tr, po in pool:
+        c, t = int(W.clip[i]), float(W.time[i])
+        span = W.rate * (g + 1)
+        if any(o.clip == c and abs(o.start - t) <= max(span, o.rate * (g + 1)) for o in chosen):
+            continue
+        if config.lscore_weight == 0:  # the two L-scores of the chosen segment, for the report
+            X = W.feats
+            l0 = float(window_lscores(ctx.past, X[i + 1 : i + 1 + wl], 0, model)[0])
+            l1 = float(window_lscores(X[i + g - wl + 1 : i + g + 1], ctx.future, 0, model)[0])
+        chosen.append(Candidate(c, t, W.rate, score, l0, l1, tr, po))
+        if len(chosen) == k:
+            break
+    return chosen, count
 
 
 # --------------------------------------------------------------------------------- fills
@@ -719,6 +834,23 @@ def library_fill(
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
 
 
+def _average_fills(fills: Sequence[Motion]) -> Motion:
+    """The mean of fills of the same frames: local rotations by the normalised sum of the
+    quaternions (each put in the first fill's hemisphere), local translations by the mean."""
+    if len(fills) == 1:
+        return fills[0]
+    first = fills[0]
+    q = np.zeros_like(first.rotations)
+    for f in fills:
+        r = f.rotations
+        q += np.where(np.sum(r * first.rotations, -1, keepdims=True) < 0, -r, r)
+    tr = np.mean([f.local_translations() for f in fills], axis=0)
+    has_t = first.translations is not None
+    return Motion(
+        first.skeleton, rot.quat_normalize(q), tr[:, 0], first.frame_time, tr if has_t else None
+    )
+
+
 def kalman_fill(
     clip: Motion,
     a: int,
@@ -781,6 +913,7 @@ class Inbetween:
     library_names: tuple[str, ...] = ()
     output: str | None = None
     parameters: dict[str, Any] = field(default_factory=dict)
+    library_lscore: float = math.nan
 
     @property
     def fell_back(self) -> bool:
@@ -850,6 +983,8 @@ class Inbetween:
             "lscore_start": c.lscore_start,
             "lscore_end": c.lscore_end,
             "travel": c.travel,
+            "pose": c.pose,
+            "library_lscore": self.library_lscore,
             "kalman_lscore": self.kalman_lscore,
             "candidates": self.candidates,
             "search_seconds": round(self.search_seconds, 4),
@@ -910,17 +1045,22 @@ def inbetween(
     ctx = _context(onpath, a, b, w, up, future_frames)
     mpu = features.metres_per_unit(clip, None)
     t0 = time.perf_counter()
-    cand, count = search_inbetween(
-        ctx, b - a, lib, w=w, config=config, model=model, metres_per_unit=mpu
-    )
+    cands, count = search_inbetween_top(
+        ctx, b - a, lib, config.neighbours, w=w, config=config, model=model,
+        metres_per_unit=mpu,
+    )  # fmt: skip
+    cand = cands[0]
     seconds = time.perf_counter() - t0
     kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
     kal = _two_sided(onpath, kfill, a, b, ctx, w, up, model)
-    use_kalman = method == "kalman" or (method == "auto" and config.fallback and cand.lscore > kal)
-    if use_kalman:
-        fill = kfill
-    else:
-        fill = library_fill(onpath, a, b, lib.motions[cand.clip], cand, up=up, config=config)
+    lfill = _average_fills(
+        [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config) for c in cands]
+    )
+    lib_score = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
+    use_kalman = method == "kalman" or (
+        method == "auto" and config.fallback and lib_score > config.fallback_margin * kal
+    )
+    fill = kfill if use_kalman else lfill
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip)
     motion = _join(clip[:a], fill, clip[b:])
     if config.foot_lock:
@@ -930,4 +1070,5 @@ def inbetween(
         motion, (a, b), how, cand, lib.names[cand.clip], kal, count, seconds,
         str(clip_name), lib.names, None if output is None else str(output),
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
+        lib_score,
     )  # fmt: skip

@@ -1,0 +1,74 @@
+"""Brute-force reference of the in-betweening search score (never imported by the library).
+
+``inbetween_scores_reference`` writes every candidate out one at a time: for every warp and
+every frame s of it (the frame on A-1) whose frames s-1 .. s+g+1 and L-score windows stay in
+one clip, the score
+
+    lscore_weight (L_start + L_end)  +  travel  +  pose
+
+with the L-scores by the textbook RTS smoother of naive.py (one dimension at a time), the
+ground-path term from the pelvis path and heading, and the pose term as the squared distances
+of frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
+divided by (joints x tolerance²), times pose_weight. Returns every candidate, best first.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from testsupport import load_sibling
+
+naive = load_sibling(__file__, "naive")
+
+
+def _lscore(Y) -> float:
+    total = 0.0
+    for d in range(Y.shape[1]):
+        z = naive.rts_smooth_reference(Y[:, d], None, naive.DEFAULT_MODEL)
+        p, acc = z[:, 0], z[:, 2]
+        total += float(np.sum(np.abs((p[1:] - p[:-1]) * acc[:-1])))
+    return total
+
+
+def _turn(v, h):  # ground vector (side, forward) into the frame of heading h
+    c, s = math.cos(h), math.sin(h)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+
+def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_per_unit: float):
+    """[(score, clip, start time, rate), ...] of every valid candidate, lowest score first."""
+    g = int(gap)
+    wl = max(3, min(w, g))
+    tol = config.travel_tolerance_m / metres_per_unit
+    ptol = config.pose_tolerance_m / metres_per_unit
+    refs = [(np.asarray(ctx.past[-2]), -1), (np.asarray(ctx.past[-1]), 0),
+            (np.asarray(ctx.future[0]), g + 1)]  # fmt: skip
+    out = []
+    for W in library.warped:
+        N, m = W.feats.shape
+        for s in range(1, N):
+            frames = [s - 1, s + g + 1, s + wl, s + g - wl + 1]
+            if min(frames) < 0 or max(frames) >= N:
+                continue
+            if len({int(W.clip[f]) for f in range(min(frames), max(frames) + 1)}) != 1:
+                continue
+            score = 0.0
+            if config.lscore_weight > 0:
+                ls = _lscore(np.concatenate([ctx.past, W.feats[s + 1 : s + 1 + wl]]))
+                le = _lscore(np.concatenate([W.feats[s + g - wl + 1 : s + g + 1], ctx.future]))
+                score += config.lscore_weight * (ls + le)
+            h0 = W.heading[s]
+            d = _turn(W.ground[s + g + 1] - W.ground[s], h0)
+            v = _turn(W.ground[s] - W.ground[s - 1], h0) / W.rate
+            dh = W.heading[s + g + 1] - W.heading[s]
+            score += config.travel_weight * (
+                np.sum((d - ctx.travel) ** 2) / tol**2
+                + np.sum((v - ctx.velocity) ** 2) * (g + 1) ** 2 / tol**2 / 4.0
+                + ((dh - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
+            )
+            pose = sum(float(np.sum((W.feats[s + k].astype(float) - c) ** 2)) for c, k in refs)
+            score += config.pose_weight * pose / ((m / 3) * ptol**2)
+            out.append((float(score), int(W.clip[s]), float(W.time[s]), float(W.rate)))
+    out.sort(key=lambda x: x[0])
+    return out
