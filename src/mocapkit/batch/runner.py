@@ -280,32 +280,16 @@ class Runner:
         has_shared: bool,
         progress: Progress | None,
     ) -> Iterator[Any]:
-        from concurrent.futures import ThreadPoolExecutor, as_completed
+        from mocapkit.core.pool import ordered_imap
 
         def call(item: Any) -> tuple[Any, float]:
             t0 = time.perf_counter()
             out = fn(shared, item) if has_shared else fn(item)
             return out, time.perf_counter() - t0
 
-        with ThreadPoolExecutor(self.threads_per_worker) as pool:
-            futures = [pool.submit(call, item) for item in items]
-            index = {f: i for i, f in enumerate(futures)}
-            done: dict[int, Any] = {}
-            nxt = count = 0
-            try:
-                for fut in as_completed(futures):
-                    out, secs = fut.result()
-                    self.stats.note(os.getpid(), _peak_rss_bytes(), secs)
-                    done[index[fut]] = out
-                    count += 1
-                    if progress is not None:
-                        progress(count, len(items))
-                    while nxt in done:
-                        yield done.pop(nxt)
-                        nxt += 1
-            finally:
-                for f in futures:
-                    f.cancel()
+        for out, seconds in ordered_imap(call, items, self.threads_per_worker, progress):
+            self.stats.note(os.getpid(), _peak_rss_bytes(), seconds)
+            yield out
 
     def _imap_dask(
         self,

@@ -1045,36 +1045,12 @@ class TileMapper:
         raise NotImplementedError
 
 
-def _threading_layer() -> str:
-    """numba's threading layer (started if need be): "tbb" and "omp" are thread-safe."""
-    from numba.np.ufunc import parallel
-
-    parallel._launch_threads()
-    return numba.threading_layer()
-
-
 def _in_process_imap(fn, items, shared, progress):
     """``fn(shared, item)`` in input order, on one thread per core of this process (each task's
     BLAS on one thread: the same bits as on a Dask worker, and every core busy)."""
-    import os
-    from concurrent.futures import ThreadPoolExecutor
+    from mocapkit.core.pool import cores, ordered_imap
 
-    items = list(items)
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    threads = max(1, min(cores or 1, len(items)))
-    if threads > 1 and _threading_layer() == "workqueue":
-        threads = 1  # numba's own layer aborts on parallel kernels launched from two threads
-    with ThreadPoolExecutor(threads) as pool:
-        futures = [pool.submit(fn, shared, item) for item in items]
-        try:
-            for n, fut in enumerate(futures, start=1):
-                out = fut.result()
-                if progress is not None:
-                    progress(n, len(items))
-                yield out
-        finally:
-            for f in futures:
-                f.cancel()
+    return ordered_imap(lambda item: fn(shared, item), items, cores(), progress)
 
 
 def tiled_local_minima(
