@@ -780,8 +780,12 @@ def _check(case: Case, root: Path, before: dict[str, str], res: Result) -> None:
         return
     assert case.expect != "ok", f"{where}: expected success, got {res.exit_code}\n{res.stderr}"
     assert res.exit_code == 2, f"{where}: exit {res.exit_code}\n{res.stderr[-2000:]}"
-    assert not new, f"{where}: wrote {new} although it failed"
+    # a library job (graph build) goes past a bad file: its outputs from the others may stand
+    partial = set(case.outputs) if case.args[:2] == ("graph", "build") else set()
+    assert set(new) <= partial, f"{where}: wrote {sorted(set(new) - partial)} although it failed"
     text = res.stderr.strip()
+    if partial:  # what it built from the others may carry its own warnings
+        text = "\n".join(x for x in text.splitlines() if not x.startswith("mocapkit: warning: "))
     assert "\n" not in text, f"{where}: not one line:\n{text[:3000]}"
     assert text.startswith(PREFIX), f"{where}: {text[:300]!r}"
     names = {Path(rel).name for rel, _ in case.files} | {Path(a).name for a in case.args}

@@ -218,7 +218,9 @@ def _resume_key(src: Path, to: str, options: dict[str, Any]) -> str:
         except (MocapFileError, OSError, ValueError):
             context.append(("asf", "missing"))
     config = {"to": to, **{k: options[k] for k in sorted(options)}}
-    return input_key(str(src), file_sha256(src), context, config)
+    # by name, not by path: the same source converts to the same output however it is spelled
+    context = [(Path(name).name, digest) for name, digest in context]
+    return input_key(src.name, file_sha256(src), context, config)
 
 
 def convert_many(

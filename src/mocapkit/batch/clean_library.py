@@ -239,7 +239,8 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
 @dataclass(frozen=True)
 class LibraryClean:
     """A library clean's outcome: every take's record (name order), the summary files, and
-    how many takes were cleaned now and how many skipped as complete (``resumed``)."""
+    how many takes were cleaned now and how many skipped as complete (``resumed``); the takes
+    that failed (now or, unchanged, before) are neither."""
 
     records: tuple[dict[str, Any], ...]
     summary_path: Path
@@ -342,7 +343,9 @@ def clean_library(
     summary = library_summary(lib, config, ordered)
     summary_path = atomic_write_text(rep / "summary.json", to_json_text(summary) + "\n")
     overview_path = atomic_write_text(rep / "overview.html", overview_html(summary))
-    return LibraryClean(ordered, summary_path, overview_path, len(tasks), len(takes) - len(tasks))
+    ok = [t for t in takes if "error" not in records[t]]
+    cleaned = sum(1 for t in ok if t in todo)
+    return LibraryClean(ordered, summary_path, overview_path, cleaned, len(ok) - cleaned)
 
 
 def library_summary(

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,6 +74,14 @@ class Manifest:
         safe = item.replace("\\", "/").strip("/")
         return self.folder / f"{safe}.json"
 
+    def _relative(self, path: str | Path) -> str:
+        """An output's path relative to the manifest's folder (POSIX), so that an entry holds
+        however the paths are spelled and from whichever folder the job is run."""
+        return Path(os.path.relpath(Path(path).resolve(), Path(self.root).resolve())).as_posix()
+
+    def _resolve(self, recorded: str) -> Path:
+        return Path(self.root) / recorded
+
     def load(self, item: str) -> dict[str, Any] | None:
         try:
             return json.loads(self.entry_path(item).read_text())
@@ -86,7 +95,7 @@ class Manifest:
         if entry is None or entry.get("key") != key:
             return None
         for path, digest in entry.get("outputs", {}).items():
-            p = Path(path)
+            p = self._resolve(path)
             try:
                 if not p.is_file() or file_sha256(p) != digest:
                     return None
@@ -104,7 +113,7 @@ class Manifest:
         entry = {
             "item": item,
             "key": key,
-            "outputs": {str(p): file_sha256(p) for p in outputs},
+            "outputs": {self._relative(p): file_sha256(p) for p in outputs},
             "result": result,
         }
         # not key-sorted: ``result`` comes back with its keys in the order written

@@ -39,8 +39,7 @@ def job_runner(workers: int | None, scheduler: str | None) -> Iterator[Runner]:
     if workers is not None and scheduler is not None:
         raise CLIError("give --workers or --scheduler, not both")
     runner = Runner(workers, scheduler)
-    try:
-        runner.start()
+    try:  # started by the job's first task: a job with nothing to do starts no cluster
         yield runner
     except JobError as e:
         raise CLIError(one_line(e)) from None
@@ -142,12 +141,12 @@ def clean_folder(
     dt = time.perf_counter() - t0
     n = len(res.records)
     rate = res.cleaned / dt if dt > 0 else 0.0
-    click.echo(
-        f"{n} takes: {res.cleaned} cleaned ({where}, {dt:.1f} s, {rate:.1f} takes/s), "
-        f"{res.resumed} already complete, {len(res.failed)} failed"
-    )
     if not quiet:
+        click.echo(
+            f"{n} takes: {res.cleaned} cleaned ({where}, {dt:.1f} s, {rate:.1f} takes/s), "
+            f"{res.resumed} already complete, {len(res.failed)} failed"
+        )
         click.echo(mem)
-    click.echo(f"wrote {res.summary_path} and {res.overview_path}")
+        click.echo(f"wrote {res.summary_path} and {res.overview_path}")
     if res.failed:
         raise click.exceptions.Exit(2)

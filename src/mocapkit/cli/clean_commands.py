@@ -259,8 +259,9 @@ def clean_command(
         given = [k for k, v in single.items() if v]
         if given:
             raise CLIError(
-                f"{input_path} is a folder: {', '.join(given)} work on one take; a folder "
-                "takes --out-dir and --report-dir (and --context-by, --context-max)"
+                f"{input_path} is a folder: {', '.join(given)} "
+                f"{'works' if len(given) == 1 else 'work'} on one take; a folder takes "
+                "--out-dir and --report-dir (and --context-by, --context-max)"
             )
         if not out_dir or not report_dir:
             raise CLIError(f"{input_path} is a folder: give --out-dir DIR and --report-dir DIR")
@@ -273,10 +274,10 @@ def clean_command(
             workers, scheduler, quiet,
         )  # fmt: skip
         return
+    check_input_file(input_path)
     given = [k for k, v in folder.items() if v is not None]
     if given:
         raise CLIError(f"{', '.join(given)}: only for a folder of takes ({input_path} is a file)")
-    check_input_file(input_path)
     ctx_paths = expand_inputs(contexts, MOTION_SUFFIXES, exclude=[input_path])
     check_outputs(
         [

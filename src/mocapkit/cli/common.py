@@ -420,6 +420,27 @@ def load_all(
     return out
 
 
+def load_readable(
+    paths: Sequence[Path | str], lenient: bool, description: str = "reading", show: bool = True
+) -> tuple[list[Path | str], list[Motion], list[str]]:
+    """Read every path under one progress bar, as a library job does: a file that cannot be
+    read is left out and the others go on. Returns the paths read, their motions, and one
+    error line per file left out."""
+    kept: list[Path | str] = []
+    motions: list[Motion] = []
+    errors: list[str] = []
+    with progress(len(paths), description, enabled=show) as step:
+        for p in paths:
+            try:
+                motions.append(load(str(p), lenient))
+                kept.append(p)
+            except (MocapFileError, OSError) as e:
+                why = e if isinstance(e, MocapFileError) else f"{p}: {e.strerror or e}"
+                errors.append(one_line(why))
+            step()
+    return kept, motions, errors
+
+
 def echo_json(obj: Any) -> None:
     """Print ``obj`` (a result's ``to_json()``) as strict JSON (:func:`mocapkit.jsonio`)."""
     click.echo(to_json_text(obj))

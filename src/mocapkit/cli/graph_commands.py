@@ -18,6 +18,7 @@ from mocapkit.cli.common import (
     expand_inputs,
     friendly_errors,
     load_all,
+    load_readable,
     main,
     naming,
 )
@@ -163,7 +164,12 @@ def build(
     outputs = [data_output(out, "graph", "graph.json"), data_output(graphml, "GraphML", ".graphml"),
                data_output(plot, "plot", ".png")]  # fmt: skip
     check_outputs(outputs, [*files, *([masses] if masses else [])])
-    motions = load_all(files, False, show=not quiet)
+    files, motions, unreadable = load_readable(files, False, show=not quiet)
+    if not motions:
+        raise CLIError(unreadable[0] + (f" (and {len(unreadable) - 1} more)" if unreadable[1:]
+                                        else ""))  # fmt: skip
+    for line in unreadable:  # as every library job: the others go on
+        click.echo(f"mocapkit: error: {line}", err=True)
     check_clips(files, motions)
     overrides = load_masses(masses) if masses else None
     outp = Path(out)
@@ -219,6 +225,9 @@ def build(
         click.echo(f"  {line}")
     for p in wrote:
         click.echo(f"wrote {p}")
+    if unreadable:  # built from the others; the status says not all
+        click.echo(f"left out {len(unreadable)} file(s) that could not be read")
+        raise click.exceptions.Exit(2)
 
 
 @graph.command("synth")

@@ -27,7 +27,7 @@ from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs
-from mocapkit.stitch.inbetween import METHODS
+from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS
 
 
 @main.command("inbetween")
@@ -122,22 +122,24 @@ def inbetween_cmd(
     c = res.candidate
     s0, s1 = res.source_frames
     click.echo(
-        f"best library segment: {res.source} frames {s0}:{s1} (speed x{c.rate:g}), two-sided "
-        f"L-score {c.lscore:.6g} (start {c.lscore_start:.6g}, end {c.lscore_end:.6g}), ground "
-        f"path {c.travel:.4g}; {res.candidates} candidates in {res.search_seconds:.2f} s"
+        f"best library segment: {res.source} frames {s0}:{s1} (speed x{c.rate:g}), pose "
+        f"distance {c.pose:.4g}, ground path {c.travel:.4g}; {res.candidates} candidates in "
+        f"{res.search_seconds:.2f} s"
+    )
+    margin = DEFAULT_CONFIG.fallback_margin
+    scores = (
+        f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "
+        f"{res.kalman_lscore:.6g} from the Kalman transition"
     )
     if res.fell_back:
         why = (
-            f"the Kalman transition's own L-score {res.kalman_lscore:.6g} is lower"
+            f"the library fill's L-score is over {margin:g}x the Kalman transition's: {scores}"
             if method == "auto"
             else "--method kalman"
         )
         click.echo(f"filled frames {a}:{b} with the Kalman transition ({why})")
     else:
-        click.echo(
-            f"filled frames {a}:{b} from {res.source} (Kalman transition's L-score "
-            f"{res.kalman_lscore:.6g})"
-        )
+        click.echo(f"filled frames {a}:{b} from {res.source} ({scores})")
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
         write_motion(res.motion, out_path)

@@ -201,13 +201,14 @@ def stitch_cmd(
             runner=runner,
             progress=step,
         )
+        where = runner.describe()
     for _path, why in res.skipped:
-        click.echo(f"mocapkit: warning: left out of the library: {one_line(why)}", err=True)
+        click.echo(f"mocapkit: error: left out of the library: {one_line(why)}", err=True)
     tr = res.transition
     click.echo(
         f"best: {data_paths[tr.clip]} landing {tr.landing}, take-off {tr.takeoff}, k = {tr.k} "
         f"(L* = {tr.lscore:.6g}, windowed Euclidean = {tr.euclidean:.6g}; "
-        f"{tr.candidates} candidates in {res.search_seconds:.2f} s)"
+        f"{tr.candidates} candidates in {res.search_seconds:.2f} s, {where})"
     )
     if method == "kalman" and tr.k:
         click.echo(
@@ -231,6 +232,8 @@ def stitch_cmd(
             wrote.append(f"wrote {plot_path}")
     for line in wrote:
         click.echo(line)
+    if res.skipped:  # as every library job: the others are done, the status says not all
+        raise click.exceptions.Exit(2)
 
 
 # ------------------------------------------------------------------------------------ demo
