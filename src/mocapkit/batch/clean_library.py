@@ -356,9 +356,14 @@ def library_summary(
     library and settings give the same bytes wherever and however often the job runs."""
     ok = [r for r in records if "error" not in r]
     ranked = sorted(ok, key=lambda r: (-r["flagged_seconds"], r["take"]))
+    from mocapkit.clean import THRESHOLD
+
+    shown = config.to_json()
+    if shown["threshold"] is None:  # the default, said as the value it is
+        shown["threshold"] = THRESHOLD
     return {
         "library": str(library),
-        "config": config.to_json(),
+        "config": shown,
         "takes": len(records),
         "failed": len(records) - len(ok),
         "flagged_takes": sum(1 for r in ok if r["flagged_seconds"] > 0),
@@ -375,7 +380,7 @@ def _first_reason(segment: dict[str, Any]) -> str:
     return str(reasons[0])
 
 
-def _timeline_svg(r: dict[str, Any], seen: list[str], width: int = 360, row: int = 9) -> str:
+def _timeline_svg(r: dict[str, Any], seen: list[str], width: int = 400, row: int = 12) -> str:
     """A take's timeline: one row for the whole body (frames with any joint flagged, dark),
     then one per worst joint (its segments, coloured by their first reason), time left to
     right; ``seen``: the reasons without a colour of their own met so far."""
@@ -387,7 +392,7 @@ def _timeline_svg(r: dict[str, Any], seen: list[str], width: int = 360, row: int
             (j, [(s["start"], s["end"], _first_reason(s)) for s in r["segments"]
                  if s.get("joint") == j])
         )  # fmt: skip
-    label = 110
+    label = 130
     h = row * len(rows) + 2
     parts = [f'<svg width="{label + width}" height="{h}" role="img">']
     for k, (name, spans) in enumerate(rows):
@@ -419,7 +424,8 @@ def overview_html(summary: dict[str, Any]) -> str:
         f"<title>mocapkit clean: {esc(summary['library'])}</title>",
         "<style>body{font:13px sans-serif;margin:1.5em}table{border-collapse:collapse}"
         "td,th{padding:3px 8px;border-bottom:1px solid #ddd;text-align:left;vertical-align:top}"
-        "svg text{font:8px sans-serif;fill:#444}.err{color:#b00}</style></head><body>",
+        "svg text{font:10px sans-serif;fill:#333}.nw{white-space:nowrap}.err{color:#b00}"
+        "</style></head><body>",
         f"<h1>Library clean: {esc(summary['library'])}</h1>",
         f"<p>{summary['takes']} takes, {summary['seconds']:.1f} s; "
         f"{summary['flagged_takes']} with flagged frames, {summary['flagged_seconds']:.1f} s "
@@ -448,8 +454,8 @@ def overview_html(summary: dict[str, Any]) -> str:
         )
         rows.append(
             f"<tr><td>{n}</td><td><a href='{esc(_report_link(r, summary))}'>{esc(name)}</a></td>"
-            f"<td>{r['flagged_seconds']:.2f} s of {r['seconds']:.2f} s</td>"
-            f"<td>{worst or '-'}</td><td>{reasons or '-'}</td>"
+            f"<td class='nw'>{r['flagged_seconds']:.2f} s of {r['seconds']:.2f} s</td>"
+            f"<td>{worst or '-'}</td><td class='nw'>{reasons or '-'}</td>"
             f"<td>{_timeline_svg(r, seen)}</td></tr>"
         )
     if counts:
