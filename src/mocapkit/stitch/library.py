@@ -189,7 +189,7 @@ def stitch_library(
         parts = list(runner.imap(search_shard, shards, shared=search, progress=progress,
                                  name="stitch-shard"))  # fmt: skip
     skipped = [(paths[i], why) for p in parts for i, why in p.skipped]
-    best = merge_per_takeoff([p.per_takeoff for p in parts], [0] * len(parts))
+    best = merge_per_takeoff([p.per_takeoff for p in parts])
     if best is None:
         if len(skipped) == len(paths):
             raise ValueError(f"no data clip could be used: {skipped[0][1]}")

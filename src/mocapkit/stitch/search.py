@@ -289,14 +289,14 @@ def best_per_takeoff(Q, takeoffs, clips, landing, w, k_max, model, score, dtype,
     return out, int(valid.sum()) * len(takeoffs)
 
 
-def merge_per_takeoff(parts, offsets):
+def merge_per_takeoff(parts):
     """The best ``(value, clip, take-off index)`` of groups of clips: ``parts`` are the groups'
-    :func:`best_per_takeoff` lists in group order, ``offsets`` the index of each group's first
-    clip. Per take-off the first group wins ties; over take-offs the first take-off does. None
-    when no group has a candidate."""
+    :func:`best_per_takeoff` lists in group order, with clip indices over all groups. Per
+    take-off the first group wins ties; over take-offs the first take-off does. None when no
+    group has a candidate."""
     best = None
     per: list[Best | None] = []
-    for part, off in zip(parts, offsets, strict=True):
+    for part in parts:
         for t, cand in enumerate(part):
             if t == len(per):
                 per.append(None)
@@ -305,7 +305,7 @@ def merge_per_takeoff(parts, offsets):
                 and np.isfinite(cand[0])
                 and (per[t] is None or cand[0] < per[t][0])
             ):
-                per[t] = (cand[0], cand[1] + off, cand[2])
+                per[t] = cand
     for t, cand in enumerate(per):
         if cand is not None and (best is None or cand[0] < best[0][0]):
             best = (cand, t)
@@ -402,7 +402,7 @@ def search_features(
     per, candidates = best_per_takeoff(
         Q, takeoffs, clips, landing, w, k_max, model, score, dtype, inject
     )
-    best = merge_per_takeoff([per], [0])
+    best = merge_per_takeoff([per])
     if best is None:
         raise no_candidate(landing, w)
     (_, ci, b), t = best
