@@ -180,7 +180,7 @@ def test_meets_context_exactly(humanoid):
     # the static ground root stays where the clip keeps it
     np.testing.assert_allclose(out.root_positions[a:b], 0.0, atol=1e-9)
     s0, s1 = res.source_frames
-    assert 0 <= s0 < s1 <= lib[res.candidate.clip].num_frames
+    assert 0 <= s0 < s1 <= lib[res.candidate.clip % len(lib)].num_frames
     prov = res.provenance("x.bvh").to_json()
     kinds = [s["kind"] for s in prov["segments"]]
     assert kinds == ["clip", "inbetween", "clip"]
@@ -238,6 +238,43 @@ def test_fallback_when_kalman_scores_lower(humanoid):
     assert kept.method == "library"
     high = inbetween(walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback_margin=1e9))
     assert high.method == "library"
+
+
+def test_backward_walk_from_forward_library(humanoid):
+    """A walk played backwards is filled from the forward walks played backwards: the library
+    copy that is the gap's own frames reversed is found, named by the file's frames (ascending)
+    and flagged as played backwards, and the fill is that motion; without the backwards copies
+    the same gap has no such match."""
+    from dataclasses import replace
+
+    from mocapkit.stitch.inbetween import DEFAULT_CONFIG
+
+    _, lib = humanoid
+    fwd = lib[0]
+    back = fwd[::-1]
+    F, (a, b) = back.num_frames, (70, 100)
+    config = replace(DEFAULT_CONFIG, neighbours=1, foot_lock=False)
+    res = inbetween(back, (a, b), [fwd, lib[2]], library_names=["w", "r"], up="Y",
+                    method="library", config=config)  # fmt: skip
+    assert res.backwards and res.source == "w"
+    # back's frames a..b-1 are fwd's frames F-b .. F-a-1
+    s0, s1 = res.source_frames
+    assert abs(s0 - (F - b)) <= 2 and abs(s1 - (F - a)) <= 2
+    P, _ = forward_kinematics(res.motion)
+    T, _ = forward_kinematics(back)
+    # the match is exact up to the time warp's rounding: a few cm at most over the gap
+    assert np.abs(P[a:b] - T[a:b]).max() < 3.0
+    prov = res.provenance("x.bvh").to_json()
+    assert prov["parameters"]["source_backwards"] is True
+    t0, t1 = prov["transitions"]
+    assert t0["target_frame"] == s1 - 1 and t1["source_frame"] == s0  # entered at its end
+    assert res.to_json()["source_backwards"] is True
+    assert prov["inputs"] == ["clip", "w", "r"]  # each library file once
+    ahead = inbetween(back, (a, b), [fwd, lib[2]], up="Y", method="library",
+                      config=replace(config, backwards=False))  # fmt: skip
+    assert not ahead.backwards
+    Q, _ = forward_kinematics(ahead.motion)
+    assert np.abs(Q[a:b] - T[a:b]).max() > 3 * np.abs(P[a:b] - T[a:b]).max()
 
 
 @pytest.mark.parametrize(

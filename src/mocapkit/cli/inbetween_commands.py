@@ -122,7 +122,8 @@ def inbetween_cmd(
     c = res.candidate
     s0, s1 = res.source_frames
     click.echo(
-        f"best library segment: {res.source} frames {s0}:{s1} (speed x{c.rate:g}), pose "
+        f"best library segment: {res.source} frames {s0}:{s1}"
+        f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}), pose "
         f"distance {c.pose:.4g}, ground path {c.travel:.4g}; {res.candidates} candidates in "
         f"{res.search_seconds:.2f} s"
     )

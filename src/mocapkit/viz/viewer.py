@@ -300,6 +300,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "query": clip,
         "data": mid.source,
         "sourceFrames": None if mid.source is None else [mid.source_start, mid.source_stop],
+        "backwards": bool(plan.parameters.get("source_backwards", False)),
         "method": plan.parameters.get("method"),
     }
 

@@ -651,7 +651,7 @@
   }
   if (stitch && stitch.kind === 'inbetween') {
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' +
-      (stitch.data ? 'from ' + base(stitch.data) + ' frames ' + stitch.sourceFrames[0] + '\u2013' + (stitch.sourceFrames[1] - 1) : 'by the Kalman transition (no library segment scored better)'));
+      (stitch.data ? 'from ' + base(stitch.data) + ' frames ' + stitch.sourceFrames[0] + '\u2013' + (stitch.sourceFrames[1] - 1) + (stitch.backwards ? ' played backwards' : '') : 'by the Kalman transition (no library segment scored better)'));
   } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
       ' (k = ' + stitch.k + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
