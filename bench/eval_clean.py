@@ -17,7 +17,9 @@ are analysed too: flagged segments off the glitch list per minute, and the liste
         --class gestures
 
 ``--fps 120`` resamples the takes (slerp) before injecting: the tuning stand-in for CMU's rate.
-``--class`` keeps one motion class.
+``--class`` keeps one motion class. ``--min-seconds 2.5`` keeps the short takes too (half of
+Bandai-1's gestures are under 5 s); ``--config hinge_bend_deg=0`` scores a changed
+``DetectConfig``. The false alarms are also counted per rule that flagged them (reasons).
 
 Sets: bandai1-tune, bandai1-val, bandai2, cmu. Classes: Bandai-1 locomotion (walk, walk-back,
 -left, -right, run, dash), dance/fight (dance, kick, punch, slash) and gestures (bow, bye,
@@ -40,7 +42,7 @@ import numpy as np
 from scipy import ndimage
 
 from mocapkit.clean.cleaner import SelfSimilarityCleaner
-from mocapkit.clean.detect import ORIGINAL_ORDER, PIPELINE, RETIRED, run_pipeline
+from mocapkit.clean.detect import ORIGINAL_ORDER, PIPELINE, RETIRED, DetectConfig, run_pipeline
 from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix
 from mocapkit.clean.inject import ERROR_KINDS
 from mocapkit.clean.repair import foot_slide
@@ -215,7 +217,7 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
             m = load(f, args.seconds)
             if args.fps:
                 m = resample(m, args.fps)
-            if m.duration >= MIN_SECONDS:
+            if m.duration >= args.min_seconds:
                 takes[f] = m
         chosen = _spread(sorted(takes), args.takes)
         table.setdefault((set_name, cls, "n"), len(chosen))
@@ -226,7 +228,7 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
             act = np.flatnonzero(rotating_joints(clean))
             gl = glitch_cells(f, clean)
             if args.raw and f.endswith(".amc"):
-                cl = SelfSimilarityCleaner().fit(clean)
+                cl = SelfSimilarityCleaner(config=args.config).fit(clean)
                 segs = cl.segments()
                 off = [s for s in segs if not gl[s.start : s.end + 1, s.joint_index].any()]
                 r = raw.setdefault((set_name, cls), {"minutes": 0.0, "segments": 0, "off": 0})
@@ -236,6 +238,9 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
                 for s in off:
                     r.setdefault("joints", {}).setdefault(s.joint, 0)
                     r["joints"][s.joint] += 1
+                    for why in s.reasons:
+                        r.setdefault("reasons", {}).setdefault(why, 0)
+                        r["reasons"][why] += 1
                 # the listed glitches (within the cut) that a flag overlaps
                 hit_mask = cl.mask()
                 for g in listed_glitches(f, clean):
@@ -248,20 +253,39 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
                 truth = unit_matrix(cor.truth, clean.fps)[:, act]
                 excused = unit_matrix(gl, clean.fps)[:, act] & ~truth
                 for ctx_name, c in (("local", []), ("small", ctx)):
-                    cl = SelfSimilarityCleaner().fit(cor.motion, c)
+                    cl = SelfSimilarityCleaner(config=args.config).fit(cor.motion, c)
                     if args.repair and ctx_name == "local":
                         slide_row(slides, (set_name, cls), clean, cor, cl)
                     for vname, pipe in vs.items():
-                        mask = run_pipeline(cl.evidence_, pipeline=pipe).mask
+                        fl = run_pipeline(cl.evidence_, pipeline=pipe)
+                        mask = fl.mask
                         flagged = unit_matrix(mask, clean.fps)[:, act] & ~excused
                         for key in ((kind, ctx_name), ("all", ctx_name), ("all", "both")):
                             k = (set_name, cls, vname, *key)
                             table.setdefault(k, Counts()).add(truth, flagged)
+                        if vname == "full":
+                            false_alarm_reasons(fl, truth, flagged, act, clean.fps,
+                                                (set_name, cls, ctx_name, kind))  # fmt: skip
             print(
                 f"  [{time.time() - T0:6.0f} s] {set_name} / {cls}: {Path(f).name}",
                 file=sys.stderr,
                 flush=True,
             )
+
+
+REASONS: dict = {}  # (set, class, context, kind) -> {rule: false-alarm units it flagged}
+
+
+def false_alarm_reasons(fl, truth, flagged, act, fps, key) -> None:
+    """Count the false-alarm units (flagged, not injected, not excused) each rule flagged
+    (a unit with cells of two rules counts for both)."""
+    false = flagged & ~truth
+    row = REASONS.setdefault(key, {"units": 0})
+    row["units"] += int(false.sum())
+    for rule, cells in fl.added.items():
+        n = int((unit_matrix(cells & fl.mask, fps)[:, act] & false).sum())
+        if n:
+            row[rule] = row.get(rule, 0) + n
 
 
 def fmt(c: Counts) -> str:
@@ -271,6 +295,16 @@ def fmt(c: Counts) -> str:
 
 
 T0 = time.time()
+
+
+def parse_config(text: str) -> DetectConfig:
+    """``DetectConfig`` with ``field=value,...`` changes (true/false, else a number)."""
+    changes: dict = {}
+    for item in filter(None, text.split(",")):
+        key, _, val = item.partition("=")
+        low = val.strip().lower()
+        changes[key.strip()] = low == "true" if low in ("true", "false") else float(val)
+    return DetectConfig().replace(**changes)
 
 
 def main() -> int:
@@ -290,6 +324,10 @@ def main() -> int:
         help="resample every take to this rate first (Bandai-1 at 120 fps: CMU's rate)",
     )  # fmt: skip
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--min-seconds", type=float, default=MIN_SECONDS,
+        help="leave out takes shorter than this (a local context needs a few seconds)",
+    )  # fmt: skip
     ap.add_argument("--kinds", default=",".join(ERROR_KINDS))
     ap.add_argument("--context-size", type=int, default=3, help="small-scale context takes")
     ap.add_argument("--ablate", action="store_true", help="also the pipeline without each rule")
@@ -298,7 +336,12 @@ def main() -> int:
     ap.add_argument("--drops", default="", help="score ORIGINAL_ORDER less these: 'a,b;c'")
     ap.add_argument("--repair", action="store_true", help="foot slide before/after repair")
     ap.add_argument("--json", default=None, help="write the figures here too")
+    ap.add_argument(
+        "--config", default="",
+        help="DetectConfig changes, 'field=value,...' (numbers; true/false for switches)",
+    )  # fmt: skip
     args = ap.parse_args()
+    args.config = parse_config(args.config)
     if not SHARED.exists():
         print(f"shared data not found at {SHARED}", file=sys.stderr)
         return 2
@@ -345,6 +388,20 @@ def main() -> int:
                     {"set": s, "variant": v, "recall": c.recall, "precision": c.precision,
                      "d_recall": dr, "d_precision": dp, "tp": c.tp, "fp": c.fp, "fn": c.fn}
                 )  # fmt: skip
+    print("\nFalse-alarm units per rule that flagged them (all kinds; a unit may count twice)")
+    agg: dict = {}
+    for (s, cls, ctx, kind), row in REASONS.items():
+        out.setdefault("false_alarm_reasons", []).append(
+            {"set": s, "class": cls, "context": ctx, "kind": kind, **row}
+        )
+        a = agg.setdefault((s, cls, ctx), {})
+        for rule, n in row.items():
+            a[rule] = a.get(rule, 0) + n
+    for (s, cls, ctx), a in agg.items():
+        rules = ", ".join(
+            f"{r} {n}" for r, n in sorted(a.items(), key=lambda x: -x[1]) if r != "units"
+        )
+        print(f"  {s:13s} {cls + ' ' + ctx:20s} {a['units']:5d} units: {rules}")
     if raw:
         print("\nUninjected raw takes: flagged segments, off the glitch list, per minute")
         for (s, cls), r in raw.items():
@@ -353,7 +410,7 @@ def main() -> int:
                 f"  {s} {cls}: {r['minutes']:.1f} min, {r['segments']} segments, {r['off']} off "
                 f"the list ({per:.1f}/min); listed glitches flagged "
                 f"{r.get('listed_hit', 0)}/{r.get('listed', 0)}; off-list by joint "
-                f"{r.get('joints', {})}"
+                f"{r.get('joints', {})}; off-list by rule {r.get('reasons', {})}"
             )
             out["raw"].append({"set": s, "class": cls, **r})
     if slides:
@@ -368,6 +425,7 @@ def main() -> int:
             out["foot_slide"].append({"set": s, "class": cls, "n": len(r["clean"]), **vals})
     print(f"\n{time.time() - T0:.0f} s")
     if args.json:
+        out["config"] = args.config.as_dict()
         Path(args.json).write_text(json.dumps(out, indent=1) + "\n")
     return 0
 

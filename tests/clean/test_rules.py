@@ -323,3 +323,73 @@ def test_frozen_straight_hinge_is_parked() -> None:
     fl = Flags((90, 2))
     FrozenJoints().apply(evidence(bent, dig=dig, hinges=[0]), fl)
     assert fl.mask[12:78, 0].all()
+
+
+def twisting_elbow(F: int = 300, bend_deg: float = 10.0, swing_deg: float = 2.0) -> np.ndarray:
+    """(F, 1, 4) an elbow (the limb below along +y) bent ``bend_deg`` +- ``swing_deg`` about x
+    while the forearm twists +-40 deg about its own bone (a wave by twisting the forearm)."""
+    t = np.arange(F) / FPS
+    zero = np.zeros(F)
+    flex = np.radians(bend_deg + swing_deg * np.sin(t))
+    bend = rot.rotvec_to_quat(np.stack([flex, zero, zero], axis=1))
+    tw = np.radians(40.0) * np.sin(2 * np.pi * t / 1.5)
+    twist = rot.rotvec_to_quat(np.stack([zero, tw, zero], axis=1))
+    return rot.quat_mul(bend, twist)[:, None]
+
+
+def wrong_bend(q: np.ndarray, frames: slice, deg: float = 40.0) -> np.ndarray:
+    """``q`` with the limb below swung ``deg`` back about -x over ``frames``."""
+    out = q.copy()
+    back = rot.rotvec_to_quat(np.array([-np.radians(deg), 0.0, 0.0]))
+    out[frames, 0] = rot.quat_mul(back, q[frames, 0])
+    return out
+
+
+BONE = np.array([[0.0, 1.0, 0.0]])
+
+
+def hinge_flags(q: np.ndarray, **kw) -> np.ndarray:
+    fl = Flags(q.shape[:2])
+    WrongWayHinges().apply(evidence(q, hinges=[0], hinge_bones=BONE, **kw), fl)
+    return fl.mask
+
+
+def test_wrong_way_hinge_held_elbow_is_judged_on_its_bend_not_its_twist() -> None:
+    q = twisting_elbow()  # bends 8-12 deg only: below hinge_bend_deg (20)
+    assert not hinge_flags(q).any()  # must not fire: a twist is no bend
+    # the take's own fit on the full rotations (hinge_bend_deg 0) takes the twist for flexion
+    assert hinge_flags(q, config=DetectConfig(hinge_bend_deg=0.0)).sum() > 20
+    # must fire: bent 40 deg back while still twisting, flagged there and only there
+    m = hinge_flags(wrong_bend(q, slice(60, 72)))
+    assert m[60:72, 0].all() and m.sum() == 12
+
+
+def test_wrong_way_hinge_bending_elbow_keeps_its_own_fit() -> None:
+    # bends 10-70 deg: its own rotations show the axis, fitted whole
+    q = twisting_elbow(bend_deg=40.0, swing_deg=30.0)
+    assert not hinge_flags(q).any()  # must not fire
+    m = hinge_flags(wrong_bend(q, slice(60, 72), 90.0))  # must fire: 20-50 deg past straight
+    assert m[60:72, 0].all() and m.sum() == 12
+    ev = evidence(q, hinges=[0], hinge_bones=BONE)
+    assert ev._bends(q[:, 0], BONE[0]) and not ev._bends(twisting_elbow()[:, 0], BONE[0])
+
+
+def test_wrong_way_hinge_held_elbow_takes_the_contexts_axis() -> None:
+    # a held elbow's bend axis is pooled with the context's: there it bends 10-70 deg about x
+    q = twisting_elbow(bend_deg=4.0, swing_deg=1.0)
+    ctx = [twisting_elbow(F=300, bend_deg=40.0, swing_deg=30.0)]
+    m = hinge_flags(wrong_bend(q, slice(60, 72), 30.0), context_rotations=ctx)
+    assert m[60:72, 0].all() and m.sum() == 12  # must fire
+    assert not hinge_flags(q, context_rotations=ctx).any()  # must not fire
+
+
+def test_bend_rotvecs_leave_the_twist_out() -> None:
+    from mocapkit.clean.detect.evidence import bend_rotvecs
+
+    q = twisting_elbow()
+    b = bend_rotvecs(q[:, 0], BONE[0])
+    assert np.allclose(b[:, 1], 0.0, atol=1e-12)  # nothing about the bone itself
+    ang = np.degrees(np.linalg.norm(b, axis=1))
+    assert ang.min() > 7.9 and ang.max() < 12.1  # the angle between the two bones
+    full = bend_rotvecs(q[:, 0], None)
+    assert np.degrees(np.linalg.norm(full, axis=1)).max() > 35.0

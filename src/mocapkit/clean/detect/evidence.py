@@ -21,22 +21,57 @@ from mocapkit.core.skeleton import Skeleton
 from mocapkit.features import limb_hinges
 
 
+def _bone_out(skeleton: Skeleton, joint: int) -> np.ndarray | None:
+    """The joint's longest bone out (child offset or end site), in the joint's frame."""
+    outs = [skeleton.offsets[c] for c in skeleton.children(joint)]
+    outs += list(skeleton.end_site_offsets[skeleton.end_site_parents == joint])
+    if not outs:
+        return None
+    return max(outs, key=lambda v: float(np.linalg.norm(v)))
+
+
 def straight_hinges(skeleton: Skeleton, max_angle: float) -> list[int]:
     """The knees and elbows (:func:`~mocapkit.features.limb_hinges`) whose bone in (their offset)
     and longest bone out lie within ``max_angle`` radians of one straight line at rest: those
     whose zero rotation is the straight limb, so that a flexion below zero is a wrong-way bend."""
     out = []
     for j in limb_hinges(skeleton):
-        outs = [skeleton.offsets[c] for c in skeleton.children(j)]
-        outs += list(skeleton.end_site_offsets[skeleton.end_site_parents == j])
-        if not outs:
+        below = _bone_out(skeleton, j)
+        if below is None:
             continue
-        below = max(outs, key=lambda v: float(np.linalg.norm(v)))
         above = skeleton.offsets[j]
         n = float(np.linalg.norm(below) * np.linalg.norm(above))
         if n > 0 and np.arccos(np.clip(below @ above / n, -1.0, 1.0)) <= max_angle:
             out.append(j)
     return out
+
+
+def hinge_bones(skeleton: Skeleton, hinges: Sequence[int]) -> np.ndarray:
+    """(H, 3) unit rest directions of each hinge's longest bone out, in the hinge's own frame
+    (the limb below the knee or elbow); a zero row where the joint has no bone out."""
+    out = np.zeros((len(hinges), 3))
+    for i, j in enumerate(hinges):
+        b = _bone_out(skeleton, int(j))
+        n = 0.0 if b is None else float(np.linalg.norm(b))
+        if n > 0:
+            out[i] = b / n
+    return out
+
+
+def bend_rotvecs(q: np.ndarray, bone: np.ndarray | None) -> np.ndarray:
+    """(F, 3) rotation vectors of the *bend* of a hinge's rotations ``q`` (F, 4): the shortest
+    rotation carrying the rest direction ``bone`` (unit, the hinge's frame) of the limb below it
+    to where ``q`` points it, the twist about that limb left out (its angle is how far the limb
+    turned from its rest direction: for a straight-at-rest hinge, its bend). Without ``bone``
+    (or a zero one): the full rotation vectors."""
+    if bone is None or not np.any(bone):
+        return rot.quat_to_rotvec(q)
+    b = np.asarray(bone, dtype=np.float64)
+    now = rot.quat_apply(q, np.broadcast_to(b, (len(q), 3)))
+    c = np.cross(b, now)
+    n = np.linalg.norm(c, axis=1, keepdims=True)
+    ang = np.arctan2(n, (now @ b)[:, None])
+    return np.where(n > 1e-12, c / np.maximum(n, 1e-12) * ang, 0.0)
 
 
 class Evidence:
@@ -47,6 +82,9 @@ class Evidence:
         fps: the take's frame rate.
         config: the thresholds (the derived quantities below read only their window lengths).
         hinges: joint indices of the straight-at-rest knees and elbows (wrong-way bends).
+        hinge_bones: (H, 3) rest directions of the limb below each hinge (:func:`hinge_bones`):
+            how far a hinge bends, and its bend alone, the twist about that limb left out
+            (config ``hinge_bend_deg``, ``hinge_swing``); None: the full rotations always.
         context_rotations: (F_i, J, 4) rotations of context takes at the same frame rate (the
             recurring veto looks for the same excursion there; the hinge axis is fitted on them
             too if the config's ``hinge_context``).
@@ -65,6 +103,7 @@ class Evidence:
         hinges: Sequence[int] = (),
         context_rotations: Sequence[np.ndarray] = (),
         names: Sequence[str] | None = None,
+        hinge_bones: np.ndarray | None = None,
     ) -> None:
         self.rotations = np.asarray(rotations, dtype=np.float64)
         if self.rotations.ndim != 3 or self.rotations.shape[2] != 4:
@@ -72,6 +111,9 @@ class Evidence:
         self.fps = float(fps)
         self.config = config or DetectConfig()
         self.hinges = [int(j) for j in hinges]
+        self.hinge_bones = None if hinge_bones is None else np.asarray(hinge_bones, float)
+        if self.hinge_bones is not None and self.hinge_bones.shape != (len(self.hinges), 3):
+            raise ValueError(f"hinge_bones must be ({len(self.hinges)}, 3)")
         self.context_rotations = [np.asarray(c, dtype=np.float64) for c in context_rotations]
         J = self.rotations.shape[1]
         self.names = list(names) if names is not None else [f"joint{j}" for j in range(J)]
@@ -94,8 +136,10 @@ class Evidence:
         same_rate = [
             c.rotations for c in context if np.isclose(c.frame_time, motion.frame_time, rtol=1e-6)
         ]
-        hinges = straight_hinges(motion.skeleton, np.radians(cfg.hinge_straight_deg))
-        return cls(motion.rotations, motion.fps, cfg, hinges, same_rate, motion.skeleton.names)
+        sk = motion.skeleton
+        hinges = straight_hinges(sk, np.radians(cfg.hinge_straight_deg))
+        bones = hinge_bones(sk, hinges)
+        return cls(motion.rotations, motion.fps, cfg, hinges, same_rate, sk.names, bones)
 
     def set_maps(
         self,
@@ -218,23 +262,51 @@ class Evidence:
     @cached_property
     def hinge_flexion(self) -> np.ndarray:
         """(F, J) radians: flexion of the straight hinges about their main axis (the principal
-        direction of the take's rotation vectors, with the context's if ``hinge_context``;
-        positive: the usual way), NaN on other joints and on hinges whose rotations wrap."""
+        direction of their rotation vectors, signed so that the median is positive: the usual
+        way), NaN on other joints and on hinges whose rotations wrap (``hinge_max_deg``).
+
+        A hinge that really bends over the take (its bend angle, between its two bones, spans at
+        least ``hinge_bend_deg`` degrees between its 5th and 95th percentiles) is fitted on its
+        own full rotations. One that does not (held straight or a little bent) does not show its
+        axis there: it is fitted on its bend alone (:func:`bend_rotvecs`, the twist about the
+        limb below left out), pooled with the context's takes (same rate, none wrapping) where
+        there are any. ``hinge_swing``: every hinge on its bend alone; ``hinge_context``: every
+        hinge pooled with the context (a wrapping context then leaves it unjudged)."""
         q = self.rotations
+        c = self.config
         out = np.full(q.shape[:2], np.nan)
-        others = self.context_rotations if self.config.hinge_context else []
-        for j in self.hinges:
-            own = rot.quat_to_rotvec(q[:, j])
-            pool = np.concatenate([own, *(rot.quat_to_rotvec(c[:, j]) for c in others)])
-            if len(pool) == 0:
+        wrap = np.radians(c.hinge_max_deg)
+        for i, j in enumerate(self.hinges):
+            rest = None if self.hinge_bones is None else self.hinge_bones[i]
+            full = rot.quat_to_rotvec(q[:, j])
+            if len(full) == 0 or np.linalg.norm(full, axis=1).max() > wrap:
                 continue
-            if np.linalg.norm(pool, axis=1).max() > np.radians(self.config.hinge_max_deg):
-                continue
+            bends = self._bends(q[:, j], rest)
+            bone = rest if (c.hinge_swing or not bends) else None
+            own = bend_rotvecs(q[:, j], bone)
+            pool = own
+            others = [x[:, j] for x in self.context_rotations]
+            if others and (c.hinge_context or not bends):
+                pool = np.concatenate([own, *(bend_rotvecs(x, bone) for x in others)])
+                whole = rot.quat_to_rotvec(np.concatenate(others))
+                if np.linalg.norm(whole, axis=1).max() > wrap:
+                    if c.hinge_context:
+                        continue  # as before: a wrapping context leaves the hinge unjudged
+                    pool = own
             axis = np.linalg.svd(pool, full_matrices=False)[2][0]
             if np.median(pool @ axis) < 0:
                 axis = -axis
             out[:, j] = own @ axis
         return out
+
+    def _bends(self, q: np.ndarray, bone: np.ndarray | None) -> bool:
+        """Whether a hinge's bend angle spans ``hinge_bend_deg`` over the take (5th to 95th
+        percentile); always True when that is 0 or the limb below is unknown."""
+        lim = self.config.hinge_bend_deg
+        if lim <= 0 or bone is None or not np.any(bone):
+            return True
+        a = np.linalg.norm(bend_rotvecs(q, bone), axis=1)
+        return bool(np.degrees(np.percentile(a, 95) - np.percentile(a, 5)) >= lim)
 
     @cached_property
     def wrong_way(self) -> np.ndarray:
