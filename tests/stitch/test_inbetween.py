@@ -8,6 +8,8 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from testsupport import load_sibling
 
 from mocapkit import datasets
@@ -275,6 +277,41 @@ def test_backward_walk_from_forward_library(humanoid):
     assert not ahead.backwards
     Q, _ = forward_kinematics(ahead.motion)
     assert np.abs(Q[a:b] - T[a:b]).max() > 3 * np.abs(P[a:b] - T[a:b]).max()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    angle=st.floats(0.0, 3.0),
+    n=st.integers(4, 60),
+    blend=st.integers(1, 10),
+    speed=st.floats(0.02, 0.5),
+)
+def test_offset_blend_meets_ends_and_limits_speed(angle, n, blend, speed):
+    """The end offsets are met exactly, and each joint's correction turns it by at most
+    ``max_step`` per frame, unless the gap is too short to fit it (then it spans the gap)."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.stitch.inbetween import _offset_blend
+
+    rng = np.random.default_rng(n)
+    J = 3
+    rots = rot.quat_normalize(rng.normal(size=(n, J, 4)))
+    axis = np.array([0.0, 0.6, 0.8])
+    big = rot.quat_exp(np.broadcast_to(axis * angle / 2, (J, 3)))  # offset of `angle` rad
+    r0 = rot.quat_mul(big, rots[0])
+    r1 = rots[-1]
+    trans = np.zeros((n, J, 3))
+    out_r, _ = _offset_blend(rots, trans, r0, r1, trans[0], trans[-1], blend, speed)
+    np.testing.assert_allclose(out_r[0], r0)
+    np.testing.assert_allclose(out_r[-1], r1)
+    # the correction alone: out_r q^-1, its angle from one frame to the next
+    corr = rot.quat_mul(out_r, rot.quat_inv(rots))
+    step = rot.quat_mul(corr[1:], rot.quat_inv(corr[:-1]))
+    turn = 2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0))
+    needed = int(np.ceil(1.5 * angle / speed))
+    if max(blend, needed) <= n - 1:  # room for the limit within the gap
+        assert turn.max() <= speed + 1e-6
+    else:  # the correction spans the gap, as slowly as it can
+        assert turn.max() <= 1.5 * angle / min(max(blend, needed), n - 1) + 1e-6
 
 
 @pytest.mark.parametrize(
