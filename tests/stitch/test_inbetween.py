@@ -279,6 +279,36 @@ def test_backward_walk_from_forward_library(humanoid):
     assert np.abs(Q[a:b] - T[a:b]).max() > 3 * np.abs(P[a:b] - T[a:b]).max()
 
 
+def test_report_names_every_segment_and_file_frames(humanoid):
+    """The fill averages several segments: all are named (JSON, sidecar), best first; a
+    library file at another frame rate is named by its own frame numbers; a Kalman fill that
+    was asked for is not a fallback and names no library segment as used."""
+    from mocapkit.features import resample
+
+    walk, lib = humanoid
+    a, b = 60, 90
+    res = inbetween(walk, (a, b), lib[:3], library_names=["w1", "w2", "r"], up="Y",
+                    method="library")  # fmt: skip
+    js = res.to_json()
+    assert len(js["blended_from"]) == 3 and js["source_used"] and not js["fell_back"]
+    assert js["blended_from"][0]["source_frames"] == js["source_frames"]
+    scores = [x["score"] for x in js["blended_from"]]
+    assert scores == sorted(scores)
+    prov = res.provenance("x.bvh").to_json()
+    assert prov["parameters"]["blended_from"] == js["blended_from"]
+    # the same library at twice the frame rate: the same segments, at twice the frame numbers
+    fast = [resample(m, 2 * m.fps) for m in lib[:3]]
+    res2 = inbetween(walk, (a, b), fast, library_names=["w1", "w2", "r"], up="Y",
+                     method="library")  # fmt: skip
+    for x, y in zip(res.blended_from, res2.blended_from, strict=True):
+        assert x["source"] == y["source"]
+        assert abs(y["source_frames"][0] - 2 * x["source_frames"][0]) <= 2
+        assert abs(y["source_frames"][1] - 2 * x["source_frames"][1]) <= 2
+    asked = inbetween(walk, (a, b), lib[:3], up="Y", method="kalman").to_json()
+    assert asked["method"] == "kalman" and asked["requested"] == "kalman"
+    assert not asked["fell_back"] and not asked["source_used"] and asked["blended_from"] == []
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     angle=st.floats(0.0, 3.0),
@@ -390,6 +420,8 @@ def test_view_marks_filled_frames(files):
     st = page_data([vm])["stitch"]
     assert st["kind"] == "inbetween" and st["generated"] == [60, 75]
     assert st["data"].startswith(str(files / "lib")) and len(st["sourceFrames"]) == 2
+    assert st["requested"] == "library" and len(st["blended"]) == 3
+    assert st["blended"][0]["frames"] == st["sourceFrames"]
 
 
 def test_demo_step(tmp_path, capsys):

@@ -51,8 +51,9 @@ from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS
     type=click.Choice(METHODS),
     default="auto",
     show_default=True,
-    help="auto: the library, or the Kalman transition when it scores better; library: never "
-    "fall back; kalman: the Kalman transition.",
+    help="auto: the library, or the Kalman transition when the library fill's two-sided "
+    "L-score is more than 4x the Kalman transition's (a library with nothing like the context); "
+    "library: never fall back; kalman: the Kalman transition.",
 )
 @up_option()
 @click.option(
@@ -73,15 +74,16 @@ def inbetween_cmd(
 ) -> None:
     """Replace frames A..B-1 of CLIP by motion found in the library.
 
-    Every segment of every library clip, of the gap's length and of nearby lengths time-warped
-    to fit, is scored by how well it continues the frames before the gap and leads into the
-    frames after it (the elastic L-score of stitching at both ends, in body-local joint
-    positions, plus how the body travels over the ground across the gap). The best one is
-    moved over the ground onto both ends and its remaining pose differences are blended away,
-    so the result meets the context poses exactly. When the Kalman transition of stitching
-    scores better than the best library segment, it fills the gap instead (and says so).
-    OUT gets a provenance sidecar naming the library clip and frames used
-    (``mocapkit view OUT`` marks them).
+    Every segment of every library clip (also played backwards), of the gap's length and of
+    nearby lengths time-warped to fit, is scored by how well its body-local poses match the
+    last two frames before the gap and the first frame after it, plus how the body travels
+    over the ground across the gap. The three best segments are each moved over the ground
+    onto both ends, their remaining pose differences blended away, and averaged, so the result
+    meets the context poses exactly. With --method auto the Kalman transition of stitching
+    fills the gap instead when the library fill's two-sided L-score (smoothness at both
+    junctions, lower is better) is more than 4x the Kalman transition's own, and says so.
+    OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
+    OUT`` marks them); --json writes the same with the scores.
 
     \b
     Examples:
@@ -127,6 +129,13 @@ def inbetween_cmd(
         f"distance {c.pose:.4g}, ground path {c.travel:.4g}; {res.candidates} candidates in "
         f"{res.search_seconds:.2f} s"
     )
+    for x in res.blended_from[1:]:
+        f0, f1 = x["source_frames"]
+        click.echo(
+            f"  averaged with: {x['source']} frames {f0}:{f1}"
+            f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
+            f"score {x['score']:.4g}"
+        )
     margin = DEFAULT_CONFIG.fallback_margin
     scores = (
         f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "
@@ -140,7 +149,10 @@ def inbetween_cmd(
         )
         click.echo(f"filled frames {a}:{b} with the Kalman transition ({why})")
     else:
-        click.echo(f"filled frames {a}:{b} from {res.source} ({scores})")
+        n = len(res.blended_from)
+        what = res.source if n == 1 else f"{n} library segments averaged"
+        kept = f"; the library fill is kept: within {margin:g}x" if method == "auto" else ""
+        click.echo(f"filled frames {a}:{b} from {what} ({scores}{kept})")
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
         write_motion(res.motion, out_path)

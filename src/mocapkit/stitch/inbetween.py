@@ -287,14 +287,19 @@ class InbetweenLibrary:
     backwards: tuple[bool, ...] = ()
     """Per motion: True where it is a library clip played backwards (same name; its frame t is
     the clip's frame ``F - 1 - t``; :attr:`InbetweenConfig.backwards`)."""
+    file_frames: tuple[float, ...] = ()
+    """Per motion: frames of its file per frame here (its file's rate over the clip's: a file
+    at another rate is resampled to the clip's)."""
 
     def clip_frames(self, clip: int, start: int, stop: int) -> tuple[int, int]:
-        """Frames ``start:stop`` of library motion ``clip`` as frames of the clip file it came
-        from (ascending, stop excluded): reversed for a clip played backwards."""
+        """Frames ``start:stop`` of library motion ``clip`` as frames of the file it came from
+        (its own frame numbers, ascending, stop excluded): reversed for a clip played
+        backwards, scaled for a file at another frame rate."""
         if self.backwards and self.backwards[clip]:
             F = self.motions[clip].num_frames
-            return F - stop, F - start
-        return start, stop
+            start, stop = F - stop, F - start
+        k = self.file_frames[clip] if self.file_frames else 1.0
+        return round(start * k), max(round(stop * k), round(start * k) + 1)
 
     def warp(self, rate: float) -> _Warped:
         for w in self.warped:
@@ -379,6 +384,7 @@ def prepare_library(
         raise ValueError(f"{len(names)} names for {len(motions)} library motions")
     up = up or features.detect_up_axis(reference)
     prepped, feats, ground, heading = [], [], [], []
+    scale = [reference.frame_time / m.frame_time for m in motions]
     for m, n in zip(motions, names, strict=True):
         m = _fit_proportions(conform(m, reference, n), m, reference)
         m = features.ground_root_on_path(m, up)
@@ -393,6 +399,7 @@ def prepare_library(
             x += [np.ascontiguousarray(v[::-1]) for v in x]
         names += names
         played += [True] * len(played)
+        scale += scale
     warped = []
     for r in config.warps:
         parts = []
@@ -412,7 +419,7 @@ def prepare_library(
         warped.append(_Warped(float(r), np.ascontiguousarray(cols[0]), *cols[1:]))
     return InbetweenLibrary(
         tuple(prepped), tuple(names), up, tuple(warped),
-        sum(m.num_frames for m in prepped[: len(motions)]), tuple(played),
+        sum(m.num_frames for m in prepped[: len(motions)]), tuple(played), tuple(scale),
     )  # fmt: skip
 
 
@@ -681,7 +688,11 @@ def search_inbetween_top(
         pool += [(float(total[i]), W, int(i), float(ls[i]), float(le[i]), float(travel[i]),
                   float(pose[i])) for i in top]  # fmt: skip
     if not pool:
-        raise ValueError(f"no library clip is long enough for a gap of {g} frames")
+        longest = max(int(np.bincount(W.clip).max()) for W in library.warped) - 3
+        raise ValueError(
+            f"no library clip is long enough for a gap of {g} frames (the longest fills a gap "
+            f"of {max(longest, 0)} frames, played at speed x{min(library.warped[0].rate, 1):g})"
+        )
     pool.sort(key=lambda x: x[0])
     chosen: list[Candidate] = []
     for score, W, i, l0, l1, tr, po in pool:
@@ -949,10 +960,12 @@ def kalman_fill(
 class Inbetween:
     """An in-betweened motion: ``motion`` is the clip with frames ``gap[0]..gap[1]-1`` replaced.
 
-    ``method``: "library" (filled from ``candidate``, library clip ``source``, frames
-    ``source_frames``) or "kalman" (the fallback; ``candidate`` is still the best library
-    candidate). ``kalman_lscore``: the Kalman transition's own two-sided L-score;
-    ``candidates``: library candidates scored; ``search_seconds``: wall time of the search.
+    ``method``: "library" (filled from the best candidate ``candidate``, library file
+    ``source``, its frames ``source_frames``, averaged with the next best ones: all of them in
+    ``blended_from``) or "kalman" (the Kalman transition: asked for, or the fallback of
+    ``requested`` "auto"; ``candidate`` is still the best library candidate, for the report).
+    ``kalman_lscore``: the Kalman transition's own two-sided L-score; ``candidates``: library
+    candidates scored; ``search_seconds``: wall time of the search.
     """
 
     motion: Motion
@@ -973,10 +986,17 @@ class Inbetween:
     backwards: bool = False
     """True when the library clip was played backwards (its frames ``source_frames`` fill the
     gap in reverse order)."""
+    blended_from: tuple[dict[str, Any], ...] = ()
+    """Every library segment averaged into the fill, best first: ``source`` (file),
+    ``source_frames`` (its frame numbers, ascending, stop excluded), ``backwards``, ``rate``
+    (speed factor), ``score``. Empty when the Kalman transition filled the gap."""
+    requested: str = "auto"
+    """The method asked for (:data:`METHODS`)."""
 
     @property
     def fell_back(self) -> bool:
-        return self.method == "kalman"
+        """True when "auto" chose the Kalman transition over the library."""
+        return self.method == "kalman" and self.requested == "auto"
 
     def difference_to(self, reference: Motion) -> float:
         """The largest joint position difference (file units) between the filled frames and
@@ -995,7 +1015,7 @@ class Inbetween:
         a, b = self.gap
         F = self.motion.num_frames
         s0, s1 = self.source_frames
-        if self.fell_back:
+        if self.method == "kalman":
             mid = Segment(a, b, "generated", None, None, None)
             trans = [
                 TransitionTaken(a, self.clip_name, a - 1, self.clip_name, b, self.kalman_lscore)
@@ -1015,8 +1035,10 @@ class Inbetween:
             Segment(b, F, "clip", self.clip_name, b, F),
         ]
         params = {"gap": [a, b], "method": self.method, **self.parameters, **(parameters or {})}
-        if not self.fell_back:
+        params["requested"] = self.requested
+        if self.method == "library":
             params["source_backwards"] = self.backwards
+            params["blended_from"] = [dict(x) for x in self.blended_from]
         return Provenance(
             "inbetween", str(output), float(self.motion.fps), F,
             [self.clip_name, *self.library_names], params, segs, trans,
@@ -1025,15 +1047,20 @@ class Inbetween:
     def to_json(self) -> dict[str, Any]:
         c = self.candidate
         a, b = self.gap
+        used = self.method == "library"
         return {
             "clip": self.clip_name,
             "gap": [a, b],
             "method": self.method,
+            "requested": self.requested,
             "fell_back": self.fell_back,
+            # the best library segment (filled the gap averaged with blended_from's others,
+            # or, when the Kalman transition filled it, the one it was compared with)
             "source": self.source,
             "source_frames": list(self.source_frames),
             "source_backwards": self.backwards,
-            "source_start": round(c.start, 4),
+            "source_used": used,
+            "blended_from": [dict(x) for x in self.blended_from],
             "rate": c.rate,
             "score": c.score,
             "lscore": c.lscore,
@@ -1126,10 +1153,20 @@ def inbetween(
         motion = _lock_feet(motion, a, b, up, config)
     how = "kalman" if use_kalman else "library"
     used = tuple(dict.fromkeys(lib.names))  # each file once, also when played backwards
+    blended = tuple(
+        {
+            "source": lib.names[c.clip],
+            "source_frames": list(lib.clip_frames(c.clip, *c.source_frames(b - a))),
+            "backwards": bool(lib.backwards and lib.backwards[c.clip]),
+            "rate": c.rate,
+            "score": c.score,
+        }
+        for c in cands
+    )
     return Inbetween(
         motion, (a, b), how, cand, lib.names[cand.clip], kal, count, seconds,
         str(clip_name), used, None if output is None else str(output),
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
-        lib_score, lib.clip_frames(cand.clip, *cand.source_frames(b - a)),
-        bool(lib.backwards and lib.backwards[cand.clip]),
+        lib_score, tuple(blended[0]["source_frames"]), blended[0]["backwards"],
+        () if use_kalman else blended, method,
     )  # fmt: skip

@@ -301,6 +301,15 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "data": mid.source,
         "sourceFrames": None if mid.source is None else [mid.source_start, mid.source_stop],
         "backwards": bool(plan.parameters.get("source_backwards", False)),
+        "requested": plan.parameters.get("requested"),
+        "blended": [
+            {
+                "data": x.get("source"),
+                "frames": x.get("source_frames"),
+                "backwards": bool(x.get("backwards")),
+            }
+            for x in plan.parameters.get("blended_from") or []
+        ],
         "method": plan.parameters.get("method"),
     }
 

@@ -442,8 +442,9 @@
     // where it overlaps no label already placed (4 px apart); no room: left out
     var items = [];
     if (stitch) {
-      items.push({ x: mfx(stitch.motion, stitch.takeoff, w), text: 'take-off', color: '#4fc3f7' });
-      items.push({ x: mfx(stitch.motion, stitch.landing, w), text: 'landing', color: '#81c784' });
+      var gapLabels = stitch.kind === 'inbetween' ? ['last frame before gap', 'first frame after gap'] : ['take-off', 'landing'];
+      items.push({ x: mfx(stitch.motion, stitch.takeoff, w), text: gapLabels[0], color: '#4fc3f7' });
+      items.push({ x: mfx(stitch.motion, stitch.landing, w), text: gapLabels[1], color: '#81c784' });
     }
     var costs = graphTrans.filter(function (t) { return t.cost !== null; }).map(function (t) {
       return { x: mfx(graph.motion, t.frame, w), text: shortCost(t.cost), color: '#ff8a65' };
@@ -650,8 +651,15 @@
       (clean.repairedCells != null ? ', ' + clean.repairedCells + ' repaired cells' : '') + '; joints of ' + base(motions[clean.motion].meta.name) + ' coloured by MDM (blue 0 \u2192 red 1)');
   }
   if (stitch && stitch.kind === 'inbetween') {
-    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' +
-      (stitch.data ? 'from ' + base(stitch.data) + ' frames ' + stitch.sourceFrames[0] + '\u2013' + (stitch.sourceFrames[1] - 1) + (stitch.backwards ? ' played backwards' : '') : 'by the Kalman transition (no library segment scored better)'));
+    var segText = function (x) {
+      return base(x.data) + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '');
+    };
+    var blended = stitch.blended || [];
+    var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
+        'by the Kalman transition (the library fill was far less smooth at the junctions)') :
+      blended.length > 1 ? 'by averaging ' + blended.length + ' library segments: ' + blended.map(segText).join('; ') :
+      'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
+    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from);
   } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
       ' (k = ' + stitch.k + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
