@@ -409,6 +409,51 @@ def test_cli_bad_gap(files, gap, msg):
     assert not (files / "bad.bvh").exists()
 
 
+def test_cli_goes_past_bad_library_files(files, tmp_path):
+    """As every library job: an unreadable file and one with another skeleton are left out
+    with one error line each, the gap is filled from the others, and the status is 2."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "good.bvh").write_bytes((files / "lib" / "l0.bvh").read_bytes())
+    (lib / "broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
+    write_motion(datasets.procedural_motion("walk", 2.0, seed=0).motion, lib / "other.bvh")
+    out = tmp_path / "o.bvh"
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library", lib,
+                       "--out", out, "--json", tmp_path / "r.json")  # fmt: skip
+    assert code == 2 and "Traceback" not in se
+    errors = [x for x in se.splitlines() if x.startswith("mocapkit: error: left out")]
+    assert len(errors) == 2
+    assert any("broken.bvh" in x for x in errors) and any("other.bvh" in x for x in errors)
+    assert out.exists() and "filled frames 60:75" in so
+    js = json.loads((tmp_path / "r.json").read_text())
+    assert len(js["skipped"]) == 2 and js["source"].endswith("good.bvh")
+    (lib / "good.bvh").unlink()
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library", lib,
+                      "--out", tmp_path / "p.bvh")  # fmt: skip
+    assert code == 2 and "no library motion with" in se and not (tmp_path / "p.bvh").exists()
+
+
+def test_gap_longer_than_library(humanoid, tmp_path):
+    """No library clip fits the gap: "auto" fills it with the Kalman transition and says why
+    (the longest gap the library can fill); "library" refuses in one line."""
+    walk, lib = humanoid
+    short = lib[0][:40]
+    res = inbetween(walk, (20, 120), [short], up="Y")
+    assert res.method == "kalman" and res.candidate is None and res.source is None
+    assert "no library clip is long enough" in res.note and "fills a gap of" in res.note
+    js = res.to_json()
+    assert js["source_frames"] is None and js["library_lscore"] is None and js["note"]
+    assert res.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
+    with pytest.raises(ValueError, match="long enough"):
+        inbetween(walk, (20, 120), [short], up="Y", method="library")
+    write_motion(walk, tmp_path / "w.bvh")
+    write_motion(short, tmp_path / "s.bvh")
+    code, so, se = run("inbetween", tmp_path / "w.bvh", "--gap", "20:120", "--library",
+                       tmp_path / "s.bvh", "--out", tmp_path / "o.bvh")  # fmt: skip
+    assert code == 0, se
+    assert "with the Kalman transition (no library clip is long enough" in so
+
+
 def test_view_marks_filled_frames(files):
     from mocapkit.provenance import find_provenance
     from mocapkit.viz.viewer import ViewMotion, page_data

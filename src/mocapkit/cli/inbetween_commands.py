@@ -16,9 +16,10 @@ from mocapkit.cli.common import (
     expand_inputs,
     friendly_errors,
     load,
-    load_all,
+    load_readable,
     main,
     naming,
+    one_line,
     same_file,
     up_option,
     write_json,
@@ -28,6 +29,7 @@ from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS
+from mocapkit.stitch.search import check_same_skeleton
 
 
 @main.command("inbetween")
@@ -115,20 +117,35 @@ def inbetween_cmd(
             a, b = spec.frames(q.fps, q.num_frames)
         except RangeError as e:
             raise CLIError(f"{clip}: {e}") from None
-    lib = load_all(lib_paths, lenient)
+    # as every library job: a file that cannot be read, or has another skeleton, is left out
+    # (one error line each, exit status 2 at the end) and the others go on
+    lib_paths, lib, skipped = load_readable(lib_paths, lenient)
+    kept = []
+    for p, m in zip(lib_paths, lib, strict=True):
+        try:
+            check_same_skeleton(m, q, str(p))
+            kept.append((p, m))
+        except ValueError as e:
+            skipped.append(one_line(e))
+    for why in skipped:
+        click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
+    if not kept:
+        raise CLIError(f"--library: no library motion with {clip}'s skeleton could be read")
+    lib_paths, lib = [p for p, _ in kept], [m for _, m in kept]
     with naming(clip, *lib_paths):
         res = inbetween(
             q, (a, b), lib, library_names=[str(p) for p in lib_paths], method=method, up=up,
             clip_name=clip, output=out_path,
         )  # fmt: skip
     c = res.candidate
-    s0, s1 = res.source_frames
-    click.echo(
-        f"best library segment: {res.source} frames {s0}:{s1}"
-        f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}), pose "
-        f"distance {c.pose:.4g}, ground path {c.travel:.4g}; {res.candidates} candidates in "
-        f"{res.search_seconds:.2f} s"
-    )
+    if c is not None and res.source_frames is not None:
+        s0, s1 = res.source_frames
+        click.echo(
+            f"best library segment: {res.source} frames {s0}:{s1}"
+            f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}), pose "
+            f"distance {c.pose:.4g}, ground path {c.travel:.4g}; {res.candidates} candidates "
+            f"in {res.search_seconds:.2f} s"
+        )
     for x in res.blended_from[1:]:
         f0, f1 = x["source_frames"]
         click.echo(
@@ -141,12 +158,13 @@ def inbetween_cmd(
         f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "
         f"{res.kalman_lscore:.6g} from the Kalman transition"
     )
-    if res.fell_back:
-        why = (
-            f"the library fill's L-score is over {margin:g}x the Kalman transition's: {scores}"
-            if method == "auto"
-            else "--method kalman"
-        )
+    if res.method == "kalman":
+        if method == "kalman":
+            why = "--method kalman"
+        elif res.note:
+            why = res.note
+        else:
+            why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         click.echo(f"filled frames {a}:{b} with the Kalman transition ({why})")
     else:
         n = len(res.blended_from)
@@ -159,10 +177,12 @@ def inbetween_cmd(
         side = res.provenance(out_path, {"gap_spec": gap}).write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         if json_path:
-            write_json(json_path, res.to_json())
+            write_json(json_path, {**res.to_json(), "skipped": skipped})
             wrote.append(f"wrote {json_path}")
     for line in wrote:
         click.echo(line)
+    if skipped:  # the gap is filled from the others; the status says not all were used
+        raise click.exceptions.Exit(2)
 
 
 # ------------------------------------------------------------------------------------ demo
@@ -184,11 +204,12 @@ def inbetween_demo_step(out: Path) -> None:
     write_motion(res.motion, bvh)
     side = res.provenance(bvh).write(bvh)
     err = res.difference_to(walk)
-    s0, s1 = res.source_frames
+    used = [f"{x['source']} frames {x['source_frames'][0]}:{x['source_frames'][1]}"
+            for x in res.blended_from]  # fmt: skip
     click.echo(
-        f"  gap {a}:{b} of the walk filled by {res.method}: {res.source} frames {s0}:{s1} "
-        f"(x{res.candidate.rate:g}); largest joint difference to the blanked frames "
-        f"{err * 100:.1f} cm"
+        f"  gap {a}:{b} of the walk filled by {res.method}"
+        f"{' from ' + ', '.join(used) if used else ''}; largest joint difference to the "
+        f"blanked frames {err * 100:.1f} cm"
     )
     click.echo(f"  wrote {bvh}, {side.name} (mocapkit view {bvh.name} marks the filled frames)")
     res.motion.check_finite("demo: the in-betweened motion")

@@ -971,8 +971,8 @@ class Inbetween:
     motion: Motion
     gap: tuple[int, int]
     method: str
-    candidate: Candidate
-    source: str
+    candidate: Candidate | None
+    source: str | None
     kalman_lscore: float
     candidates: int
     search_seconds: float
@@ -981,7 +981,7 @@ class Inbetween:
     output: str | None = None
     parameters: dict[str, Any] = field(default_factory=dict)
     library_lscore: float = math.nan
-    source_frames: tuple[int, int] = (0, 0)
+    source_frames: tuple[int, int] | None = None
     """Frames of the library clip file that fill the gap (ascending, stop excluded)."""
     backwards: bool = False
     """True when the library clip was played backwards (its frames ``source_frames`` fill the
@@ -992,6 +992,9 @@ class Inbetween:
     (speed factor), ``score``. Empty when the Kalman transition filled the gap."""
     requested: str = "auto"
     """The method asked for (:data:`METHODS`)."""
+    note: str = ""
+    """Why there is no library candidate (e.g. no library clip long enough for the gap), in
+    which case ``candidate`` and ``source`` are None and the Kalman transition fills it."""
 
     @property
     def fell_back(self) -> bool:
@@ -1014,13 +1017,14 @@ class Inbetween:
         the clip's frames again, and the two junctions as transitions."""
         a, b = self.gap
         F = self.motion.num_frames
-        s0, s1 = self.source_frames
         if self.method == "kalman":
             mid = Segment(a, b, "generated", None, None, None)
             trans = [
                 TransitionTaken(a, self.clip_name, a - 1, self.clip_name, b, self.kalman_lscore)
             ]
         else:
+            assert self.source_frames is not None and self.candidate is not None
+            s0, s1 = self.source_frames
             mid = Segment(a, b, "inbetween", self.source, s0, s1)
             first, last = (s1 - 1, s0) if self.backwards else (s0, s1 - 1)  # in gap order
             trans = [
@@ -1057,18 +1061,16 @@ class Inbetween:
             # the best library segment (filled the gap averaged with blended_from's others,
             # or, when the Kalman transition filled it, the one it was compared with)
             "source": self.source,
-            "source_frames": list(self.source_frames),
+            "source_frames": None if self.source_frames is None else list(self.source_frames),
             "source_backwards": self.backwards,
             "source_used": used,
             "blended_from": [dict(x) for x in self.blended_from],
-            "rate": c.rate,
-            "score": c.score,
-            "lscore": c.lscore,
-            "lscore_start": c.lscore_start,
-            "lscore_end": c.lscore_end,
-            "travel": c.travel,
-            "pose": c.pose,
-            "library_lscore": self.library_lscore,
+            **{
+                k: None if c is None else getattr(c, k)
+                for k in ("rate", "score", "lscore", "lscore_start", "lscore_end", "travel", "pose")
+            },
+            "library_lscore": None if math.isnan(self.library_lscore) else self.library_lscore,
+            "note": self.note or None,
             "kalman_lscore": self.kalman_lscore,
             "candidates": self.candidates,
             "search_seconds": round(self.search_seconds, 4),
@@ -1131,20 +1133,31 @@ def inbetween(
     ctx = _context(onpath, a, b, w, up, future_frames)
     mpu = features.metres_per_unit(clip, None)
     t0 = time.perf_counter()
-    cands, count = search_inbetween_top(
-        ctx, b - a, lib, config.neighbours, w=w, config=config, model=model,
-        metres_per_unit=mpu,
-    )  # fmt: skip
-    cand = cands[0]
+    note = ""
+    try:
+        cands, count = search_inbetween_top(
+            ctx, b - a, lib, config.neighbours, w=w, config=config, model=model,
+            metres_per_unit=mpu,
+        )  # fmt: skip
+    except ValueError as e:  # no library clip fits the gap: only the Kalman transition can
+        if method == "library" or (not config.fallback and method == "auto"):
+            raise
+        cands, count, note = [], 0, str(e)
+    cand = cands[0] if cands else None
     seconds = time.perf_counter() - t0
     kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
     kal = _two_sided(onpath, kfill, a, b, ctx, w, up, model)
-    lfill = _average_fills(
-        [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config) for c in cands]
-    )
-    lib_score = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
-    use_kalman = method == "kalman" or (
-        method == "auto" and config.fallback and lib_score > config.fallback_margin * kal
+    lib_score, lfill = math.nan, None
+    if cands:
+        lfill = _average_fills(
+            [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config)
+             for c in cands]
+        )  # fmt: skip
+        lib_score = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
+    use_kalman = (
+        method == "kalman"
+        or lfill is None
+        or (method == "auto" and config.fallback and lib_score > config.fallback_margin * kal)
     )
     fill = kfill if use_kalman else lfill
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip)
@@ -1163,10 +1176,11 @@ def inbetween(
         }
         for c in cands
     )
+    best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
     return Inbetween(
-        motion, (a, b), how, cand, lib.names[cand.clip], kal, count, seconds,
+        motion, (a, b), how, cand, best["source"], kal, count, seconds,
         str(clip_name), used, None if output is None else str(output),
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
-        lib_score, tuple(blended[0]["source_frames"]), blended[0]["backwards"],
-        () if use_kalman else blended, method,
+        lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
+        () if use_kalman else blended, method, note,
     )  # fmt: skip

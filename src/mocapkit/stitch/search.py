@@ -96,13 +96,9 @@ def motion_features(
     return np.ascontiguousarray(lp[:, idx, :].reshape(motion.num_frames, 3 * len(idx)))
 
 
-def conform(data: Motion, reference: Motion, name: str = "data clip") -> Motion:
-    """``data`` expressed on ``reference``'s skeleton: joints reordered by name, resampled to the
-    reference's frame time if it differs. The clips must have the same joint names and the same
-    parent of every joint (ValueError naming the differences otherwise). Rotations, the root
-    position and the animated translations of the joints that have position channels in the
-    reference skeleton come from ``data``; bone offsets come from the reference.
-    """
+def check_same_skeleton(data: Motion, reference: Motion, name: str = "data clip") -> None:
+    """ValueError naming ``name`` and the differences unless ``data`` has ``reference``'s joint
+    names and the same parent of every joint (in any joint order)."""
     rs, ds = reference.skeleton, data.skeleton
     if set(rs.names) != set(ds.names) or len(rs.names) != len(ds.names):
         missing = sorted(set(rs.names) - set(ds.names))
@@ -117,6 +113,18 @@ def conform(data: Motion, reference: Motion, name: str = "data clip") -> Motion:
         pr, pd = int(rs.parents[j]), int(ds.parents[order[j]])
         if (pr < 0) != (pd < 0) or (pr >= 0 and rs.names[pr] != ds.names[pd]):
             raise ValueError(f"{name}: joint {n!r} has a different parent than in the query")
+
+
+def conform(data: Motion, reference: Motion, name: str = "data clip") -> Motion:
+    """``data`` expressed on ``reference``'s skeleton: joints reordered by name, resampled to the
+    reference's frame time if it differs. The clips must have the same joint names and the same
+    parent of every joint (ValueError naming the differences otherwise). Rotations, the root
+    position and the animated translations of the joints that have position channels in the
+    reference skeleton come from ``data``; bone offsets come from the reference.
+    """
+    check_same_skeleton(data, reference, name)
+    rs, ds = reference.skeleton, data.skeleton
+    order = [ds.index(n) for n in rs.names]
     if not np.isclose(data.frame_time, reference.frame_time, rtol=1e-6, atol=0):
         from mocapkit.features import resample
 
