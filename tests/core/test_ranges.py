@@ -47,6 +47,8 @@ def test_single_positions_are_one_frame_ranges() -> None:
         ("1.5:3", False, "expected A:B"),  # seconds need their s
         ("60", False, "expected A:B"),  # a lone frame is not a range here
         ("20:10", False, "reversed"),
+        ("2s:3", False, "different units: 3 is a frame number"),  # meant 2s:3s
+        ("90:2s", False, "different units: 2s is a time"),
         ("10:10", False, "empty"),
         ("1s:1s", False, "empty"),
         ("0:301", False, "past the end"),

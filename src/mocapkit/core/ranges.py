@@ -118,7 +118,20 @@ class RangeSpec:
                 f"{num_frames / fps:.6g} s at {fps:.6g} fps; expected within 0:{num_frames})"
             )
         if hi < lo:
-            raise RangeError(f"{where}: reversed range (frames {lo}:{hi}); expected A:B with A < B")
+            mixed = (
+                self.start is not None
+                and self.stop is not None
+                and self.start.seconds != self.stop.seconds
+            )
+            hint = (
+                f" ({self.start} and {self.stop} are in different units: {self.stop} is "
+                f"{'a time' if self.stop.seconds else 'a frame number'})"
+                if mixed
+                else ""
+            )
+            raise RangeError(
+                f"{where}: reversed range (frames {lo}:{hi}){hint}; expected A:B with A < B"
+            )
         if hi == lo:
             raise RangeError(f"{where}: empty range (frames {lo}:{hi}); expected A:B with A < B")
         return lo, hi
