@@ -135,7 +135,10 @@ __all__ = [
 @dataclass(frozen=True)
 class InbetweenConfig:
     """Every tunable of in-betweening, in physical units (converted to frames with the clip's
-    frame time). Tuned on the held-out tenth of bandai2 (bench/bench_inbetween.py --tune)."""
+    frame time). Tuned on the held-out tenth of bandai2 (bench/bench_inbetween.py --tune).
+    The figures quoted for ``backwards`` and ``blend_max_speed_deg`` were measured with the
+    tuning take's style left out of the library (``--tune``, as the test's people and styles
+    are not in it); the older ones with it in (``--tune --same-style``)."""
 
     window_seconds: float = 1 / 6
     """L-score half window w (5 frames at 30 fps, stitching's default): enough frames for the
