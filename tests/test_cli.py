@@ -121,8 +121,12 @@ def test_demo_runs_and_writes_outputs(tmp_path: Path) -> None:
         "humanoid_wave.bvh",
         "three_circles.csv",
         "humanoid_walk_60fps_zyx.bvh",
+        "inbetween_walk.bvh",
+        "view_inbetween.html",  # the gap marked from the sidecar
     } <= files
     assert "round trip exact" in out
+    page = (tmp_path / "d" / "view_inbetween.html").read_text()
+    assert '"kind": "inbetween"' in page or '"kind":"inbetween"' in page
 
 
 def test_console_script_runs_as_a_real_process(walk_bvh: Path) -> None:

@@ -123,6 +123,7 @@ def view_demo_step(out: Path) -> None:
             {"stitch": "stitch_walk_idle.json"},
         ),
         ("view_graph.html", ["graph_random_walk.bvh"], {"graph": "humanoid_graph.json"}),
+        ("view_inbetween.html", ["inbetween_walk.bvh"], {}),  # its sidecar marks the gap
     ]
     wrote = 0
     for name, files, overlays in examples:
