@@ -120,6 +120,7 @@ __all__ = [
     "Inbetween",
     "InbetweenConfig",
     "InbetweenLibrary",
+    "NoLibraryFitError",
     "check_gap",
     "inbetween",
     "kalman_fill",
@@ -496,6 +497,10 @@ def _sliding_lscores(fixed, X: np.ndarray, fixed_first: bool, w: int, model) -> 
 # --------------------------------------------------------------------------------- search
 
 
+class NoLibraryFitError(ValueError):
+    """No library clip is long enough for the gap (the message says the longest it fills)."""
+
+
 @dataclass(frozen=True)
 class Candidate:
     """A library segment for the gap: library clip ``clip``, its fractional frame ``start``
@@ -692,7 +697,7 @@ def search_inbetween_top(
                   float(pose[i])) for i in top]  # fmt: skip
     if not pool:
         longest = max(int(np.bincount(W.clip).max()) for W in library.warped) - 3
-        raise ValueError(
+        raise NoLibraryFitError(
             f"no library clip is long enough for a gap of {g} frames (the longest fills a gap "
             f"of {max(longest, 0)} frames, played at speed x{min(library.warped[0].rate, 1):g})"
         )
@@ -1142,7 +1147,7 @@ def inbetween(
             ctx, b - a, lib, config.neighbours, w=w, config=config, model=model,
             metres_per_unit=mpu,
         )  # fmt: skip
-    except ValueError as e:  # no library clip fits the gap: only the Kalman transition can
+    except NoLibraryFitError as e:  # no library clip fits the gap: only the Kalman transition can
         if method == "library" or (not config.fallback and method == "auto"):
             raise
         cands, count, note = [], 0, str(e)
