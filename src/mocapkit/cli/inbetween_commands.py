@@ -54,7 +54,8 @@ from mocapkit.stitch.search import check_same_skeleton
     default="auto",
     show_default=True,
     help="auto: the library, or the Kalman transition when the library fill's two-sided "
-    "L-score is more than 4x the Kalman transition's (a library with nothing like the context); "
+    f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's (a "
+    "library with nothing like the context); "
     "library: never fall back; kalman: the Kalman transition.",
 )
 @up_option()
@@ -169,8 +170,8 @@ def inbetween_cmd(
     else:
         n = len(res.blended_from)
         what = res.source if n == 1 else f"{n} library segments averaged"
-        kept = f"; the library fill is kept: within {margin:g}x" if method == "auto" else ""
-        click.echo(f"filled frames {a}:{b} from {what} ({scores}{kept})")
+        within = f"; the library fill is kept: within {margin:g}x" if method == "auto" else ""
+        click.echo(f"filled frames {a}:{b} from {what} ({scores}{within})")
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
         write_motion(res.motion, out_path)
