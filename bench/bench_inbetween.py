@@ -288,7 +288,11 @@ def library_without(lib, drop: set[int]):
     return replace(
         lib,
         warped=tuple(warped),
-        frames=sum(m.num_frames for i, m in enumerate(lib.motions) if i not in drop),
+        frames=sum(  # the files as recorded, not their reversed copies
+            m.num_frames
+            for i, m in enumerate(lib.motions)
+            if i not in drop and not (lib.backwards and lib.backwards[i])
+        ),
     )
 
 
