@@ -325,14 +325,17 @@ def test_frozen_straight_hinge_is_parked() -> None:
     assert fl.mask[12:78, 0].all()
 
 
-def twisting_elbow(F: int = 300, bend_deg: float = 10.0, swing_deg: float = 2.0) -> np.ndarray:
+def twisting_elbow(
+    F: int = 300, bend_deg: float = 10.0, swing_deg: float = 2.0, twist_deg: float = 40.0
+) -> np.ndarray:
     """(F, 1, 4) an elbow (the limb below along +y) bent ``bend_deg`` +- ``swing_deg`` about x
-    while the forearm twists +-40 deg about its own bone (a wave by twisting the forearm)."""
+    while the forearm twists +-``twist_deg`` about its own bone (a wave by twisting the
+    forearm)."""
     t = np.arange(F) / FPS
     zero = np.zeros(F)
     flex = np.radians(bend_deg + swing_deg * np.sin(t))
     bend = rot.rotvec_to_quat(np.stack([flex, zero, zero], axis=1))
-    tw = np.radians(40.0) * np.sin(2 * np.pi * t / 1.5)
+    tw = np.radians(twist_deg) * np.sin(2 * np.pi * t / 1.5)
     twist = rot.rotvec_to_quat(np.stack([zero, tw, zero], axis=1))
     return rot.quat_mul(bend, twist)[:, None]
 
@@ -354,18 +357,35 @@ def hinge_flags(q: np.ndarray, **kw) -> np.ndarray:
     return fl.mask
 
 
+def full_fit_flexion(q: np.ndarray) -> np.ndarray:
+    """Degrees of flexion about the main axis of a hinge's *full* rotation vectors (twist
+    included): the fit the rule no longer makes, to show what it would flag."""
+    rv = rot.quat_to_rotvec(q[:, 0])
+    axis = np.linalg.svd(rv, full_matrices=False)[2][0]
+    return np.degrees(rv @ (axis if np.median(rv @ axis) > 0 else -axis))
+
+
 def test_wrong_way_hinge_held_elbow_is_judged_on_its_bend_not_its_twist() -> None:
     q = twisting_elbow()  # bends 8-12 deg only: below hinge_bend_deg (20)
     assert not hinge_flags(q).any()  # must not fire: a twist is no bend
-    # the take's own fit on the full rotations (hinge_bend_deg 0) takes the twist for flexion
-    assert hinge_flags(q, config=DetectConfig(hinge_bend_deg=0.0)).sum() > 20
+    assert (full_fit_flexion(q) < -15.0).sum() > 20  # a fit on the twist would have fired
     # must fire: bent 40 deg back while still twisting, flagged there and only there
     m = hinge_flags(wrong_bend(q, slice(60, 72)))
     assert m[60:72, 0].all() and m.sum() == 12
 
 
-def test_wrong_way_hinge_bending_elbow_keeps_its_own_fit() -> None:
-    # bends 10-70 deg: its own rotations show the axis, fitted whole
+def test_wrong_way_hinge_bending_elbow_is_judged_on_its_bend_not_its_twist() -> None:
+    # bends 10-40 deg while the forearm twists +-70 deg (a wave): the full rotations' main axis
+    # leans to the twist, and twisting back read as a wrong-way bend
+    q = twisting_elbow(bend_deg=25.0, swing_deg=15.0, twist_deg=70.0)
+    assert (full_fit_flexion(q) < -15.0).sum() > 100
+    assert not hinge_flags(q).any()  # must not fire
+    m = hinge_flags(wrong_bend(q, slice(60, 72), 70.0))  # must fire: 30-60 deg past straight
+    assert m[60:72, 0].all() and m.sum() == 12
+
+
+def test_wrong_way_hinge_bending_elbow_fits_its_own_bend() -> None:
+    # bends 10-70 deg: its own bend shows the axis, no context needed
     q = twisting_elbow(bend_deg=40.0, swing_deg=30.0)
     assert not hinge_flags(q).any()  # must not fire
     m = hinge_flags(wrong_bend(q, slice(60, 72), 90.0))  # must fire: 20-50 deg past straight

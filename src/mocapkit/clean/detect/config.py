@@ -6,10 +6,10 @@ Each field carries the reason for its value. The values were chosen on injected 
 Bandai-1 walks before issue #16; which rules run was then decided on the validation half of
 Bandai-1 (``mocapkit.clean.detect.RETIRED``), and Bandai-2 and the raw CMU takes are reported
 without retuning (bench/eval_clean.py). ``noise_ratio``, ``abrupt_nearest``, ``abrupt_trim``,
-``hinge_context``, ``hinge_bend_deg`` and ``frozen_straight_deg`` were then set on the Bandai-1
-tuning half, its gesture takes and its takes resampled to 120 fps (a stand-in for CMU's rate),
-and kept on its validation half. Fields of retired rules matter only when a pipeline puts those
-rules back.
+``hinge_context``, ``hinge_bend_deg`` and ``frozen_straight_deg`` (and the hinges' bend-only
+axis, which has no field) were then set on the Bandai-1 tuning half, its gesture takes and its
+takes resampled to 120 fps (a stand-in for CMU's rate), and kept on its validation half. Fields
+of retired rules matter only when a pipeline puts those rules back.
 """
 
 from __future__ import annotations
@@ -212,18 +212,13 @@ class DetectConfig:
     #: styles turned a take's whole normal flexion into a wrong-way bend.
     hinge_context: bool = False
     #: A hinge whose bend angle (between its two bones) spans less than this (degrees, 5th to
-    #: 95th percentile over the take) is held, straight or a little bent, and its own rotations
-    #: do not show its flexion axis: a Bandai elbow carries the forearm's twist, and a wave by
-    #: forearm twist made the twist the take's main axis, read as flexion (Bandai-1 tuning
-    #: gestures: byebye_feminine's right elbow wrong-way on its clean take and in every
-    #: injected copy). Such a hinge's axis is fitted on its bend alone (the twist about the limb
-    #: below left out), pooled with the context's takes where there are any; a hinge that bends
-    #: keeps the take's own fit. 10, 20 and 30 gave the same flags on the tuning half (0: the
-    #: take's own fit always).
+    #: 95th percentile over the take) is held, straight or a little bent, and even its bend does
+    #: not show its flexion axis well: the axis is then fitted on the context's takes too, where
+    #: there are any (the flexion axis itself is always fitted on the bend, the twist about the
+    #: limb below left out: a forearm twisted in a wave is no flexion; see
+    #: ``Evidence.hinge_flexion``). 10, 20 and 30 gave the same flags on the tuning half (0: every
+    #: hinge on its own take).
     hinge_bend_deg: float = 20.0
-    #: Fit every hinge on its bend alone, bending or not (off: lost hits on the tuning half where
-    #: the own fit caught an error's twist, with no fewer false alarms than ``hinge_bend_deg``).
-    hinge_swing: bool = False
 
     # ------------------------------------------------------------------ extension
     #: (Retired rule.) Stretch every flagged run to the steps (above ``step_min_deg``) within

@@ -19,12 +19,10 @@ class WrongWayHinges:
     straight the wrong way (flexion about the joint's main rotation axis, signed so that the
     joint spends most of its time on the positive side), whatever the MDM.
 
-    The axis is the take's own where the hinge really bends over the take: the angle between
-    its two bones spans at least ``hinge_bend_deg`` (20 degrees) between its 5th and 95th
-    percentiles. A hinge held straight or a little bent does not show its axis in its own
-    rotations (a forearm twisted in a wave became the "flexion"): its axis is fitted on the bend
-    alone, the twist about the limb below left out, with the context's takes where there are
-    any (:attr:`Evidence.hinge_flexion`).
+    The axis is fitted on the hinge's bend alone (the swing of the limb below; its twist about
+    that limb is left out: a forearm twisted in a wave is no flexion), on the take's own frames,
+    with the context's takes where the hinge barely bends over the take
+    (:attr:`Evidence.hinge_flexion`).
 
     Relies on: anatomy; a hinge cannot bend backwards, whatever the context holds (and several
     wrong bends on one joint would match each other in the KNN search), and it bends about an
