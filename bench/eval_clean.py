@@ -163,6 +163,81 @@ def find_glitches(motion, step_deg=30.0, ratio=6.0, sigmas=15.0, window=25, merg
     return out
 
 
+def find_excursions(
+    motion,
+    dev_deg=10.0,
+    max_seconds=0.05,
+    window_seconds=0.15,
+    settle_frac=0.5,
+    merge_seconds=0.05,
+) -> list:
+    """A second blind glitch signal (independent of the cleaner and of ``find_glitches``): short
+    out-and-back excursions of a joint's rotation away from its own local trajectory.
+
+    Voluntary human movement has almost no power above ~10 Hz (its spectrum falls off well below
+    that; what lies above is tremor of a degree or less and capture noise), so a joint that
+    leaves its path by ``dev_deg`` (10 deg) and is back on it within ``max_seconds`` (50 ms, 6
+    frames at 120 fps: the out-and-back of a >= 10 Hz component) is not motion a person makes: it
+    is a marker swap, an occlusion or a solver pop. Per joint: the local trajectory is the running
+    median (componentwise, over sign-continuous quaternions, renormalised) over ``window_seconds``
+    (150 ms; a median over w frames ignores any excursion shorter than w/2, so it keeps the path
+    through a 6-frame pop); the deviation is the angle between the frame's rotation and that
+    median. A candidate is a run of frames deviating more than ``dev_deg``, widened on each side
+    while the deviation stays above ``settle_frac`` of ``dev_deg``: the whole excursion, from
+    leaving the path to being back on it, must last at most ``max_seconds``, else it is dropped.
+    It is kept if it also leaves the *chord* of its own ends: some frame of the widened run lies
+    more than ``dev_deg`` from the slerp between the last frame before and the first frame after
+    it (this rejects the median's clipping of a fast but smooth turning point, whose frames lie
+    on the chord of their neighbours). Events of the same joint at most ``merge_seconds`` apart
+    are merged. Returns dicts (joint, frames [start, end] inclusive, peak_dev_deg: the largest
+    angle from the chord, in degrees)."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.runs import true_runs
+
+    fps = float(motion.fps)
+    q = rot.quat_unroll(np.asarray(motion.rotations, dtype=np.float64), axis=0)
+    n = q.shape[0]
+    w = max(3, round(window_seconds * fps) | 1)
+    med = rot.quat_normalize(ndimage.median_filter(q, size=(w, 1, 1), mode="nearest"))
+    dev = np.degrees(rot.quat_angle(q, med))
+    longest = max(1, round(max_seconds * fps))
+    merge = max(1, round(merge_seconds * fps))
+    out = []
+    for j in range(q.shape[1]):
+        events = []
+        for a, b in true_runs(dev[:, j] > dev_deg):
+            if b - a + 1 > longest:
+                continue
+            lo, hi = a, b
+            while lo > 0 and dev[lo - 1, j] > settle_frac * dev_deg:
+                lo -= 1
+            while hi < n - 1 and dev[hi + 1, j] > settle_frac * dev_deg:
+                hi += 1
+            if lo == 0 or hi == n - 1 or hi - lo + 1 > longest:
+                continue  # not out and back within max_seconds, or no frame to come back to
+            t = (np.arange(lo, hi + 1) - (lo - 1)) / (hi + 2 - lo)
+            chord = rot.quat_slerp(q[lo - 1, j], q[hi + 1, j], t)
+            off = np.degrees(rot.quat_angle(q[lo : hi + 1, j], chord))
+            if off.max() > dev_deg:
+                events.append([lo, hi, float(off.max())])
+        merged: list = []
+        for ev in events:
+            if merged and ev[0] - merged[-1][1] <= merge:
+                merged[-1][1] = ev[1]
+                merged[-1][2] = max(merged[-1][2], ev[2])
+            else:
+                merged.append(ev)
+        for lo, hi, pk in merged:
+            out.append(
+                {
+                    "joint": motion.skeleton.names[j],
+                    "frames": [int(lo), int(hi)],
+                    "peak_dev_deg": round(pk, 1),
+                }
+            )
+    return out
+
+
 def variants(ablate: bool, also: str = "", drops: str = "") -> dict[str, tuple[type, ...]]:
     """The pipelines scored from the same fits: "full" (:data:`PIPELINE`), with ``ablate``
     each rule left out, and with ``also`` ("a,b") the pipeline plus those rules of

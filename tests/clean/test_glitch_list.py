@@ -6,6 +6,7 @@ import importlib.util
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 FIXTURE = Path(__file__).parent / "fixtures" / "cmu_glitches.json"
@@ -13,16 +14,41 @@ ROOT = Path(__file__).resolve().parents[2]
 CMU = ROOT.parent / "shared" / "data" / "cmu-asfamc"
 
 
+def _eval_clean():
+    spec = importlib.util.spec_from_file_location("eval_clean", ROOT / "bench" / "eval_clean.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _signals(doc: dict) -> tuple[list, list]:
+    gl = doc["glitches"]
+    return [g for g in gl if "signal" not in g], [g for g in gl if g.get("signal") == "excursion"]
+
+
 def test_glitch_list_is_well_formed() -> None:
     doc = json.loads(FIXTURE.read_text())
     gl = doc["glitches"]
-    assert len(gl) > 100 and "blind" in doc["about"]
+    step, exc = _signals(doc)
+    assert len(step) + len(exc) == len(gl)
+    assert len(step) == 185 and len(exc) == 1396 and "blind" in doc["about"]
     for g in gl:
-        assert set(g) >= {"take", "joint", "frames", "peak_step_deg", "inspected", "glitch", "seen"}
+        assert set(g) >= {"take", "joint", "frames", "inspected", "glitch", "seen"}
         a, b = g["frames"]
-        assert 0 <= a <= b and g["peak_step_deg"] > doc["criterion"]["step_deg"]
-    inspected = [g for g in gl if g["inspected"]]
+        assert 0 <= a <= b
+    # each signal's entries against its own criterion
+    assert all(g["peak_step_deg"] > doc["criterion"]["step_deg"] for g in step)
+    # peak_dev_deg is rounded to 0.1 deg, so an event just over the threshold reads as equal to it
+    assert all(g["peak_dev_deg"] >= doc["criterion_excursion"]["dev_deg"] for g in exc)
+    # an excursion entry never overlaps a step-signal entry of the same take and joint
+    for g in exc:
+        for f in step:
+            if f["take"] == g["take"] and f["joint"] == g["joint"]:
+                assert g["frames"][1] < f["frames"][0] or f["frames"][1] < g["frames"][0]
+    inspected = [g for g in step if g["inspected"]]
     assert len(inspected) == 130 and sum(not g["glitch"] for g in inspected) == 15
+    inspected = [g for g in exc if g["inspected"]]
+    assert len(inspected) == 854 and sum(not g["glitch"] for g in inspected) == 113
     # every event within the first 20 s at 120 fps (what bench/eval_clean.py analyses) was
     # checked by eye, and says what was seen
     assert all(g["inspected"] for g in gl if g["frames"][0] < 2400)
@@ -35,13 +61,71 @@ def test_glitch_list_is_well_formed() -> None:
 def test_glitch_signal_reproduces_the_list_on_a_short_take() -> None:
     from mocapkit.io import read_motion
 
-    spec = importlib.util.spec_from_file_location("eval_clean", ROOT / "bench" / "eval_clean.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    doc = json.loads(FIXTURE.read_text())
+    mod = _eval_clean()
+    step, _ = _signals(json.loads(FIXTURE.read_text()))
     for take in ("03_01", "03_02"):
         found = mod.find_glitches(read_motion(CMU / "03" / f"{take}.amc"))
-        listed = [g for g in doc["glitches"] if g["take"] == take]
+        listed = [g for g in step if g["take"] == take]
         assert [(g["joint"], g["frames"]) for g in found] == [
             (g["joint"], g["frames"]) for g in listed
         ]
+
+
+@pytest.mark.skipif(not CMU.exists(), reason="shared CMU data not present")
+def test_excursion_signal_reproduces_its_entries_on_a_short_take() -> None:
+    from mocapkit.io import read_motion
+
+    mod = _eval_clean()
+    doc = json.loads(FIXTURE.read_text())
+    step, exc = _signals(doc)
+    kw = {k: v for k, v in doc["criterion_excursion"].items() if k != "signal"}
+    for take in ("03_01", "03_02"):
+        found = mod.find_excursions(read_motion(CMU / "03" / f"{take}.amc"), **kw)
+        old = [g for g in step if g["take"] == take]
+        found = [
+            e
+            for e in found
+            if not any(
+                g["joint"] == e["joint"]
+                and g["frames"][0] <= e["frames"][1]
+                and e["frames"][0] <= g["frames"][1]
+                for g in old
+            )
+        ]
+        listed = [g for g in exc if g["take"] == take]
+        assert listed
+        assert [(g["joint"], g["frames"], g["peak_dev_deg"]) for g in found] == [
+            (g["joint"], g["frames"], g["peak_dev_deg"]) for g in listed
+        ]
+
+
+def test_find_excursions_finds_a_pop_and_not_a_smooth_swing() -> None:
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.motion import Motion
+    from mocapkit.core.skeleton import Skeleton
+
+    mod = _eval_clean()
+    fps, n = 120.0, 480
+    t = np.arange(n) / fps
+    # joint 1: slow natural sway plus a 15-degree pop for 3 frames (200-202); joint 2: a smooth
+    # 40-degree swing out and back over 0.5 s (raised cosine, 2 Hz); joint 3: a smooth 40-degree
+    # swing one way over 0.5 s
+    a1 = np.radians(5.0) * np.sin(2 * np.pi * 0.5 * t)
+    a1[200:203] += np.radians(15.0)
+    a2 = np.zeros(n)
+    s = (t >= 1.0) & (t < 1.5)
+    a2[s] = np.radians(20.0) * (1 - np.cos(2 * np.pi * (t[s] - 1.0) / 0.5))
+    a3 = np.radians(20.0) * (1 - np.cos(np.pi * np.clip((t - 2.0) / 0.5, 0.0, 1.0)))
+    rv = np.zeros((n, 4, 3))
+    rv[:, 1, 0] = a1
+    rv[:, 2, 2] = a2
+    rv[:, 3, 1] = a3
+    rx = ("Xrotation", "Yrotation", "Zrotation")
+    skel = Skeleton(
+        ("root", "pop", "swing", "turn"), np.array([-1, 0, 0, 0]), np.ones((4, 3)), (rx,) * 4
+    )
+    m = Motion(skel, rot.rotvec_to_quat(rv), np.zeros((n, 3)), 1.0 / fps)
+    assert np.degrees(rot.quat_angle(m.rotations[0, 3], m.rotations[-1, 3])) > 39.0
+    ev = mod.find_excursions(m)
+    assert [(e["joint"], e["frames"]) for e in ev] == [("pop", [200, 202])]
+    assert 14.0 < ev[0]["peak_dev_deg"] < 16.0
