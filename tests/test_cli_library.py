@@ -89,11 +89,32 @@ def test_expand_inputs_files_folders_globs_and_duplicates(clips) -> None:
     assert len(expand_inputs([str(clips["walk"])] * 2, unique=False)) == 2
 
 
+def test_folders_are_searched_with_their_sub_folders(clips, tmp_path) -> None:
+    import shutil
+
+    lib = tmp_path / "lib"
+    for sub, name in (("01", "walk"), ("02/deep", "run"), (".hidden", "idle"), ("", "idle")):
+        (lib / sub).mkdir(parents=True, exist_ok=True)
+        shutil.copy(clips[name], lib / sub / f"{name}.bvh")
+    (lib / "02" / ".partial.bvh").write_text("HIERARCHY")  # hidden: an unfinished download
+    (lib / "loop").symlink_to(lib)  # a link back up is not followed
+    got = expand_inputs([str(lib)])
+    assert [p.relative_to(lib).as_posix() for p in got] == [
+        "01/walk.bvh", "02/deep/run.bvh", "idle.bvh",
+    ]  # fmt: skip
+    # a library job reads the sub-folders too, and convert leaves its own outputs out
+    code, out, err = run("convert", str(lib), "--out-dir", str(lib / "glb"), "--to", "npz")
+    assert code == 0 and "converted 3 of 3" in out, err
+    code, out, err = run("convert", str(lib), "--out-dir", str(lib / "glb"), "--to", "npz")
+    assert code == 0 and "converted 3 of 3" in out and "3 files inside" in err, err
+
+
 def test_expand_inputs_errors_are_one_line(clips, tmp_path) -> None:
     with pytest.raises(CLIError, match="no such file"):
         expand_inputs([str(tmp_path / "missing.bvh")])
     (tmp_path / "empty").mkdir()
-    with pytest.raises(CLIError, match=r"no \.bvh/\.npz/\.amc/\.glb/\.gltf files in this folder"):
+    none = r"no \.bvh/\.npz/\.amc/\.glb/\.gltf files in this folder or its sub-folders"
+    with pytest.raises(CLIError, match=none):
         expand_inputs([str(tmp_path / "empty")])
     with pytest.raises(CLIError, match="match this pattern"):
         expand_inputs([str(tmp_path / "*.bvh")])

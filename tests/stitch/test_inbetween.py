@@ -398,7 +398,8 @@ def test_cli_writes_motion_and_sidecar(files):
 @pytest.mark.parametrize(
     "gap, msg",
     [("40:20", "reversed"), ("abc", "expected A:B"), ("1:20", "3 <= A < B"),
-     ("100:400", "past the end"), ("100:", "3 <= A < B"), ("30:30", "empty")],
+     ("100:400", "past the end"), ("100:", "both ends given"), (":70", "both ends given"),
+     ("30:30", "empty")],
 )  # fmt: skip
 def test_cli_bad_gap(files, gap, msg):
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", gap, "--library",
@@ -407,6 +408,17 @@ def test_cli_bad_gap(files, gap, msg):
     assert msg in se and "Traceback" not in se
     assert len(se.strip().splitlines()) == 1
     assert not (files / "bad.bvh").exists()
+    assert "A:," not in se and ":B," not in se  # the open forms are no gap's
+
+
+def test_cli_warns_when_up_is_not_the_bodys(files):
+    out = files / "up.bvh"
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                      files / "lib", "--up", "Z", "--out", out)  # fmt: skip
+    assert "--up Z, but its body stands along Y" in se
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                      files / "lib", "--up", "Y", "--out", out)  # fmt: skip
+    assert code == 0 and "warning" not in se
 
 
 def test_cli_goes_past_bad_library_files(files, tmp_path):

@@ -29,6 +29,7 @@ from typing import Any
 
 from mocapkit.batch.manifest import Manifest, file_sha256, input_key
 from mocapkit.batch.runner import Runner
+from mocapkit.io import files_under
 from mocapkit.viz.reasons import REASON_TEXT, reason_colour
 
 __all__ = [
@@ -84,13 +85,7 @@ def find_takes(library: str | Path) -> list[str]:
     root = Path(library)
     if not root.is_dir():
         raise ValueError(f"{root}: not a folder (library clean takes a folder of takes)")
-    out = []
-    for p in root.rglob("*"):
-        rel = p.relative_to(root)
-        if any(part.startswith(".") for part in rel.parts):
-            continue
-        if p.suffix.lower() in TAKE_SUFFIXES and p.is_file():
-            out.append(rel.as_posix())
+    out = [p.relative_to(root).as_posix() for p in files_under(root, TAKE_SUFFIXES)]
     if not out:
         raise ValueError(f"{root}: no {'/'.join(TAKE_SUFFIXES)} files in this folder")
     return sorted(out)

@@ -14,7 +14,7 @@ from typing import Any
 import click
 
 from mocapkit.core.motion import Motion
-from mocapkit.io import MocapFileError, RepairWarning, read_motion
+from mocapkit.io import MocapFileError, RepairWarning, files_under, read_motion
 from mocapkit.io.atomic import OutputPathError, atomic_write_text
 from mocapkit.jsonio import to_json_text
 
@@ -279,13 +279,13 @@ def expand_item(item: str | Path, suffixes: Sequence[str] = MOTION_SUFFIXES) -> 
     p = Path(item)
     if p.is_dir():
         try:
-            found = sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in want)
+            found = files_under(p, want)
         except OSError as e:
             raise CLIError(
                 f"{p}: cannot list this folder: {os_error_line(e).split(': ')[-1]}"
             ) from None
         if not found:
-            raise CLIError(f"{p}: no {kinds} files in this folder")
+            raise CLIError(f"{p}: no {kinds} files in this folder or its sub-folders")
         return found
     if p.exists():
         return [p]
@@ -317,8 +317,9 @@ def expand_inputs(
     exclude: Sequence[str | Path] = (),
     unique: bool = True,
 ) -> list[Path]:
-    """The motion files named by ``items``: files as given, the files of folders and the matches
-    of glob patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
+    """The motion files named by ``items``: files as given, the files of folders (and of their
+    sub-folders, hidden ones skipped: :func:`mocapkit.io.files_under`) and the matches of glob
+    patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
     extension is one of ``suffixes`` (folders and patterns skip the rest, e.g. Bandai's
     ``.json`` labels), sorted; duplicates (the same file under any spelling, unless
     ``unique=False``: ``view a.bvh a.bvh`` overlays a file on itself) and ``exclude`` removed,
@@ -399,6 +400,28 @@ def parse_up(value: str | None) -> str | None:
             f"{value!r}: expected X, Y or Z with an optional sign (Y, Z, -Y, +X, ...)"
         )
     return v
+
+
+def warn_if_up_disagrees(motion: Motion, up: str | None, name: str | Path) -> None:
+    """One warning line when ``--up`` names another axis than the one ``name``'s body stands
+    along (head and pelvis above the feet, :func:`mocapkit.features.detect_up_axis`): a Z-up
+    reading of a Y-up take puts its ground on a wall, and every ground-path result (facing,
+    travel, foot contacts) is then wrong without any error. Only a warning: a take spent lying
+    down or upside down fools the detection, and the user may know better."""
+    if up is None or motion.num_frames == 0:
+        return
+    from mocapkit.features import detect_up_axis
+
+    try:
+        found = detect_up_axis(motion)
+    except (ValueError, IndexError):
+        return  # no body to judge by
+    if found.lstrip("+") != up.lstrip("+"):
+        click.echo(
+            f"mocapkit: warning: {name}: --up {up}, but its body stands along {found} (head "
+            f"above the feet); going on with {up} as asked",
+            err=True,
+        )
 
 
 def up_option(help: str = "Up axis (Y, Z, -Y, ...) instead of the guess.") -> Callable[..., Any]:

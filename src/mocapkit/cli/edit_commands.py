@@ -14,6 +14,7 @@ from mocapkit.cli.common import (
     main,
     naming,
     up_option,
+    warn_if_up_disagrees,
 )
 from mocapkit.core.ranges import RangeError, RangeSpec
 
@@ -129,6 +130,7 @@ def edit_cmd(
     check_input_file(src)
     check_outputs([(out, WRITABLE), sidecar_path(out)], [src])
     motion = load(src, lenient)
+    warn_if_up_disagrees(motion, up, src)
     with naming(src):
         trim = spec.frames(motion.fps, motion.num_frames) if spec is not None else None
         res = apply_edits(

@@ -22,6 +22,7 @@ from mocapkit.cli.common import (
     one_line,
     same_file,
     up_option,
+    warn_if_up_disagrees,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
@@ -97,7 +98,7 @@ def inbetween_cmd(
     from mocapkit.stitch.inbetween import inbetween
 
     try:
-        spec = RangeSpec.parse(gap, "--gap")
+        spec = RangeSpec.parse(gap, "--gap", closed=True)
     except RangeError as e:
         raise CLIError(str(e)) from None
     check_input_file(clip)
@@ -113,6 +114,7 @@ def inbetween_cmd(
         [clip, *lib_paths],
     )
     q = load(clip, lenient)
+    warn_if_up_disagrees(q, up, clip)
     with naming(clip):
         try:
             a, b = spec.frames(q.fps, q.num_frames)

@@ -378,10 +378,15 @@ def _convert_folder(
             click.echo(f"mocapkit: error: {e.message}", err=True)
     unique: list[Path] = []  # the same file named by two items is converted once
     seen: set[tuple[Any, ...]] = set()
+    inside = 0
     for f in sources:
-        if file_key(f) not in seen:
+        if out.is_dir() and f.resolve().is_relative_to(out.resolve()):
+            inside += 1  # an earlier run's output (--out-dir inside an input folder)
+        elif file_key(f) not in seen:
             seen.add(file_key(f))
             unique.append(f)
+    if inside:
+        click.echo(f"mocapkit: note: {inside} files inside {out} left out (outputs)", err=True)
 
     def report(item: ItemResult) -> None:
         if item.resumed:

@@ -21,6 +21,7 @@ from mocapkit.cli.common import (
     one_line,
     same_file,
     up_option,
+    warn_if_up_disagrees,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
@@ -171,6 +172,7 @@ def stitch_cmd(
         [query, *data_paths],
     )
     q = load(query, lenient)
+    warn_if_up_disagrees(q, up, query)
     with naming(query):
         a, b = takeoff_spec.frames(q.fps, q.num_frames)
     landing_frame = None

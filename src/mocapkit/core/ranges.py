@@ -25,6 +25,7 @@ __all__ = ["RangeError", "RangeSpec", "parse_frame", "parse_range"]
 
 _END = re.compile(r"^\s*(?:(?P<frame>\d+)|(?P<sec>\d+(?:\.\d*)?|\.\d+)\s*s)\s*$", re.IGNORECASE)
 _SYNTAX = "A:B (0-based frames, B excluded), A:, :B, or seconds such as 1.5s:4.0s"
+_SYNTAX_CLOSED = "A:B (0-based frames, B excluded) or seconds such as 1.5s:4.0s"
 _SYNTAX_ONE = "a frame (60) or a time (2.0s)"
 
 
@@ -72,13 +73,18 @@ class RangeSpec:
     option: str
 
     @classmethod
-    def parse(cls, text: str, option: str = "range", single: bool = False) -> RangeSpec:
+    def parse(
+        cls, text: str, option: str = "range", single: bool = False, closed: bool = False
+    ) -> RangeSpec:
         """Read ``text``; with ``single=True`` a lone position (``60``, ``2.0s``) is accepted too
-        and means that one frame. ``option`` names the option in error messages."""
+        and means that one frame; with ``closed=True`` both ends must be given (``A:``, ``:B``
+        and ``:`` refused, and not offered in the messages). ``option`` names the option in
+        error messages."""
+        syntax = _SYNTAX_CLOSED if closed else _SYNTAX
         if not isinstance(text, str):
-            raise RangeError(f"{option}: expected {_SYNTAX}, got {text!r}")
+            raise RangeError(f"{option}: expected {syntax}, got {text!r}")
         s = text.strip()
-        want = f"{_SYNTAX_ONE} or a range {_SYNTAX}" if single else _SYNTAX
+        want = f"{_SYNTAX_ONE} or a range {syntax}" if single else syntax
         if ":" not in s:
             end = _parse_end(s) if single else None
             if end is None:
@@ -91,6 +97,8 @@ class RangeSpec:
         hi = _parse_end(hi_t) if hi_t.strip() else None
         if (lo_t.strip() and lo is None) or (hi_t.strip() and hi is None):
             raise RangeError(f"{option}: expected {want}, got {text!r}")
+        if closed and (lo is None or hi is None):
+            raise RangeError(f"{option}: expected {want} with both ends given, got {text!r}")
         return cls(text, lo, hi, False, option)
 
     def frames(self, fps: float, num_frames: int | None = None) -> tuple[int, int]:

@@ -3,6 +3,8 @@ of entry points."""
 
 from __future__ import annotations
 
+import os
+from collections.abc import Sequence
 from pathlib import Path
 
 from mocapkit.core.motion import Motion
@@ -16,6 +18,7 @@ __all__ = [
     "DecodingWarning",
     "MocapFileError",
     "RepairWarning",
+    "files_under",
     "find_asf",
     "read_bvh",
     "read_gltf",
@@ -30,6 +33,28 @@ __all__ = [
 READABLE = (".bvh", ".npz", ".amc", ".glb", ".gltf")
 WRITABLE = (".bvh", ".npz", ".glb", ".gltf")
 GLTF = (".glb", ".gltf")
+
+
+def files_under(root: Path, suffixes: Sequence[str] = READABLE) -> list[Path]:
+    """The files under the folder ``root`` (its sub-folders included: a library is often one
+    folder per subject or session) whose extension is one of ``suffixes`` (any case), sorted
+    by their path below ``root``. Hidden files and folders (``.git``, ``.mocapkit-manifest``)
+    are skipped, and linked folders are not followed (a link back up would never end).
+    Raises OSError when ``root`` cannot be listed."""
+    want = tuple(s.lower() for s in suffixes)
+
+    def fail(e: OSError) -> None:
+        if Path(e.filename or "") == Path(root):
+            raise e  # the folder itself; an unreadable sub-folder is passed over
+
+    out = []
+    for folder, dirs, files in os.walk(root, onerror=fail):
+        dirs[:] = [d for d in dirs if not d.startswith(".")]
+        for name in files:
+            p = Path(folder, name)
+            if not name.startswith(".") and p.suffix.lower() in want and p.is_file():
+                out.append(p)
+    return sorted(out, key=lambda p: p.relative_to(root).parts)
 
 
 def find_asf(amc: Path) -> Path:

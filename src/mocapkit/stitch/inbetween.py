@@ -249,7 +249,7 @@ def check_gap(gap, num_frames: int, name: str = "clip") -> tuple[int, int]:
     if isinstance(gap, str):
         from mocapkit.core.ranges import RangeSpec
 
-        a, b = RangeSpec.parse(gap, "gap").frames(1.0, None)
+        a, b = RangeSpec.parse(gap, "gap", closed=True).frames(1.0, None)
     else:
         try:
             a, b = (int(x) for x in gap)
@@ -257,8 +257,8 @@ def check_gap(gap, num_frames: int, name: str = "clip") -> tuple[int, int]:
             raise ValueError(f"gap must be (A, B) or 'A:B', got {gap!r}") from None
     if not 3 <= a < b < num_frames:
         raise ValueError(
-            f"gap {a}:{b} on a {name} of {num_frames} frames: expected 3 <= A < B < {num_frames} "
-            "(at least 3 context frames before the gap and 1 after it)"
+            f"{name}: gap {a}:{b}: expected 3 <= A < B < {num_frames} (it has {num_frames} "
+            "frames; at least 3 context frames are needed before the gap and 1 after it)"
         )
     return a, b
 
