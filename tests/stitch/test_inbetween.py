@@ -17,6 +17,7 @@ from mocapkit.cli import main
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.io import read_motion, write_motion
 from mocapkit.stitch.inbetween import (
+    DEFAULT_CONFIG,
     InbetweenConfig,
     InbetweenLibrary,
     _Context,
@@ -488,3 +489,26 @@ def test_demo_step(tmp_path, capsys):
     assert (tmp_path / "inbetween_walk.bvh").exists()
     assert (tmp_path / "inbetween_walk.provenance.json").exists()
     assert "gap 60:90" in capsys.readouterr().out
+
+
+def test_warns_when_the_library_holds_nothing_like_the_context(humanoid):
+    walk, lib = humanoid
+    idle = lib[3]  # standing still: no segment travels like the walk does over the gap
+    res = inbetween(walk, (60, 90), [idle], up="Y", method="library")
+    assert res.path_miss_m > DEFAULT_CONFIG.poor_fit_path_m
+    assert "holds nothing like the motion around the gap" in res.warning
+    assert res.to_json()["warning"] == res.warning
+    assert res.provenance("o.bvh").parameters["warning"] == res.warning
+    good = inbetween(walk, (60, 90), lib[:2], up="Y", method="library")
+    assert good.warning == "" and good.to_json()["warning"] is None  # must not fire
+    assert good.pose_rms_m < DEFAULT_CONFIG.poor_fit_pose_m
+    assert good.path_miss_m < DEFAULT_CONFIG.poor_fit_path_m
+
+
+def test_cli_reports_the_fit_in_metres_and_warns(files, humanoid):
+    _, lib = humanoid
+    write_motion(lib[3], files / "idle.bvh")
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
+                       files / "idle.bvh", "--out", files / "idle_fill.bvh")  # fmt: skip
+    assert code == 0 and "cm RMS per joint off" in so and " m off" in so
+    assert "warning" in se and "holds nothing like" in se

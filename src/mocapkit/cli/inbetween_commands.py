@@ -145,9 +145,10 @@ def inbetween_cmd(
         s0, s1 = res.source_frames
         click.echo(
             f"best library segment: {res.source} frames {s0}:{s1}"
-            f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}), pose "
-            f"distance {c.pose:.4g}, ground path {c.travel:.4g}; {res.candidates} candidates "
-            f"in {res.search_seconds:.2f} s"
+            f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
+            f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at the gap's ends, ground path "
+            f"{res.path_miss_m:.2f} m off; {res.candidates} candidates in "
+            f"{res.search_seconds:.2f} s"
         )
     for x in res.blended_from[1:]:
         f0, f1 = x["source_frames"]
@@ -156,6 +157,8 @@ def inbetween_cmd(
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
             f"score {x['score']:.4g}"
         )
+    if res.warning:
+        click.echo(f"mocapkit: warning: {clip}: {res.warning}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     scores = (
         f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "

@@ -311,6 +311,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
             for x in plan.parameters.get("blended_from") or []
         ],
         "method": plan.parameters.get("method"),
+        "warning": plan.parameters.get("warning"),
     }
 
 

@@ -660,6 +660,7 @@
       blended.length > 1 ? 'by averaging ' + blended.length + ' library segments: ' + blended.map(segText).join('; ') :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from);
+    if (stitch.warning) info('warning: ' + stitch.warning).style.color = '#ffb74d';
   } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
       ' (k = ' + stitch.k + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
