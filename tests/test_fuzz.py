@@ -182,7 +182,7 @@ def _cmds_bvh(take: str, other: str) -> list[tuple[str, tuple[str, ...], tuple[s
         (
             "stitch",
             ("stitch", take, other, "--takeoff", "15", "--json", "stitch.json", "--out", "st.bvh"),
-            ("stitch.json", "st.bvh", "st.provenance.json"),
+            ("stitch.json", "st.bvh", "st.bvh.provenance.json"),
         ),
         (
             "graph",
@@ -193,7 +193,7 @@ def _cmds_bvh(take: str, other: str) -> list[tuple[str, tuple[str, ...], tuple[s
         (
             "edit",
             ("edit", take, "e.bvh", "--trim", "0:10", "--mirror", "--in-place", "--speed", "1.5"),
-            ("e.bvh", "e.provenance.json"),
+            ("e.bvh", "e.bvh.provenance.json"),
         ),
     ]
 
@@ -403,7 +403,7 @@ def _asf_amc_cases(name: str, asf: bytes, amc: bytes, expect: str = "any") -> li
         (
             "edit",
             ("edit", "01_01.amc", "e.bvh", "--trim", "0.05s:", "--mirror", "--extract-root"),
-            ("e.bvh", "e.provenance.json"),
+            ("e.bvh", "e.bvh.provenance.json"),
         ),
         (
             "graph",

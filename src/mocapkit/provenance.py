@@ -1,7 +1,8 @@
 """Provenance sidecars: what made a generated motion, frame by frame.
 
 One format for every output mocapkit generates (stitch, graph synth, and later clean and
-in-betweening). ``walk.bvh`` gets ``walk.provenance.json`` beside it::
+in-betweening). ``walk.bvh`` gets ``walk.bvh.provenance.json`` beside it (sidecars of older
+versions, ``walk.provenance.json``, are still read when they name ``walk.bvh``)::
 
     {
       "format": "mocapkit-provenance-1",
@@ -104,9 +105,29 @@ class Provenance:
 
 
 def sidecar_path(output: str | Path) -> Path:
-    """``walk.bvh`` -> ``walk.provenance.json`` (beside it)."""
+    """``walk.bvh`` -> ``walk.bvh.provenance.json`` (beside it): the whole file name, so that
+    ``walk.bvh`` and ``walk.glb`` written from different runs keep a sidecar each."""
     p = Path(output)
-    return p.with_name(p.stem + SUFFIX)
+    return p.with_name(p.name + SUFFIX)
+
+
+def existing_sidecar(output: str | Path) -> Path | None:
+    """The sidecar of ``output`` that lies beside it: ``walk.bvh.provenance.json``, or one
+    written before sidecars carried the extension (``walk.provenance.json``) if it says it is
+    ``walk.bvh``'s; None when there is none."""
+    p = Path(output)
+    new = sidecar_path(p)
+    if new.exists():
+        return new
+    old = p.with_name(p.stem + SUFFIX)
+    if old.exists():
+        try:
+            said = json.loads(old.read_text(encoding="utf-8")).get("output")
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+            return None
+        if isinstance(said, str) and Path(said).name == p.name:
+            return old
+    return None
 
 
 def read_provenance(path: str | Path) -> Provenance:
@@ -134,9 +155,9 @@ def read_provenance(path: str | Path) -> Provenance:
 
 
 def find_provenance(output: str | Path) -> Provenance | None:
-    """The sidecar of ``output`` if one lies beside it, else None."""
-    p = sidecar_path(output)
-    return read_provenance(p) if p.exists() else None
+    """The sidecar of ``output`` if one lies beside it (:func:`existing_sidecar`), else None."""
+    p = existing_sidecar(output)
+    return None if p is None else read_provenance(p)
 
 
 def _version() -> str:

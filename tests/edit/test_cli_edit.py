@@ -48,7 +48,7 @@ def test_edit_runs_every_edit_in_order_and_writes_provenance(walk, tmp_path) -> 
     assert got.frame_time == src.frame_time
     np.testing.assert_allclose(forward_kinematics(got)[0], forward_kinematics(expected)[0],
                                atol=1e-4)  # fmt: skip
-    plan = read_provenance(tmp_path / "e.provenance.json")
+    plan = read_provenance(tmp_path / "e.bvh.provenance.json")
     assert plan.tool == "edit" and plan.inputs == [str(walk)] and plan.frames == 48
     assert plan.parameters["trim"] == "0.5s:2.5s" and plan.parameters["trim_frames"] == [15, 75]
     assert plan.parameters["mirror"] and plan.parameters["speed"] == 1.25

@@ -163,7 +163,7 @@ def test_cli_retarget_and_bad_map(tmp_path, shared_path):
         main, ["retarget", str(src), "--to", str(asf), "--out", str(out), "--json"]
     )
     assert r.exit_code == 0, r.output
-    assert out.exists() and (tmp_path / "walk_cmu.provenance.json").exists()
+    assert out.exists() and (tmp_path / "walk_cmu.bvh.provenance.json").exists()
     back = read_motion(out)
     assert back.num_joints == 31
     bad = tmp_path / "map.json"

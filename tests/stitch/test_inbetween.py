@@ -387,7 +387,7 @@ def test_cli_writes_motion_and_sidecar(files):
     )  # fmt: skip
     assert code == 0, se
     assert "filled frames 60:75" in so
-    side = json.loads((files / "filled.provenance.json").read_text())
+    side = json.loads((files / "filled.bvh.provenance.json").read_text())
     assert side["tool"] == "inbetween" and side["parameters"]["gap"] == [60, 75]
     seg = side["segments"][1]
     assert (seg["output_start"], seg["output_stop"]) == (60, 75)
@@ -487,7 +487,7 @@ def test_demo_step(tmp_path, capsys):
 
     inbetween_demo_step(tmp_path)
     assert (tmp_path / "inbetween_walk.bvh").exists()
-    assert (tmp_path / "inbetween_walk.provenance.json").exists()
+    assert (tmp_path / "inbetween_walk.bvh.provenance.json").exists()
     assert "gap 60:90" in capsys.readouterr().out
 
 
@@ -512,3 +512,21 @@ def test_cli_reports_the_fit_in_metres_and_warns(files, humanoid):
                        files / "idle.bvh", "--out", files / "idle_fill.bvh")  # fmt: skip
     assert code == 0 and "cm RMS per joint off" in so and " m off" in so
     assert "warning" in se and "holds nothing like" in se
+
+
+def test_outputs_of_one_name_keep_a_sidecar_each(files, tmp_path):
+    from mocapkit.provenance import find_provenance
+
+    for gap, ext in (("60:90", "bvh"), ("100:120", "npz")):
+        code, _, se = run("inbetween", files / "walk.bvh", "--gap", gap, "--library",
+                          files / "lib", "--out", tmp_path / f"pv.{ext}")  # fmt: skip
+        assert code == 0, se
+    a, b = find_provenance(tmp_path / "pv.bvh"), find_provenance(tmp_path / "pv.npz")
+    assert a is not None and b is not None
+    assert a.parameters["gap"] == [60, 90] and b.parameters["gap"] == [100, 120]
+    # a sidecar of an older version (no extension in its name) is read for its own output only
+    old = tmp_path / "pv.provenance.json"
+    (tmp_path / "pv.npz.provenance.json").rename(old)
+    assert find_provenance(tmp_path / "pv.npz").parameters["gap"] == [100, 120]
+    (tmp_path / "pv.bvh.provenance.json").unlink()
+    assert find_provenance(tmp_path / "pv.bvh") is None  # it names pv.npz, not pv.bvh

@@ -90,13 +90,13 @@ def view_cmd(
       mocapkit view stitched.bvh --stitch best.json --open
       mocapkit view synth.bvh --graph graph.json
     """
-    from mocapkit.provenance import sidecar_path
+    from mocapkit.provenance import existing_sidecar
 
     paths = expand_inputs(files, MOTION_SUFFIXES, unique=False)
     # data folders are often shared or read-only: the default page goes into the current folder
     out = Path(out_path) if out_path else Path(paths[0].with_suffix(".html").name)
     overlays = [p for p in (clean_report, mdm, stitch_json, graph_json) if p]
-    plans = [sidecar_path(p) for p in paths if sidecar_path(p).exists()]
+    plans = [x for x in map(existing_sidecar, paths) if x is not None]
     check_outputs([(out, (".html", ".htm"))], [*paths, *overlays, *plans])
     with naming(*paths), all_or_nothing():
         page = view_files(
