@@ -97,16 +97,20 @@ def test_folders_are_searched_with_their_sub_folders(clips, tmp_path) -> None:
         (lib / sub).mkdir(parents=True, exist_ok=True)
         shutil.copy(clips[name], lib / sub / f"{name}.bvh")
     (lib / "02" / ".partial.bvh").write_text("HIERARCHY")  # hidden: an unfinished download
-    (lib / "loop").symlink_to(lib)  # a link back up is not followed
+    (lib / "loop").symlink_to(lib)  # a link back up is not listed again
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    shutil.copy(clips["run"], elsewhere / "run2.bvh")
+    (lib / "linked").symlink_to(elsewhere)  # a linked sub-folder is a sub-folder
     got = expand_inputs([str(lib)])
     assert [p.relative_to(lib).as_posix() for p in got] == [
-        "01/walk.bvh", "02/deep/run.bvh", "idle.bvh",
+        "01/walk.bvh", "02/deep/run.bvh", "idle.bvh", "linked/run2.bvh",
     ]  # fmt: skip
     # a library job reads the sub-folders too, and convert leaves its own outputs out
     code, out, err = run("convert", str(lib), "--out-dir", str(lib / "glb"), "--to", "npz")
-    assert code == 0 and "converted 3 of 3" in out, err
+    assert code == 0 and "converted 4 of 4" in out, err
     code, out, err = run("convert", str(lib), "--out-dir", str(lib / "glb"), "--to", "npz")
-    assert code == 0 and "converted 3 of 3" in out and "3 files inside" in err, err
+    assert code == 0 and "converted 4 of 4" in out and "4 files inside" in err, err
 
 
 def test_expand_inputs_errors_are_one_line(clips, tmp_path) -> None:

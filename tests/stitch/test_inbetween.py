@@ -530,3 +530,12 @@ def test_outputs_of_one_name_keep_a_sidecar_each(files, tmp_path):
     assert find_provenance(tmp_path / "pv.npz").parameters["gap"] == [100, 120]
     (tmp_path / "pv.bvh.provenance.json").unlink()
     assert find_provenance(tmp_path / "pv.bvh") is None  # it names pv.npz, not pv.bvh
+
+
+def test_cli_goes_on_past_a_library_item_that_names_nothing(files, tmp_path):
+    (tmp_path / "empty").mkdir()
+    out = tmp_path / "o.bvh"
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                       tmp_path / "empty", "--library", files / "lib", "--out", out)  # fmt: skip
+    assert code == 2 and out.exists() and "filled frames 60:75" in so  # filled from the others
+    assert "--library:" in se and "no .bvh" in se and "Traceback" not in se

@@ -274,7 +274,7 @@ def expand_item(item: str | Path, suffixes: Sequence[str] = MOTION_SUFFIXES) -> 
     :class:`CLIError` naming it when it names none."""
     import glob
 
-    want = tuple(s.lower() for s in suffixes)
+    want = tuple(dict.fromkeys(s.lower() for s in suffixes))
     kinds = "/".join(want)
     p = Path(item)
     if p.is_dir():
@@ -318,7 +318,8 @@ def expand_inputs(
     unique: bool = True,
 ) -> list[Path]:
     """The motion files named by ``items``: files as given, the files of folders (and of their
-    sub-folders, hidden ones skipped: :func:`mocapkit.io.files_under`) and the matches of glob
+    sub-folders, linked ones too, hidden ones skipped: :func:`mocapkit.io.files_under`) and the
+    matches of glob
     patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
     extension is one of ``suffixes`` (folders and patterns skip the rest, e.g. Bandai's
     ``.json`` labels), sorted; duplicates (the same file under any spelling, unless
@@ -344,6 +345,28 @@ def expand_inputs(
             check_amc(f)
         result.append(f)
     return result
+
+
+def expand_library(
+    items: Sequence[str | Path], suffixes: Sequence[str] = MOTION_SUFFIXES
+) -> tuple[list[Path], list[str]]:
+    """:func:`expand_inputs` for a library job, which goes on past a bad input: the files the
+    items name (each once), and one error line per item that names none (a missing path, an
+    empty folder, a pattern matching nothing)."""
+    found: list[Path] = []
+    errors: list[str] = []
+    for item in items:
+        try:
+            found += expand_inputs([item], suffixes)
+        except CLIError as e:
+            errors.append(e.message)
+    seen: set[tuple[Any, ...]] = set()
+    unique = []
+    for f in found:
+        if file_key(f) not in seen:
+            seen.add(file_key(f))
+            unique.append(f)
+    return unique, errors
 
 
 def check_input_file(path: str | Path, what: str = "motion file") -> Path:

@@ -13,7 +13,7 @@ from mocapkit.cli.common import (
     CLIError,
     check_input_file,
     data_output,
-    expand_inputs,
+    expand_library,
     friendly_errors,
     load,
     load_readable,
@@ -47,7 +47,8 @@ from mocapkit.stitch.search import check_same_skeleton
     multiple=True,
     required=True,
     metavar="LIB",
-    help="Library motion files or folders (their .bvh, .npz and .amc files); repeatable.",
+    help="Library motion files or folders (their .bvh, .npz, .amc, .glb and .gltf files, "
+    "sub-folders included); repeatable.",
 )
 @click.option(
     "--method",
@@ -102,7 +103,9 @@ def inbetween_cmd(
     except RangeError as e:
         raise CLIError(str(e)) from None
     check_input_file(clip)
-    lib_paths = expand_inputs(library, MOTION_SUFFIXES)
+    lib_paths, unnamed = expand_library(library, MOTION_SUFFIXES)
+    for why in unnamed:  # a library job goes on past a bad --library item
+        click.echo(f"mocapkit: error: --library: {why}", err=True)
     others = [p for p in lib_paths if not same_file(p, clip)]
     if len(others) < len(lib_paths):
         click.echo(f"mocapkit: note: {clip} left out of the library (it is the clip)", err=True)
@@ -126,7 +129,7 @@ def inbetween_cmd(
     kept = []
     for p, m in zip(lib_paths, lib, strict=True):
         try:
-            check_same_skeleton(m, q, str(p))
+            check_same_skeleton(m, q, str(p), clip)
             kept.append((p, m))
         except ValueError as e:
             skipped.append(one_line(e))
@@ -187,7 +190,7 @@ def inbetween_cmd(
             wrote.append(f"wrote {json_path}")
     for line in wrote:
         click.echo(line)
-    if skipped:  # the gap is filled from the others; the status says not all were used
+    if skipped or unnamed:  # the gap is filled from the others; the status says not all were
         raise click.exceptions.Exit(2)
 
 

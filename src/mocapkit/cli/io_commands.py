@@ -16,8 +16,8 @@ from mocapkit.cli.common import (
     check_amc,
     check_input_file,
     echo_json,
-    expand_inputs,
     expand_item,
+    expand_library,
     file_key,
     friendly_errors,
     is_single_file,
@@ -234,7 +234,7 @@ def info(
 POSITIVE = click.FloatRange(min=0, min_open=True)
 
 
-CONVERT_INPUTS = (*MOTION_SUFFIXES, ".glb", ".gltf")
+CONVERT_INPUTS = MOTION_SUFFIXES
 """What folder mode converts (an .amc needs its subject's .asf beside it)."""
 
 
@@ -368,22 +368,16 @@ def _convert_folder(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise CLIError(f"{out}: is a file, expected a folder for --out-dir")
-    sources: list[Path] = []
-    failed = 0
-    for item in inputs:
-        try:
-            sources += expand_inputs([item], CONVERT_INPUTS)
-        except CLIError as e:
-            failed += 1
-            click.echo(f"mocapkit: error: {e.message}", err=True)
-    unique: list[Path] = []  # the same file named by two items is converted once
-    seen: set[tuple[Any, ...]] = set()
+    sources, errors = expand_library(inputs, CONVERT_INPUTS)  # each file once
+    for e in errors:
+        click.echo(f"mocapkit: error: {e}", err=True)
+    failed = len(errors)
+    unique: list[Path] = []
     inside = 0
     for f in sources:
         if out.is_dir() and f.resolve().is_relative_to(out.resolve()):
             inside += 1  # an earlier run's output (--out-dir inside an input folder)
-        elif file_key(f) not in seen:
-            seen.add(file_key(f))
+        else:
             unique.append(f)
     if inside:
         click.echo(f"mocapkit: note: {inside} files inside {out} left out (outputs)", err=True)

@@ -36,11 +36,12 @@ GLTF = (".glb", ".gltf")
 
 
 def files_under(root: Path, suffixes: Sequence[str] = READABLE) -> list[Path]:
-    """The files under the folder ``root`` (its sub-folders included: a library is often one
-    folder per subject or session) whose extension is one of ``suffixes`` (any case), sorted
-    by their path below ``root``. Hidden files and folders (``.git``, ``.mocapkit-manifest``)
-    are skipped, and linked folders are not followed (a link back up would never end).
-    Raises OSError when ``root`` cannot be listed."""
+    """The files under the folder ``root`` (its sub-folders included, linked ones too: a
+    library is often one folder per subject or session, or links to them) whose extension is
+    one of ``suffixes`` (any case), sorted by their path below ``root``. Hidden files and
+    folders (``.git``, ``.mocapkit-manifest``) are skipped, and a folder already visited (a
+    link back up, or two links to one folder) is not listed again. Raises OSError when
+    ``root`` cannot be listed."""
     want = tuple(s.lower() for s in suffixes)
 
     def fail(e: OSError) -> None:
@@ -48,7 +49,13 @@ def files_under(root: Path, suffixes: Sequence[str] = READABLE) -> list[Path]:
             raise e  # the folder itself; an unreadable sub-folder is passed over
 
     out = []
-    for folder, dirs, files in os.walk(root, onerror=fail):
+    seen: set[str] = set()
+    for folder, dirs, files in os.walk(root, onerror=fail, followlinks=True):
+        real = os.path.realpath(folder)
+        if real in seen:
+            dirs[:] = []
+            continue
+        seen.add(real)
         dirs[:] = [d for d in dirs if not d.startswith(".")]
         for name in files:
             p = Path(folder, name)
