@@ -501,7 +501,7 @@ def test_warns_when_the_library_holds_nothing_like_the_context(humanoid):
     assert res.provenance("o.bvh").parameters["warning"] == res.warning
     good = inbetween(walk, (60, 90), lib[:2], up="Y", method="library")
     assert good.warning == "" and good.to_json()["warning"] is None  # must not fire
-    assert good.pose_rms_m < DEFAULT_CONFIG.poor_fit_pose_m
+    assert 0 < good.pose_rms_m < 0.12
     assert good.path_miss_m < DEFAULT_CONFIG.poor_fit_path_m
 
 

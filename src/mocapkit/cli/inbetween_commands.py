@@ -86,7 +86,9 @@ def inbetween_cmd(
     onto both ends, their remaining pose differences blended away, and averaged, so the result
     meets the context poses exactly. With --method auto the Kalman transition of stitching
     fills the gap instead when the library fill's two-sided L-score (smoothness at both
-    junctions, lower is better) is more than 4x the Kalman transition's own, and says so.
+    junctions, lower is better) is more than 4x the Kalman transition's own, and says so. A
+    warning says when the best segment's path over the ground misses the clip's by more than
+    0.5 m: the library then holds nothing like the motion around the gap.
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
     OUT`` marks them); --json writes the same with the scores.
 
