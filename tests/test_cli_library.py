@@ -110,7 +110,10 @@ def test_folders_are_searched_with_their_sub_folders(clips, tmp_path) -> None:
     code, out, err = run("convert", str(lib), "--out-dir", str(lib / "glb"), "--to", "npz")
     assert code == 0 and "converted 4 of 4" in out, err
     code, out, err = run("convert", str(lib), "--out-dir", str(lib / "glb"), "--to", "npz")
-    assert code == 0 and "converted 4 of 4" in out and "4 files inside" in err, err
+    assert code == 0 and "converted 4 of 4" in out and "4 file(s) that earlier runs" in err, err
+    # ... also when converting into another folder: an earlier output is no input
+    code, out, err = run("convert", str(lib), "--out-dir", str(lib / "bvh2"), "--to", "bvh")
+    assert code == 0 and "converted 4 of 4" in out, err
 
 
 def test_expand_inputs_errors_are_one_line(clips, tmp_path) -> None:
@@ -331,3 +334,20 @@ def test_reconstruct_writes_what_clean_reconstruct_returns(clips, tmp_path) -> N
     db = [read_motion(clips["dir"] / n) for n in ("idle.bvh", "run.bvh")]
     lib = reconstruct(read_motion(clips["walk"]), db, keep)
     assert read_motion(out).allclose(read_motion(write_motion(lib, tmp_path / "lib.bvh")))
+
+
+def test_view_of_a_folder_shows_the_files_it_can_read(clips, tmp_path) -> None:
+    import shutil
+
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    shutil.copy(clips["walk"], lib / "walk.bvh")
+    shutil.copy(clips["run"], lib / "run.bvh")
+    (lib / "broken.bvh").write_text("HIERARCHY\nROOT Hips\n")
+    page = tmp_path / "v.html"
+    code, out, err = run("view", str(lib), "--out", str(page), "--up", "Z")
+    assert code == 2 and page.exists() and "wrote" in out  # the page shows the other two
+    assert "left out of the page" in err and "broken.bvh" in err and "Traceback" not in err
+    assert err.count("--up Z, but its body stands along Y") == 2  # each file shown, judged
+    code, _, err = run("view", str(lib / "broken.bvh"), "--out", str(tmp_path / "b.html"))
+    assert code == 2 and not (tmp_path / "b.html").exists() and err.count("\n") == 1

@@ -103,6 +103,20 @@ class Manifest:
                 return None
         return entry
 
+    def outputs(self) -> set[Path]:
+        """Every output the entries record (resolved paths): the files earlier runs of a job
+        wrote here, which a later job over the folder must not take for inputs."""
+        out: set[Path] = set()
+        if not self.folder.is_dir():
+            return out
+        for entry in self.folder.rglob("*.json"):
+            try:
+                paths = json.loads(entry.read_text()).get("outputs", {})
+            except (OSError, ValueError, AttributeError):
+                continue
+            out.update(self._resolve(p).resolve() for p in paths)
+        return out
+
     def record(
         self, item: str, key: str, outputs: Sequence[str | Path], result: Any = None
     ) -> Path:

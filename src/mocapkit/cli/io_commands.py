@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from mocapkit.batch.manifest import Manifest
 from mocapkit.cli.batch_commands import job_progress, job_runner, runner_options
 from mocapkit.cli.common import (
     LENIENT,
@@ -372,15 +373,21 @@ def _convert_folder(
     for e in errors:
         click.echo(f"mocapkit: error: {e}", err=True)
     failed = len(errors)
+    # files an earlier convert wrote (its --out-dir inside an input folder) are outputs, not
+    # inputs: their folder's manifest lists them
+    written: dict[Path, set[Path]] = {}
     unique: list[Path] = []
-    inside = 0
     for f in sources:
-        if out.is_dir() and f.resolve().is_relative_to(out.resolve()):
-            inside += 1  # an earlier run's output (--out-dir inside an input folder)
-        else:
+        if f.parent not in written:
+            written[f.parent] = Manifest(f.parent).outputs()
+        if f.resolve() not in written[f.parent]:
             unique.append(f)
-    if inside:
-        click.echo(f"mocapkit: note: {inside} files inside {out} left out (outputs)", err=True)
+    if len(unique) < len(sources):
+        click.echo(
+            f"mocapkit: note: {len(sources) - len(unique)} file(s) that earlier runs wrote left "
+            "out (their folder's .mocapkit-manifest lists them)",
+            err=True,
+        )
 
     def report(item: ItemResult) -> None:
         if item.resumed:

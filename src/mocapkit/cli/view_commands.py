@@ -13,9 +13,11 @@ from mocapkit.cli.common import (
     CLIError,
     expand_inputs,
     friendly_errors,
+    load_readable,
     main,
     naming,
     up_option,
+    warn_if_up_disagrees,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.io.atomic import all_or_nothing, check_outputs
@@ -98,13 +100,24 @@ def view_cmd(
     overlays = [p for p in (clean_report, mdm, stitch_json, graph_json) if p]
     plans = [x for x in map(existing_sidecar, paths) if x is not None]
     check_outputs([(out, (".html", ".htm"))], [*paths, *overlays, *plans])
-    with naming(*paths), all_or_nothing():
+    # as every job over several files: one that cannot be read is an error line, the page
+    # shows the others, and the status says not all were shown
+    kept, motions, bad = load_readable(paths, lenient, show=len(paths) > 1)
+    if not kept:
+        raise CLIError(bad[0] if len(bad) == 1 else "no FILE could be read:\n" + "\n".join(bad))
+    for why in bad:
+        click.echo(f"mocapkit: error: left out of the page: {why}", err=True)
+    for p, m in zip(kept, motions, strict=True):
+        warn_if_up_disagrees(m, up, p)
+    with naming(*kept), all_or_nothing():
         page = view_files(
-            paths, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units
+            kept, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units, motions
         )
     click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
     if open_page:
         webbrowser.open(page.resolve().as_uri())
+    if bad:
+        raise click.exceptions.Exit(2)
 
 
 # ------------------------------------------------------------------------------------ demo

@@ -556,8 +556,8 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
             raise BVHError(
                 source,
                 line,
-                f"value {res.err_col + 1} is NaN or infinite (lenient "
-                "mode fills such gaps from the neighbouring frames)",
+                f"value {res.err_col + 1} is NaN or infinite (lenient reading, --lenient, "
+                "fills such gaps from the neighbouring frames)",
             )
         else:
             bad = bytes(block[res.err_offset :]).split(b"\n", 1)[0].split()
@@ -569,7 +569,7 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
             raise BVHError(
                 source,
                 line,
-                "blank line inside the motion data (use lenient mode to skip blank lines)",
+                "blank line inside the motion data (lenient reading, --lenient, skips blank lines)",
             )
         warnings.warn(
             f"{source}:{line}: skipped blank line(s) inside the motion data",
@@ -580,7 +580,9 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
     if rows != declared:
         msg = f"{quote('Frames: ' + str(declared))} but {rows} rows of motion data follow"
         if not lenient:
-            raise BVHError(source, fl, msg + " (lenient mode reads the rows present)")
+            raise BVHError(
+                source, fl, msg + " (lenient reading, --lenient, reads the rows present)"
+            )
         warnings.warn(f"{source}:{fl}: {msg}; read {rows} frames", RepairWarning, stacklevel=2)
     motion = channels_to_motion(sk, values, frame_time)
     if lenient and not np.all(np.isfinite(values)):

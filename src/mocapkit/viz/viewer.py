@@ -513,19 +513,22 @@ def view_files(
     lenient: bool = False,
     up: str | None = None,
     units: str | None = None,
+    motions: Sequence[Motion] | None = None,
 ) -> Path:
-    """Read the motion files and the overlay files and write the viewer page (what ``mocapkit
-    view`` does); returns its path."""
+    """Read the motion files (unless ``motions`` holds them, already read) and the overlay
+    files and write the viewer page (what ``mocapkit view`` does); returns its path."""
     from mocapkit.io import read_motion
     from mocapkit.provenance import find_provenance
 
-    motions = [
-        ViewMotion(read_motion(f, lenient=lenient), str(f), provenance=find_provenance(f))
-        for f in files
+    if motions is None:
+        motions = [read_motion(f, lenient=lenient) for f in files]
+    shown = [
+        ViewMotion(m, str(f), provenance=find_provenance(f))
+        for f, m in zip(files, motions, strict=True)
     ]
     return write_page(
         out,
-        motions,
+        shown,
         up=up,
         units=units,
         clean_report=read_overlay_json(clean_report, "cleaning report") if clean_report else None,
