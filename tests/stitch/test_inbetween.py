@@ -539,3 +539,11 @@ def test_cli_goes_on_past_a_library_item_that_names_nothing(files, tmp_path):
                        tmp_path / "empty", "--library", files / "lib", "--out", out)  # fmt: skip
     assert code == 2 and out.exists() and "filled frames 60:75" in so  # filled from the others
     assert "--library:" in se and "no .bvh" in se and "Traceback" not in se
+
+
+def test_cli_json_dash_prints_json_alone_on_stdout(files, tmp_path):
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                       files / "lib", "--out", tmp_path / "o.bvh", "--json", "-")  # fmt: skip
+    assert code == 0, se
+    assert json.loads(so)["gap"] == [60, 75]  # nothing else on stdout
+    assert "filled frames 60:75" in se and not (tmp_path / "-").exists()

@@ -384,7 +384,9 @@ def check_input_file(path: str | Path, what: str = "motion file") -> Path:
 def data_output(path: str | None, what: str, example: str) -> str | None:
     """``path`` for an output that is not a motion (JSON, GraphML, a plot, an .npy, a page):
     refused when named like a motion file (``--plot clips/x.bvh`` would put a PNG among the
-    clips, where the next run reads it as one)."""
+    clips, where the next run reads it as one). ``-`` (standard output) is no file: None."""
+    if path == "-":  # standard output (see report_lines): no file to check
+        return None
     if path is not None and Path(path).suffix.lower() in (*MOTION_SUFFIXES, ".asf"):
         raise CLIError(
             f"{path}: a motion file name for the {what}; give it another extension (e.g. {example})"
@@ -493,8 +495,19 @@ def echo_json(obj: Any) -> None:
 
 
 def write_json(path: str | Path, obj: Any) -> Path:
-    """Write ``obj`` as strict JSON, atomically."""
+    """Write ``obj`` as strict JSON, atomically; ``-``: print it on standard output."""
+    if str(path) == "-":
+        echo_json(obj)
+        return Path("-")
     return atomic_write_text(path, to_json_text(obj) + "\n")
+
+
+def report_lines(json_path: str | None) -> Callable[[str], None]:
+    """How a command that can write its JSON result with ``--json PATH`` prints its readable
+    lines: on standard output, or on standard error when the JSON goes there (``--json -``),
+    so that a script reads JSON alone."""
+    to_err = json_path == "-"
+    return lambda line: click.echo(line, err=to_err)
 
 
 def same_file(a: str | Path, b: str | Path) -> bool:

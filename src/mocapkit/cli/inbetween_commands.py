@@ -20,6 +20,7 @@ from mocapkit.cli.common import (
     main,
     naming,
     one_line,
+    report_lines,
     same_file,
     up_option,
     warn_if_up_disagrees,
@@ -64,7 +65,12 @@ from mocapkit.stitch.search import check_same_skeleton
 @click.option(
     "--out", "out_path", required=True, type=click.Path(dir_okay=False), help="Output motion."
 )
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the result.")
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False, allow_dash=True),
+    help="Write the result (-: print it, and the other lines go to standard error).",
+)
 @LENIENT
 @friendly_errors
 def inbetween_cmd(
@@ -99,6 +105,8 @@ def inbetween_cmd(
     """
     from mocapkit.provenance import sidecar_path
     from mocapkit.stitch.inbetween import inbetween
+
+    say = report_lines(json_path)
 
     try:
         spec = RangeSpec.parse(gap, "--gap", closed=True)
@@ -148,7 +156,7 @@ def inbetween_cmd(
     c = res.candidate
     if c is not None and res.source_frames is not None:
         s0, s1 = res.source_frames
-        click.echo(
+        say(
             f"best library segment: {res.source} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
             f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at the gap's ends, ground path "
@@ -157,7 +165,7 @@ def inbetween_cmd(
         )
     for x in res.blended_from[1:]:
         f0, f1 = x["source_frames"]
-        click.echo(
+        say(
             f"  averaged with: {x['source']} frames {f0}:{f1}"
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
             f"score {x['score']:.4g}"
@@ -176,12 +184,12 @@ def inbetween_cmd(
             why = res.note
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
-        click.echo(f"filled frames {a}:{b} with the Kalman transition ({why})")
+        say(f"filled frames {a}:{b} with the Kalman transition ({why})")
     else:
         n = len(res.blended_from)
         what = res.source if n == 1 else f"{n} library segments averaged"
         within = f"; the library fill is kept: within {margin:g}x" if method == "auto" else ""
-        click.echo(f"filled frames {a}:{b} from {what} ({scores}{within})")
+        say(f"filled frames {a}:{b} from {what} ({scores}{within})")
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
         write_motion(res.motion, out_path)
@@ -189,9 +197,9 @@ def inbetween_cmd(
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         if json_path:
             write_json(json_path, {**res.to_json(), "skipped": skipped})
-            wrote.append(f"wrote {json_path}")
+            wrote.append(f"wrote {json_path}" if json_path != "-" else "printed the JSON result")
     for line in wrote:
-        click.echo(line)
+        say(line)
     if skipped or unnamed:  # the gap is filled from the others; the status says not all were
         raise click.exceptions.Exit(2)
 
