@@ -114,6 +114,16 @@ def test_folders_are_searched_with_their_sub_folders(clips, tmp_path) -> None:
     # ... also when converting into another folder: an earlier output is no input
     code, out, err = run("convert", str(lib), "--out-dir", str(lib / "bvh2"), "--to", "bvh")
     assert code == 0 and "converted 4 of 4" in out, err
+    # the layout is kept: one name in two sub-folders is two outputs
+    shutil.copy(clips["walk"], lib / "02" / "walk.bvh")
+    out_dir = tmp_path / "conv"
+    code, out, err = run("convert", str(lib), "--out-dir", str(out_dir), "--to", "npz")
+    assert code == 0 and "converted 5 of 5" in out, err
+    assert sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*.npz")) == [
+        "01/walk.npz", "02/deep/run.npz", "02/walk.npz", "idle.npz", "linked/run2.npz",
+    ]  # fmt: skip
+    code, out, err = run("convert", str(lib), "--out-dir", str(out_dir), "--to", "npz")
+    assert code == 0 and "5 already complete" in out, err  # resumed, sub-folders too
 
 
 def test_expand_inputs_errors_are_one_line(clips, tmp_path) -> None:

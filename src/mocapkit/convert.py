@@ -166,12 +166,14 @@ class ConvertedMany:
         }
 
 
-def output_path(source: str | Path, out_dir: str | Path, to: str) -> Path:
-    """Where :func:`convert_many` writes ``source``: ``out_dir/<its stem>.<to>``."""
+def output_path(source: str | Path, out_dir: str | Path, to: str, sub: str | Path = "") -> Path:
+    """Where :func:`convert_many` writes ``source``: ``out_dir/<sub>/<its stem>.<to>`` (``sub``:
+    the source's sub-folder below the folder it was found in, so that a library's layout is
+    kept and ``a/x.bvh`` and ``b/x.bvh`` do not meet)."""
     to = to.lower().lstrip(".")
     if to not in FOLDER_FORMATS:
         raise ValueError(f"cannot convert to {to!r}; expected one of {', '.join(FOLDER_FORMATS)}")
-    return Path(out_dir) / f"{Path(source).stem}.{to}"
+    return Path(out_dir) / sub / f"{Path(source).stem}.{to}"
 
 
 def _error_line(source: Path, e: BaseException) -> str:
@@ -231,11 +233,14 @@ def convert_many(
     on_item: Callable[[ItemResult], None] | None = None,
     runner: Any = None,
     progress: Callable[[int, int], None] | None = None,
+    subfolders: Sequence[str | Path] | None = None,
     **options: Any,
 ) -> ConvertedMany:
     """Convert every file of ``sources`` into ``out_dir`` as ``<stem>.<to>`` (``to``: one of
-    :data:`FOLDER_FORMATS`) with :func:`convert_file` and ``options`` (``fps``, ``scale``,
-    ``units``, ``order``, ``amc_fps``, ``lenient``; an AMC's ASF is the one beside it).
+    :data:`FOLDER_FORMATS`; in ``out_dir/<subfolders[k]>/`` when given: the layout of the
+    folders the sources were found in) with :func:`convert_file` and ``options`` (``fps``,
+    ``scale``, ``units``, ``order``, ``amc_fps``, ``lenient``; an AMC's ASF is the one beside
+    it).
 
     A file that cannot be converted (unreadable, or its output name taken by an earlier input
     or by one of the inputs) is recorded with one error line and the others go on; each output
@@ -255,6 +260,9 @@ def convert_many(
 
     manifest = Manifest(Path(out_dir))
     srcs = [Path(s) for s in sources]
+    subs = [Path(x) for x in subfolders] if subfolders is not None else [Path()] * len(srcs)
+    if len(subs) != len(srcs):
+        raise ValueError("subfolders must name one folder per source")
     results: dict[int, ItemResult] = {}
     written: dict[Path, Path] = {}
     emitted = 0
@@ -275,7 +283,7 @@ def convert_many(
         claimed: set[Path] = set()
         for k in pending:
             src = srcs[k]
-            out = output_path(src, out_dir, to)
+            out = output_path(src, out_dir, to, subs[k])
             try:
                 key = out.resolve()
                 if key in written:
@@ -292,7 +300,7 @@ def convert_many(
                 results[k] = ItemResult(src, None, error=_error_line(src, e))
                 continue
             claimed.add(key)
-            entry = manifest.is_complete(out.name, resume)
+            entry = manifest.is_complete((subs[k] / out.name).as_posix(), resume)
             if entry is not None and entry.get("result"):
                 r = entry["result"]
                 results[k] = ItemResult(src, out, r["frames"], r["fps"], resumed=True)
@@ -309,7 +317,10 @@ def convert_many(
             results[k] = item
             if item.ok:
                 written[key] = srcs[k]
-                manifest.record(out.name, resume, [out], {"frames": item.frames, "fps": item.fps})
+                manifest.record(
+                    (subs[k] / out.name).as_posix(), resume, [out],
+                    {"frames": item.frames, "fps": item.fps},
+                )  # fmt: skip
             emit()
         pending = later
         if runner is not None:  # a worker killed mid-write leaves a temporary file

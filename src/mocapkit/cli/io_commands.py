@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -297,10 +298,11 @@ def convert(
     animation. Never overwrites an input (under any spelling, link included); checks the output
     before reading and writes it atomically, so a failed run leaves nothing behind.
 
-    Folder mode (--out-dir with --to): every IN is a file, a folder (its motion files) or a
-    quoted glob; each one is converted to OUT_DIR/<name>.<to> and reported on its own line; a
-    file that cannot be converted is one error line and the others go on (exit status 2 at the
-    end if any failed).
+    Folder mode (--out-dir with --to): every IN is a file, a folder (its motion files,
+    sub-folders included) or a quoted glob; each one is converted to OUT_DIR/<name>.<to> (a
+    folder's sub-folders kept: OUT_DIR/<sub-folder>/<name>.<to>) and reported on its own line;
+    a file that cannot be converted is one error line and the others go on (exit status 2 at
+    the end if any failed). Files an earlier run wrote are not read as inputs.
 
     \b
     Examples:
@@ -356,6 +358,20 @@ def convert(
     click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {res.motion.fps:.6g} fps)")
 
 
+def _subfolder(source: Path, inputs: Sequence[str]) -> str:
+    """``source``'s folder below the first input folder it was found in ("" for a file named
+    directly or by a pattern): where its output goes below --out-dir."""
+    for item in inputs:
+        root = Path(item)
+        if root.is_dir():
+            try:
+                rel = source.parent.relative_to(root)
+            except ValueError:
+                continue
+            return rel.as_posix() if rel.parts else ""
+    return ""
+
+
 def _convert_folder(
     inputs: tuple[str, ...],
     out_dir: str,
@@ -374,13 +390,16 @@ def _convert_folder(
         click.echo(f"mocapkit: error: {e}", err=True)
     failed = len(errors)
     # files an earlier convert wrote (its --out-dir inside an input folder) are outputs, not
-    # inputs: their folder's manifest lists them
+    # inputs: the manifest of that --out-dir, in the folder or a folder above, lists them
     written: dict[Path, set[Path]] = {}
     unique: list[Path] = []
     for f in sources:
-        if f.parent not in written:
-            written[f.parent] = Manifest(f.parent).outputs()
-        if f.resolve() not in written[f.parent]:
+        outputs: set[Path] = set()
+        for folder in [f.parent, *f.parent.parents]:
+            if folder not in written:
+                written[folder] = Manifest(folder).outputs()
+            outputs |= written[folder]
+        if f.resolve() not in outputs:
             unique.append(f)
     if len(unique) < len(sources):
         click.echo(
@@ -401,7 +420,10 @@ def _convert_folder(
         job_runner(workers, scheduler) as runner,
         job_progress("converting", len(unique) > 1) as step,
     ):
-        res = convert_many(unique, out, to, on_item=report, runner=runner, progress=step, **options)
+        res = convert_many(
+            unique, out, to, on_item=report, runner=runner, progress=step,
+            subfolders=[_subfolder(f, inputs) for f in unique], **options,
+        )  # fmt: skip
     failed += len(res.failed)
     done = len(res.items) - len(res.failed)
     click.echo(
