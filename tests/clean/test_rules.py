@@ -413,3 +413,20 @@ def test_bend_rotvecs_leave_the_twist_out() -> None:
     assert ang.min() > 7.9 and ang.max() < 12.1  # the angle between the two bones
     full = bend_rotvecs(q[:, 0], None)
     assert np.degrees(np.linalg.norm(full, axis=1)).max() > 35.0
+
+
+def test_wrong_way_hinge_limb_folded_past_reach_is_flagged() -> None:
+    # an elbow bending 10-140 deg (a deep, natural bend): nothing is wrong
+    t = np.arange(300) / FPS
+    flex = np.radians(75.0 + 65.0 * np.sin(2 * np.pi * t / 2.0))
+    rv = np.stack([flex, np.zeros(300), np.zeros(300)], axis=1)
+    q = rot.rotvec_to_quat(rv)[:, None]
+    assert not hinge_flags(q).any()  # must not fire
+    # must fire: the forearm folded back onto the upper arm (178 deg, past any elbow's reach,
+    # where the rotation vector wraps) for 10 frames; the rest of the take is still judged
+    bad = q.copy()
+    bad[100:110, 0] = rot.rotvec_to_quat(np.array([-np.radians(178.0), 0.0, 0.0]))
+    m = hinge_flags(bad)
+    assert m[100:110, 0].all() and m.sum() == 10
+    m = hinge_flags(wrong_bend(bad, slice(200, 212), 170.0))  # and a wrong bend elsewhere
+    assert m[100:110, 0].all() and m[200:212, 0].all() and m.sum() == 22

@@ -205,7 +205,9 @@ class DetectConfig:
     hinge_deg: float = 15.0
     #: A hinge counts as straight at rest (so negative flexion is wrong-way) within this angle.
     hinge_straight_deg: float = 20.0
-    #: Hinges whose rotations reach this (degrees) are skipped: rotation vectors wrap at 180.
+    #: A hinge's limb folded back further than this (degrees) is past any knee's or elbow's
+    #: reach (about 150-160 deg; Bandai-1's takes reach 144) and reads as a wrong-way bend;
+    #: rotation vectors wrap at 180, so no flexion axis can be read there.
     hinge_max_deg: float = 170.0
     #: Fit the hinge's flexion axis on the context takes too. Off: a Bandai elbow turns about
     #: one axis in one style and another in the next (forearm twist), and a context of other

@@ -263,7 +263,9 @@ class Evidence:
     def hinge_flexion(self) -> np.ndarray:
         """(F, J) radians: flexion of the straight hinges about their main axis (the principal
         direction of their bend's rotation vectors, signed so that the median is positive: the
-        usual way), NaN on other joints and on hinges whose rotations wrap (``hinge_max_deg``).
+        usual way), NaN on other joints. A limb folded back further than ``hinge_max_deg``
+        (where its rotation vector wraps) reads as that much wrong-way flexion, and is left out
+        of the fit; a hinge whose full rotations wrap (no ``hinge_bones``) is left out (NaN).
 
         The axis is fitted on the hinge's *bend* alone (:func:`bend_rotvecs`: the twist about
         the limb below left out), never on its full rotations: a Bandai elbow carries the
@@ -282,24 +284,29 @@ class Evidence:
         wrap = np.radians(c.hinge_max_deg)
         for i, j in enumerate(self.hinges):
             rest = None if self.hinge_bones is None else self.hinge_bones[i]
-            full = rot.quat_to_rotvec(q[:, j])
-            if len(full) == 0 or np.linalg.norm(full, axis=1).max() > wrap:
-                continue
-            bends = self._bends(q[:, j], rest)
             own = bend_rotvecs(q[:, j], rest)
-            pool = own
+            size = np.linalg.norm(own, axis=1)
+            folded = size > wrap  # rotation vectors wrap at 180 deg: no axis to read there
+            if len(own) == 0 or (rest is None and folded.any()) or folded.all():
+                continue  # the full rotations wrap wherever bend and twist add up to 180
+            bends = self._bends(q[:, j], rest)
+            pool = own[~folded]
             others = [x[:, j] for x in self.context_rotations]
             if others and (c.hinge_context or not bends):
-                pool = np.concatenate([own, *(bend_rotvecs(x, rest) for x in others)])
-                whole = rot.quat_to_rotvec(np.concatenate(others))
-                if np.linalg.norm(whole, axis=1).max() > wrap:
+                theirs = np.concatenate([bend_rotvecs(x, rest) for x in others])
+                keep = np.linalg.norm(theirs, axis=1) <= wrap
+                if rest is None and not keep.all():
                     if c.hinge_context:
                         continue  # as before: a wrapping context leaves the hinge unjudged
-                    pool = own
+                else:
+                    pool = np.concatenate([pool, theirs[keep]])
             axis = np.linalg.svd(pool, full_matrices=False)[2][0]
             if np.median(pool @ axis) < 0:
                 axis = -axis
             out[:, j] = own @ axis
+            # a limb folded back past hinge_max_deg is past any knee's or elbow's reach (about
+            # 150-160 deg): read as a wrong-way bend of that size
+            out[folded, j] = -size[folded]
         return out
 
     def _bends(self, q: np.ndarray, bone: np.ndarray | None) -> bool:
