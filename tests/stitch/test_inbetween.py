@@ -547,3 +547,18 @@ def test_cli_json_dash_prints_json_alone_on_stdout(files, tmp_path):
     assert code == 0, se
     assert json.loads(so)["gap"] == [60, 75]  # nothing else on stdout
     assert "filled frames 60:75" in se and not (tmp_path / "-").exists()
+
+
+def test_kalman_needs_no_library(files, tmp_path, humanoid):
+    walk, _ = humanoid
+    res = inbetween(walk, (60, 75), None, up="Y", method="kalman")
+    assert res.method == "kalman" and res.candidate is None and res.library_names == ()
+    with pytest.raises(ValueError, match="needs a library"):
+        inbetween(walk, (60, 75), [], up="Y")
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
+                       "--out", tmp_path / "k.bvh")  # fmt: skip
+    assert code == 0 and "Kalman transition" in so, se
+    code, _, se = run(
+        "inbetween", files / "walk.bvh", "--gap", "60:75", "--out", tmp_path / "x.bvh"
+    )
+    assert code == 2 and "--library is needed" in se and not (tmp_path / "x.bvh").exists()

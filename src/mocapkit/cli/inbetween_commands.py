@@ -46,10 +46,9 @@ from mocapkit.stitch.search import check_same_skeleton
     "--library",
     "library",
     multiple=True,
-    required=True,
     metavar="LIB",
     help="Library motion files or folders (their .bvh, .npz, .amc, .glb and .gltf files, "
-    "sub-folders included); repeatable.",
+    "sub-folders included); repeatable; needed unless --method kalman.",
 )
 @click.option(
     "--method",
@@ -113,6 +112,8 @@ def inbetween_cmd(
     except RangeError as e:
         raise CLIError(str(e)) from None
     check_input_file(clip)
+    if not library and method != "kalman":
+        raise CLIError("--library is needed (only --method kalman fills a gap without one)")
     lib_paths, unnamed = expand_library(library, MOTION_SUFFIXES)
     for why in unnamed:  # a library job goes on past a bad --library item
         click.echo(f"mocapkit: error: --library: {why}", err=True)
@@ -120,7 +121,7 @@ def inbetween_cmd(
     if len(others) < len(lib_paths):
         click.echo(f"mocapkit: note: {clip} left out of the library (it is the clip)", err=True)
         lib_paths = others
-    if not lib_paths:
+    if not lib_paths and method != "kalman":
         raise CLIError("--library: no library motion besides the clip")
     check_outputs(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
@@ -145,7 +146,7 @@ def inbetween_cmd(
             skipped.append(one_line(e))
     for why in skipped:
         click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
-    if not kept:
+    if not kept and method != "kalman":
         raise CLIError(f"--library: no library motion with {clip}'s skeleton could be read")
     lib_paths, lib = [p for p, _ in kept], [m for _, m in kept]
     with naming(clip, *lib_paths):

@@ -1136,7 +1136,7 @@ def _as_library(library, clip: Motion, names, up: str, config: InbetweenConfig) 
 def inbetween(
     clip: Motion,
     gap,
-    library: InbetweenLibrary | Motion | Sequence[Motion],
+    library: InbetweenLibrary | Motion | Sequence[Motion] | None,
     *,
     library_names: Sequence[str] | None = None,
     config: InbetweenConfig = DEFAULT_CONFIG,
@@ -1164,7 +1164,10 @@ def inbetween(
     if future_frames is not None and int(future_frames) < 1:
         raise ValueError(f"future_frames must be >= 1, got {future_frames}")
     up = up or features.detect_up_axis(clip)
-    lib = _as_library(library, clip, library_names, up, config)
+    no_library = library is None or (isinstance(library, (list, tuple)) and not library)
+    if no_library and method != "kalman":
+        raise ValueError(f"method {method!r} needs a library (only 'kalman' works without)")
+    lib = None if no_library else _as_library(library, clip, library_names, up, config)
     w = max(3, clip.seconds_to_frames(config.window_seconds))
     onpath = features.ground_root_on_path(clip, up)
     ctx = _context(onpath, a, b, w, up, future_frames)
@@ -1172,6 +1175,8 @@ def inbetween(
     t0 = time.perf_counter()
     note = ""
     try:
+        if lib is None:  # the Kalman transition alone, asked for without a library
+            raise NoLibraryFitError("no library given")
         cands, count = search_inbetween_top(
             ctx, b - a, lib, config.neighbours, w=w, config=config, model=model,
             metres_per_unit=mpu,
@@ -1202,7 +1207,7 @@ def inbetween(
     if config.foot_lock:
         motion = _lock_feet(motion, a, b, up, config)
     how = "kalman" if use_kalman else "library"
-    used = tuple(dict.fromkeys(lib.names))  # each file once, also when played backwards
+    used = () if lib is None else tuple(dict.fromkeys(lib.names))  # each file once
     blended = tuple(
         {
             "source": lib.names[c.clip],
