@@ -360,6 +360,8 @@ def test_view_writes_its_default_page_into_the_current_folder(
     assert code == 0, err
     assert (work / "walk.html").is_file()
     assert _listing(data) == ["walk.bvh"]
+    code, _out, err = run("view", str(data))  # a folder: the page is named after it
+    assert code == 0 and (work / "data.html").is_file(), err
 
 
 def test_usage_errors_are_one_line(walk_bvh: Path) -> None:

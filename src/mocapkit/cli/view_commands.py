@@ -96,7 +96,10 @@ def view_cmd(
 
     paths = expand_inputs(files, MOTION_SUFFIXES, unique=False)
     # data folders are often shared or read-only: the default page goes into the current folder
-    out = Path(out_path) if out_path else Path(paths[0].with_suffix(".html").name)
+    # (named after the one folder or the first file given)
+    first = Path(files[0])
+    default = first.resolve().name + ".html" if first.is_dir() else paths[0].stem + ".html"
+    out = Path(out_path) if out_path else Path(default)
     overlays = [p for p in (clean_report, mdm, stitch_json, graph_json) if p]
     plans = [x for x in map(existing_sidecar, paths) if x is not None]
     check_outputs([(out, (".html", ".htm"))], [*paths, *overlays, *plans])
