@@ -539,6 +539,10 @@ def test_cli_goes_on_past_a_library_item_that_names_nothing(files, tmp_path):
                        tmp_path / "empty", "--library", files / "lib", "--out", out)  # fmt: skip
     assert code == 2 and out.exists() and "filled frames 60:75" in so  # filled from the others
     assert "--library:" in se and "no .bvh" in se and "Traceback" not in se
+    code, so, _ = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                      tmp_path / "empty", "--library", files / "lib", "--out", out,
+                      "--json", "-")  # fmt: skip
+    assert code == 2 and "no .bvh" in json.loads(so)["skipped"][0]  # a script sees why
 
 
 def test_cli_json_dash_prints_json_alone_on_stdout(files, tmp_path):

@@ -172,7 +172,8 @@ def inbetween_cmd(
             f"score {x['score']:.4g}"
         )
     if res.warning:
-        click.echo(f"mocapkit: warning: {clip}: {res.warning}", err=True)
+        hint = " (--method kalman fills it with the smoother's transition instead)"
+        click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     scores = (
         f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "
@@ -189,7 +190,11 @@ def inbetween_cmd(
     else:
         n = len(res.blended_from)
         what = res.source if n == 1 else f"{n} library segments averaged"
-        within = f"; the library fill is kept: within {margin:g}x" if method == "auto" else ""
+        within = (
+            f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
+            if method == "auto"
+            else ""
+        )
         say(f"filled frames {a}:{b} from {what} ({scores}{within})")
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
@@ -197,7 +202,7 @@ def inbetween_cmd(
         side = res.provenance(out_path, {"gap_spec": gap}).write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         if json_path:
-            write_json(json_path, {**res.to_json(), "skipped": skipped})
+            write_json(json_path, {**res.to_json(), "skipped": [*unnamed, *skipped]})
             wrote.append(f"wrote {json_path}" if json_path != "-" else "printed the JSON result")
     for line in wrote:
         say(line)
