@@ -186,3 +186,20 @@ def test_remove_stale_temporaries_takes_only_what_a_killed_write_leaves(tmp_path
     assert remove_stale_temporaries([out, tmp_path / "missing" / "x.bvh"]) == 1
     assert not stale.exists() and out.read_text() == "kept"
     assert all(p.exists() for p in others)
+
+
+def test_a_folder_made_meanwhile_by_another_writer_is_used(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # parallel jobs (Dask workers) writing into one new folder: the one that loses the race
+    # to create it writes its file there all the same, and leaves the folder to the winner
+    real = os.mkdir
+
+    def racing(path, *a, **k):
+        real(path, *a, **k)  # the other writer got there first
+        raise FileExistsError(17, "File exists", str(path))
+
+    monkeypatch.setattr(atomic.os, "mkdir", racing)
+    out = tmp_path / "new" / "deeper" / "x.json"
+    atomic.atomic_write_text(out, "{}\n")
+    assert out.read_text() == "{}\n"

@@ -192,7 +192,12 @@ def _make_folders(directory: Path, target: Path) -> list[Path]:
     created: list[Path] = []
     try:
         for d in reversed(missing):
-            os.mkdir(d)
+            try:
+                os.mkdir(d)
+            except FileExistsError:
+                if d.is_dir():  # made meanwhile by another writer (a parallel job): not ours
+                    continue
+                raise
             created.append(d)
     except OSError as e:
         _remove_folders(created)
