@@ -77,8 +77,9 @@ def find_asf(amc: Path) -> Path:
     raise MocapFileError(
         amc,
         None,
-        "cannot find its ASF skeleton file; give it explicitly "
-        f"(looked for {subject}.asf and a single .asf in {amc.parent})",
+        f"cannot find its ASF skeleton file: put {subject}.asf beside it (looked for "
+        f"{subject}.asf and a single .asf in {amc.parent}), or convert it with the ASF named "
+        "first: mocapkit convert SUBJECT.asf TAKE.amc OUT",
     )
 
 
