@@ -9,6 +9,7 @@ tree): add a field with a default, fill it in :func:`summarize`, and give it a k
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -141,7 +142,18 @@ def summarize(
 
     sk = motion.skeleton
     body = body_of(motion)
-    up = up.upper() if up else features.detect_up_axis(motion)
+    if up:
+        up = up.upper()
+        found = features.detect_up_axis(motion) if motion.num_frames else up
+        if found.lstrip("+") != up.lstrip("+"):  # said, not refused: a take lying down fools it
+            warnings.warn(
+                f"{path}: up axis {up} given, but its body stands along {found} (head above "
+                f"the feet); the summary uses {up} as asked",
+                UserWarning,
+                stacklevel=2,
+            )
+    else:
+        up = features.detect_up_axis(motion)
     guessed = not units and sk.metres_per_unit is None
     if units:
         metres = features.metres_per_unit(motion, units)
