@@ -391,7 +391,7 @@ def test_info_notes_a_height_no_person_has(walk_bvh: Path, tmp_path: Path) -> No
 
 
 def test_info_warns_when_up_is_not_the_bodys(walk_bvh: Path) -> None:
-    code, out, err = run("info", "--up", "Z", str(walk_bvh))
+    code, _out, err = run("info", "--up", "Z", str(walk_bvh))
     assert code == 0 and "up axis Z given, but its body stands along Y" in err
-    code, out, err = run("info", "--up", "Y", str(walk_bvh))
+    code, _out, err = run("info", "--up", "Y", str(walk_bvh))
     assert code == 0 and "stands along" not in err
