@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from mocapkit.body import body_of
 from mocapkit.clean.cleaner import SelfSimilarityCleaner
 from mocapkit.clean.detect import ORIGINAL_ORDER, PIPELINE, RETIRED, DetectConfig, run_pipeline
 from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix
@@ -318,10 +319,18 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
                         r["reasons"][why] += 1
                 # the listed glitches (within the cut) that a flag overlaps
                 hit_mask = cl.mask()
+                body = body_of(clean)
                 for g in listed_glitches(f, clean):
                     j, a, b = g
+                    hit = int(hit_mask[a : b + 1, j].any())
                     r["listed"] = r.get("listed", 0) + 1
-                    r["listed_hit"] = r.get("listed_hit", 0) + int(hit_mask[a : b + 1, j].any())
+                    r["listed_hit"] = r.get("listed_hit", 0) + hit
+                    # per body segment: toes and thumbs flicker, limbs pop
+                    seg = r.setdefault("listed_by_segment", {}).setdefault(
+                        body.category(j) or "other", [0, 0]
+                    )
+                    seg[0] += hit
+                    seg[1] += 1
             for ki, kind in enumerate(kinds):
                 rng = np.random.default_rng([args.seed, ti, ki, len(cls), len(set_name)])
                 cor = corrupt(clean, rng, kinds=[kind], joints=act)
@@ -481,10 +490,13 @@ def main() -> int:
         print("\nUninjected raw takes: flagged segments, off the glitch list, per minute")
         for (s, cls), r in raw.items():
             per = r["off"] / max(r["minutes"], 1e-9)
+            segs = sorted(r.get("listed_by_segment", {}).items())
+            by_seg = ", ".join(f"{k} {h}/{n}" for k, (h, n) in segs)
             print(
                 f"  {s} {cls}: {r['minutes']:.1f} min, {r['segments']} segments, {r['off']} off "
                 f"the list ({per:.1f}/min); listed glitches flagged "
-                f"{r.get('listed_hit', 0)}/{r.get('listed', 0)}; off-list by joint "
+                f"{r.get('listed_hit', 0)}/{r.get('listed', 0)} (by body segment: "
+                f"{by_seg}); off-list by joint "
                 f"{r.get('joints', {})}; off-list by rule {r.get('reasons', {})}"
             )
             out["raw"].append({"set": s, "class": cls, **r})
