@@ -428,5 +428,8 @@ def test_wrong_way_hinge_limb_folded_past_reach_is_flagged() -> None:
     bad[100:110, 0] = rot.rotvec_to_quat(np.array([-np.radians(178.0), 0.0, 0.0]))
     m = hinge_flags(bad)
     assert m[100:110, 0].all() and m.sum() == 10
+    ev = evidence(bad, hinges=[0], hinge_bones=BONE)
+    assert "folded back 178" in WrongWayHinges().describe(ev, 105, 0)
+    assert "flexion" in WrongWayHinges().describe(ev, 50, 0)
     m = hinge_flags(wrong_bend(bad, slice(200, 212), 170.0))  # and a wrong bend elsewhere
     assert m[100:110, 0].all() and m[200:212, 0].all() and m.sum() == 22

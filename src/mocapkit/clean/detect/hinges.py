@@ -47,4 +47,9 @@ class WrongWayHinges:
         f = ev.hinge_flexion[frame, joint]
         if not np.isfinite(f):
             return "not a straight-at-rest knee or elbow"
+        if -f > np.radians(ev.config.hinge_max_deg):
+            return (
+                f"limb folded back {deg(-f)}, past any knee's or elbow's reach (over "
+                f"{ev.config.hinge_max_deg:g} deg)"
+            )
         return f"flexion {deg(f)} (wrong way below -{self.min_deg:g} deg)"
