@@ -709,3 +709,13 @@ def test_limb_hinges_by_structure_when_names_say_nothing() -> None:
     anonymous = _renamed(sk, {n: f"j{i}" for i, n in enumerate(sk.names)})
     want = sorted(sk.names.index(n) for n in ("LeftForeArm", "RightForeArm", "LeftLeg", "RightLeg"))
     assert fe.limb_hinges(anonymous) == want  # not the spine, neck or hips
+
+
+def test_up_disagreement_names_the_bodys_axis() -> None:
+    from mocapkit import datasets
+    from mocapkit.features import up_disagreement
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion  # Y up
+    assert up_disagreement(walk, "Y") is None and up_disagreement(walk, "+y") is None
+    assert up_disagreement(walk, None) is None and up_disagreement(walk[:0], "Z") is None
+    assert up_disagreement(walk, "Z") == "Y"

@@ -72,6 +72,7 @@ __all__ = [
     "pelvis_index",
     "resample",
     "root_trajectory",
+    "up_disagreement",
 ]
 
 _AXES = "XYZ"
@@ -280,6 +281,20 @@ def detect_up_axis(obj: Motion | Skeleton, max_frames: int = 200) -> str:
         return _up_from_positions(obj.skeleton, pos)
     sk = _skeleton_of(obj)
     return _up_from_positions(sk, sk.rest_positions()[None])
+
+
+def up_disagreement(motion: Motion, up: str | None) -> str | None:
+    """The axis ``motion``'s body stands along (:func:`detect_up_axis`) when ``up`` names
+    another one, else None (also when ``up`` is None, the take is empty or has no body to
+    judge by). Callers warn rather than refuse: a take spent lying down or upside down fools
+    the detection, and the user may know better."""
+    if not up or motion.num_frames == 0:
+        return None
+    try:
+        found = detect_up_axis(motion)
+    except (ValueError, IndexError):
+        return None
+    return None if found.lstrip("+") == up.upper().lstrip("+") else found
 
 
 def character_height(obj: Motion | Skeleton, up: str | None = None) -> float:

@@ -144,8 +144,8 @@ def summarize(
     body = body_of(motion)
     if up:
         up = up.upper()
-        found = features.detect_up_axis(motion) if motion.num_frames else up
-        if found.lstrip("+") != up.lstrip("+"):  # said, not refused: a take lying down fools it
+        found = features.up_disagreement(motion, up)
+        if found is not None:
             warnings.warn(
                 f"{path}: up axis {up} given, but its body stands along {found} (head above "
                 f"the feet); the summary uses {up} as asked",

@@ -319,8 +319,7 @@ def expand_inputs(
 ) -> list[Path]:
     """The motion files named by ``items``: files as given, the files of folders (and of their
     sub-folders, linked ones too, hidden ones skipped: :func:`mocapkit.io.files_under`) and the
-    matches of glob
-    patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
+    matches of glob patterns (``'clips/*.bvh'``, quoted so that the shell leaves it alone) whose
     extension is one of ``suffixes`` (folders and patterns skip the rest, e.g. Bandai's
     ``.json`` labels), sorted; duplicates (the same file under any spelling, unless
     ``unique=False``: ``view a.bvh a.bvh`` overlays a file on itself) and ``exclude`` removed,
@@ -429,19 +428,13 @@ def parse_up(value: str | None) -> str | None:
 
 def warn_if_up_disagrees(motion: Motion, up: str | None, name: str | Path) -> None:
     """One warning line when ``--up`` names another axis than the one ``name``'s body stands
-    along (head and pelvis above the feet, :func:`mocapkit.features.detect_up_axis`): a Z-up
-    reading of a Y-up take puts its ground on a wall, and every ground-path result (facing,
-    travel, foot contacts) is then wrong without any error. Only a warning: a take spent lying
-    down or upside down fools the detection, and the user may know better."""
-    if up is None or motion.num_frames == 0:
-        return
-    from mocapkit.features import detect_up_axis
+    along (:func:`mocapkit.features.up_disagreement`): a Z-up reading of a Y-up take puts its
+    ground on a wall, and every ground-path result (facing, travel, foot contacts) is then wrong
+    without any error."""
+    from mocapkit.features import up_disagreement
 
-    try:
-        found = detect_up_axis(motion)
-    except (ValueError, IndexError):
-        return  # no body to judge by
-    if found.lstrip("+") != up.lstrip("+"):
+    found = up_disagreement(motion, up)
+    if found is not None:
         click.echo(
             f"mocapkit: warning: {name}: --up {up}, but its body stands along {found} (head "
             f"above the feet); going on with {up} as asked",
