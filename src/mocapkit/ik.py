@@ -480,6 +480,7 @@ def lock_targets(
     anchor: str = "mean",
     up: np.ndarray | None = None,
     ramp: str = "target",
+    pins: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per foot joint (columns): targets (F, n, 3) and weights (F, n) for :func:`solve`.
 
@@ -489,7 +490,13 @@ def lock_targets(
     ``ramp="offset"``, the target is the joint's own position plus the correction the run needs
     at its nearest end frame (anchor - position there), so the swing keeps its shape while the
     correction fades. Elsewhere weight 0. With ``up`` (a unit vector) only the ground-plane
-    part is held: the target keeps the input's height."""
+    part is held: the target keeps the input's height.
+
+    ``pins`` (F, n) bool marks frames whose positions are fixed by something else (the context
+    around a filled gap, which the fill must not change): a run holding pinned frames is
+    anchored on them instead (at a pinned frame its own position, between two pinned frames
+    interpolated, beyond the last one that one's), so the foot stays where the fixed frames
+    plant it and does not have to slide there when the lock lets go."""
     F, n = flags.shape
     targets = positions.copy()
     weights = np.zeros((F, n))
@@ -498,7 +505,12 @@ def lock_targets(
         best = np.full(F, -1.0)
         for a, b in true_runs(flags[:, k]):
             seg = positions[a : b + 1, k]
-            pt = seg.mean(axis=0) if anchor == "mean" else seg[0]
+            pinned = np.flatnonzero(pins[a : b + 1, k]) if pins is not None else ()
+            if len(pinned):  # per frame of the run: the pinned positions, interpolated
+                i = np.arange(len(seg))
+                pts = np.stack([np.interp(i, pinned, seg[pinned, d]) for d in range(3)], -1)
+            else:
+                pts = np.broadcast_to(seg.mean(axis=0) if anchor == "mean" else seg[0], seg.shape)
             lo, hi = max(0, a - blend_frames), min(F - 1, b + blend_frames)
             fr = np.arange(lo, hi + 1)
             dist = np.where(fr < a, a - fr, np.where(fr > b, fr - b, 0))
@@ -506,17 +518,18 @@ def lock_targets(
             wk = x * x * (3 - 2 * x)  # smoothstep: zero slope at both ends, no pop
             take = wk > best[fr]
             best[fr[take]] = wk[take]
+            end = np.clip(fr, a, b)
+            pt = pts[end - a][take]
             if ramp == "offset":
-                end = np.where(fr < a, a, np.where(fr > b, b, fr))
-                off = pt - positions[end, k]
+                off = pt - positions[end[take], k]
                 if u is not None:
                     off = off - (off @ u)[:, None] * u
-                targets[fr[take], k] = positions[fr[take], k] + off[take]
+                targets[fr[take], k] = positions[fr[take], k] + off
             elif u is None:
                 targets[fr[take], k] = pt
             else:  # the anchor's ground-plane position at the input's own height
                 h = positions[fr[take], k] @ u
-                targets[fr[take], k] = pt - (pt @ u) * u + h[:, None] * u
+                targets[fr[take], k] = pt - (pt @ u)[:, None] * u + h[:, None] * u
         weights[:, k] = np.maximum(best, 0.0)
     return targets, weights
 

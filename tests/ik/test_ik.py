@@ -152,6 +152,32 @@ def test_lock_targets_offset_ramp_keeps_the_swing():
         FootLockConfig(ramp="pull")
 
 
+@pytest.mark.parametrize("ramp", ["target", "offset"])
+def test_lock_targets_pinned_frames_anchor_their_run(ramp):
+    """A run holding pinned frames (a filled gap's fixed context) is held where those frames put
+    the joint: at the pinned frames exactly, between two of them interpolated, past the last
+    one that one's; a run without pinned frames keeps its own anchor."""
+    F = 40
+    pos = np.zeros((F, 1, 3))
+    pos[:, 0, 0] = np.linspace(0, 1, F)  # a sliding joint
+    flags = np.zeros((F, 1), dtype=bool)
+    flags[5:12] = flags[20:35] = True
+    pins = np.zeros((F, 1), dtype=bool)
+    pins[30:] = True  # the run 20..34 reaches the fixed frames from 30 on
+    up = np.array([0.0, 1.0, 0.0])
+    t, w = lock_targets(pos, flags, 3, "first", up, ramp, pins)
+    assert np.allclose(t[20:31, 0], pos[30, 0])  # held where the fixed frame 30 plants it
+    assert np.allclose(t[30:35, 0], pos[30:35, 0])  # the fixed frames themselves untouched
+    assert np.allclose(t[5:12, 0], pos[5, 0])  # no pinned frame: its first position
+    _, w_free = lock_targets(pos, flags, 3, "first", up, ramp)
+    assert np.array_equal(w, w_free)
+    pins[:] = False
+    pins[22] = pins[28] = True  # two pinned frames: interpolated between, held beyond
+    t, _ = lock_targets(pos, flags, 3, "first", up, ramp, pins)
+    assert np.allclose(t[20:23, 0], pos[22, 0]) and np.allclose(t[28:35, 0], pos[28, 0])
+    assert np.allclose(t[22:29, 0], pos[22:29, 0])
+
+
 def test_lock_feet_holds_planted_feet(shared_path):
     from mocapkit.io import read_motion
 

@@ -566,3 +566,37 @@ def test_kalman_needs_no_library(files, tmp_path, humanoid):
         "inbetween", files / "walk.bvh", "--gap", "60:75", "--out", tmp_path / "x.bvh"
     )
     assert code == 2 and "--library is needed" in se and not (tmp_path / "x.bvh").exists()
+
+
+def test_foot_lock_holds_a_planted_foot_where_the_context_plants_it():
+    """A foot planted across the gap's end stays where the first future frame (which the fill
+    must not change) plants it, instead of sliding there in the last filled frames: a fill
+    that drifts the body up to 6 cm away and back over the gap keeps the foot still."""
+    from dataclasses import replace
+
+    from mocapkit.features import foot_contacts
+    from mocapkit.stitch.inbetween import _lock_feet
+
+    walk = datasets.procedural_motion("walk", 4.0, seed=5).motion
+    con = foot_contacts(walk, up="Y")
+    k = 0
+    runs = np.flatnonzero(np.diff(con.contacts[:, k].astype(int)) == 1) + 1
+    start = int(next(r for r in runs if r > 40))
+    stop = start + int(np.argmin(con.contacts[start:, k]))  # the run is start..stop-1
+    assert stop - start >= 8
+    a, b = start - 12, start + 5  # the gap ends inside the contact run
+    drift = walk.copy()
+    u = np.sin(np.pi * np.clip((np.arange(walk.num_frames) - (a - 1)) / (b - a + 1), 0, 1))
+    # a slide away and back over the gap (the fill meets the context at both ends)
+    drift.root_positions = walk.root_positions + u[:, None] * np.array([0.06, 0.0, 0.0])  # metres
+    if drift.translations is not None:
+        drift.translations[:, 0] = drift.root_positions
+    out = _lock_feet(drift, a, b, "Y", replace(DEFAULT_CONFIG, foot_lock=True))
+    foot = int(con.joints[k])
+    P, _ = forward_kinematics(out)
+    D, _ = forward_kinematics(drift)
+    held = P[start:b, foot][:, [0, 2]] - P[b, foot][[0, 2]]
+    assert np.abs(held).max() < 0.005  # planted where frame B has it
+    slid = D[start:b, foot][:, [0, 2]] - D[b, foot][[0, 2]]
+    assert np.abs(slid).max() > 0.03  # without the lock it slides
+    np.testing.assert_array_equal(out.rotations[b:], drift.rotations[b:])

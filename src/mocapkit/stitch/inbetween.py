@@ -826,11 +826,14 @@ def _two_sided(onpath, fill, a, b, ctx: _Context, w: int, up: str, model) -> flo
 def _lock_feet(motion: Motion, a: int, b: int, up: str, config: InbetweenConfig) -> Motion:
     """``motion`` with the feet planted in frames a..b-1 held still (see
     :attr:`InbetweenConfig.foot_lock`): contacts (:func:`mocapkit.features.foot_contacts`) on
-    the gap and some context, each contact run held where it began (ground-plane only), the
-    hold faded in and out at the gap's ends; only the legs' rotations of frames a..b-1 change."""
+    the gap and some context, each contact run held where it began (ground-plane only), or
+    where the context frames of the run plant the foot (a foot planted at frame B is already
+    where it must be; :func:`mocapkit.ik.lock_targets` ``pins``), the hold of the other runs
+    faded in and out at the gap's ends; only the legs' rotations of frames a..b-1 change."""
     from mocapkit import ik
     from mocapkit.body import body_of
     from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.core.runs import true_runs
     from mocapkit.features import foot_contacts, ground_frame
 
     pad = motion.seconds_to_frames(config.lock_context_seconds)
@@ -852,14 +855,20 @@ def _lock_feet(motion: Motion, a: int, b: int, up: str, config: InbetweenConfig)
             flags[:, effs.index(j)] |= contacts.contacts[:, k]
     pos, _ = forward_kinematics(ex)
     lock = ik.FootLockConfig()
+    i = np.arange(F) + lo
+    context = (i < a) | (i >= b)  # frames the fill must not change: a run there is anchored
     targets, weights = ik.lock_targets(
         pos[:, list(effs)], flags, ex.seconds_to_frames(lock.blend), "first",
-        ground_frame(up)[1], "offset",
+        ground_frame(up)[1], "offset", np.repeat(context[:, None], len(effs), 1),
     )  # fmt: skip
     ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
-    i = np.arange(F) + lo
     x = np.clip(np.minimum(i - (a - 1), b - i) / (ramp + 1), 0.0, 1.0)
-    weights = weights * (x * x * (3 - 2 * x))[:, None]
+    fade = np.repeat((x * x * (3 - 2 * x))[:, None], len(effs), 1)
+    for k in range(len(effs)):  # a run the context anchors meets it already: held to the end
+        for r0, r1 in true_runs(flags[:, k]):
+            if context[r0 : r1 + 1].any():
+                fade[r0 : r1 + 1, k] = 1.0
+    weights = weights * fade
     res = ik.solve(ex, chains, targets, weights, lock.ik, body)
     out = motion.copy()
     out.rotations[a:b] = res.motion.rotations[a - lo : b - lo]
