@@ -198,6 +198,10 @@ class DetectConfig:
     #: at 30 fps is rough all the time (each joint is judged against its own, as steps are);
     #: injected or marker noise stands tens of times above it (0: the fixed level alone).
     noise_ratio: float = 4.0
+    #: A burst's roughness run starts (ends) at its outermost frame, which sees one noisy step
+    #: (~0.45 x the next frame's roughness), when that frame is under this fraction of the next
+    #: one's; else one frame before (at) the burst (~0.9 x): the flags are the burst's frames.
+    noise_edge_ratio: float = 2.0 / 3.0
 
     # ------------------------------------------------------------------ wrong-way hinges
     #: A knee or elbow bent more than this (degrees) past straight the wrong way: anatomically
@@ -245,6 +249,8 @@ class DetectConfig:
             raise ValueError("step_ratio must be positive and step_min_deg non-negative")
         if self.pair_seconds < 0:
             raise ValueError("pair_seconds must be >= 0 (0 turns the pairing off)")
+        if not 0.0 < self.noise_edge_ratio < 1.0:
+            raise ValueError(f"noise_edge_ratio must lie in (0, 1), got {self.noise_edge_ratio!r}")
         if self.abrupt_deg < 0 or self.recur_deg < 0:
             raise ValueError("abrupt_deg and recur_deg must be >= 0 (0 turns the veto off)")
         for f in dataclasses.fields(self):

@@ -245,8 +245,9 @@ class Evidence:
     @cached_property
     def noise_bursts(self) -> np.ndarray:
         """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`)."""
+        c = self.config
         return mdm_mod.noise_bursts(
-            self.roughness, self.noise_level, self.frames(self.config.noise_seconds, 2)
+            self.roughness, self.noise_level, self.frames(c.noise_seconds, 2), c.noise_edge_ratio
         )
 
     @cached_property
