@@ -351,6 +351,33 @@ def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:
         assert m[80:82, j].all() and not m[:76, j].any() and not m[86:, j].any()
 
 
+def test_cancelling_steps_pair_the_two_ends_of_a_flip() -> None:
+    """A joint turning 3 deg per frame about x, flipped 180 deg about the same axis for 9
+    frames: the entry step is 183 deg, which ``log`` reports as 177 deg about -x, and the exit
+    step 177 deg about -x too. As rotation vectors they add up instead of cancelling; as turns
+    one undoes the other, and the stretch is flagged."""
+    F = 60
+    r = np.radians(3.0) * np.arange(F)
+    q = rot.rotvec_to_quat(r[:, None] * np.array([[1.0, 0.0, 0.0]]))[:, None]
+    bad = q.copy()
+    flip = rot.rotvec_to_quat(np.array([np.pi, 0.0, 0.0]))
+    bad[20:29, 0] = rot.quat_mul(q[20:29, 0], flip)
+    devs = [mdm_mod.step_deviations(bad, f) for f in ("body", "parent")]
+    v_in, v_out = devs[0][20, 0], devs[0][29, 0]
+    assert np.degrees(np.linalg.norm(v_in + v_out)) > 300  # the same way round
+    peaks = np.zeros((F, 1), dtype=bool)
+    peaks[[20, 29], 0] = True
+    flagged = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35)
+    assert np.array_equal(np.flatnonzero(flagged[:, 0]), np.arange(20, 29))
+    # two steps of 60 deg the same way do not cancel, whichever way round
+    same = rot.rotvec_to_quat(np.array([np.radians(60.0), 0.0, 0.0]))
+    stays = q.copy()
+    stays[20:, 0] = rot.quat_mul(q[20:, 0], same)
+    stays[29:, 0] = rot.quat_mul(stays[29:, 0], same)
+    devs = [mdm_mod.step_deviations(stays, f) for f in ("body", "parent")]
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35).any()
+
+
 def test_burst_roughness_matches_the_reference_and_finds_a_burst_not_its_edges() -> None:
     from clean.naive import burst_roughness as naive_burst_roughness
 

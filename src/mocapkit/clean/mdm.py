@@ -447,6 +447,11 @@ def cancelling_steps(
     the peaks of :func:`jump_size`, as a limb that starts and stops at once (a kick from rest
     back to rest) kinks its velocity with opposite deviations too.
 
+    A turn of about 180 deg has two rotation vectors of nearly the same length pointing
+    opposite ways (``log`` reports the one under 180 deg), so the exit of a flip may come out
+    pointing the same way as its entry: the exit's other representation
+    (:func:`_other_side`) is tried too.
+
     Each peak pairs at most once, the best-cancelling pairs first: two errors close together
     on one joint (the entry of the first, its exit, the entry of the second, ...) pair as two
     stretches, not through the exit of the first and the entry of the second across the clean
@@ -460,9 +465,10 @@ def cancelling_steps(
                 if e - a > max_frames:
                     break
                 ratio = min(
-                    np.linalg.norm(v[a, j] + v[e, j])
+                    np.linalg.norm(v[a, j] + x)
                     / max(min(np.linalg.norm(v[a, j]), np.linalg.norm(v[e, j])), 1e-12)
                     for v in deviations
+                    for x in (v[e, j], _other_side(v[e, j]))
                 )
                 if ratio < tol:
                     pairs.append((ratio, a, e))
@@ -472,6 +478,13 @@ def cancelling_steps(
                 used.update((a, e))
                 out[a:e, j] = True
     return out
+
+
+def _other_side(v: np.ndarray) -> np.ndarray:
+    """The same turn as rotation vector ``v`` the other way round: ``v - 2 pi v / |v|`` (angle
+    ``2 pi - |v|``); for a turn near 180 deg about as long as ``v`` itself."""
+    n = np.linalg.norm(v)
+    return v - (2.0 * np.pi / n) * v if n > 0 else v
 
 
 def spike_size(rotations: np.ndarray, max_frames: int, floor: float = 0.0) -> np.ndarray:
