@@ -126,8 +126,10 @@ class DetectConfig:
     pair_seconds: float = 1.5
     #: Two jumps cancel when ``|v_in + v_out| < pair_tol * min(|v_in|, |v_out|)``.
     pair_tol: float = 0.45
-    #: A jump counts when it exceeds this many times the joint's 99th percentile of jumps.
-    pair_ratio: float = 1.2
+    #: A jump counts when it exceeds this many times the joint's ``pair_quantile`` of jumps.
+    pair_ratio: float = 1.45
+    #: Percentile of the joint's jumps the pair ratio is measured against.
+    pair_quantile: float = 97.0
 
     # ------------------------------------------------------------------ spikes
     #: (Retired rule.) A short stretch that leaves the joint's smooth path (the cubic through the

@@ -220,7 +220,7 @@ class Evidence:
         """(F, J) bool: jumps far above the joint's own."""
         c = self.config
         return mdm_mod.step_peaks(
-            self.jump_size, c.pair_ratio, np.radians(c.step_min_deg), c.step_quantile
+            self.jump_size, c.pair_ratio, np.radians(c.step_min_deg), c.pair_quantile
         )
 
     @cached_property
