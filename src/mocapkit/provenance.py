@@ -22,6 +22,13 @@ versions, ``walk.provenance.json``, are still read when they name ``walk.bvh``):
       ]
     }
 
+File paths (``output``, ``inputs``, ``source``, ``target``, and any parameter that names a
+file) are written relative to the sidecar's own folder, starting ``./`` or ``../``, so the
+sidecar stays right wherever it is read from and when its folder moves with the files; a path
+that cannot be made relative (another drive) is absolute, and a name that is not a file (an
+API caller's clip name) is kept as it is. :func:`read_provenance` turns them back into paths
+from the reader's working folder.
+
 Frames are 0-based, ``*_stop`` excluded. Segment kinds: ``"clip"`` (frames copied from
 ``source``), ``"transition"`` (``source``'s frames blended with the clip the walk came from, which
 the matching ``transitions`` entry names), ``"generated"`` (frames made by mocapkit, e.g. a
@@ -34,6 +41,8 @@ know, so later tools may add some.
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -83,25 +92,75 @@ class Provenance:
     segments: list[Segment] = field(default_factory=list)
     transitions: list[TransitionTaken] = field(default_factory=list)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self, path: Callable[[str], str] = str) -> dict[str, Any]:
+        """The sidecar's JSON, every file path passed through ``path``."""
         return {
             "format": FORMAT,
             "tool": self.tool,
             "mocapkit_version": _version(),
-            "output": self.output,
+            "output": path(self.output),
             "fps": self.fps,
             "frames": self.frames,
-            "inputs": list(self.inputs),
-            "parameters": dict(self.parameters),
-            "segments": [asdict(s) for s in self.segments],
-            "transitions": [asdict(t) for t in self.transitions],
+            "inputs": [path(x) for x in self.inputs],
+            "parameters": _map_strings(dict(self.parameters), path),
+            "segments": [_map_keys(asdict(s), ("source",), path) for s in self.segments],
+            "transitions": [
+                _map_keys(asdict(t), ("source", "target"), path) for t in self.transitions
+            ],
         }
 
     def write(self, output: str | Path) -> Path:
-        """Write the sidecar of ``output`` (:func:`sidecar_path`) atomically; returns its path."""
+        """Write the sidecar of ``output`` (:func:`sidecar_path`) atomically, file paths relative
+        to its folder (module notes); returns its path."""
         from mocapkit.jsonio import to_json_text
 
-        return atomic_write_text(sidecar_path(output), to_json_text(self.to_json()) + "\n")
+        side = sidecar_path(output)
+        folder = os.path.abspath(side.parent)
+        data = self.to_json(lambda s: _from_folder(s, folder))
+        data["output"] = os.path.join(".", Path(output).name)  # beside it, written or not yet
+        return atomic_write_text(side, to_json_text(data) + "\n")
+
+
+def _from_folder(s: str, folder: str) -> str:
+    """``s`` as a path from ``folder`` (``./`` or ``../`` first) when it names a file or a
+    folder, else ``s``; absolute where no relative path exists (another drive)."""
+    if not s or not os.path.exists(s):
+        return s
+    try:
+        rel = os.path.relpath(os.path.abspath(s), folder)
+    except ValueError:
+        return os.path.abspath(s)
+    return rel if rel.startswith("..") else os.path.join(".", rel)
+
+
+def _to_reader(s: str, folder: str) -> str:
+    """A path stored relative to the sidecar's ``folder`` as a path from the working folder."""
+    if not s.startswith(("./", "../", ".\\", "..\\")):
+        return s
+    full = os.path.normpath(os.path.join(folder, s))
+    try:
+        rel = os.path.relpath(full)
+    except ValueError:
+        return full
+    return full if rel.startswith("..") else rel
+
+
+def _map_keys(d: dict, keys: tuple[str, ...], f: Callable[[str], str]) -> dict:
+    for k in keys:
+        if isinstance(d.get(k), str):
+            d[k] = f(d[k])
+    return d
+
+
+def _map_strings(x: Any, f: Callable[[str], str]) -> Any:
+    """``x`` (parameters: dicts, lists, scalars) with every string passed through ``f``."""
+    if isinstance(x, str):
+        return f(x)
+    if isinstance(x, dict):
+        return {k: _map_strings(v, f) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_map_strings(v, f) for v in x]
+    return x
 
 
 def sidecar_path(output: str | Path) -> Path:
@@ -139,16 +198,24 @@ def read_provenance(path: str | Path) -> Provenance:
         raise ValueError(f"{path}: not a readable provenance file ({e})") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise ValueError(f"{path}: not a mocapkit provenance file (expected format {FORMAT})")
+    folder = os.path.abspath(path.parent)
+
+    def f(s: str) -> str:
+        return _to_reader(s, folder)
+
     try:
         return Provenance(
             tool=str(data["tool"]),
-            output=str(data["output"]),
+            output=f(str(data["output"])),
             fps=float(data["fps"]),
             frames=int(data["frames"]),
-            inputs=[str(x) for x in data.get("inputs", [])],
-            parameters=dict(data.get("parameters", {})),
-            segments=[Segment(**s) for s in data.get("segments", [])],
-            transitions=[TransitionTaken(**t) for t in data.get("transitions", [])],
+            inputs=[f(str(x)) for x in data.get("inputs", [])],
+            parameters=_map_strings(dict(data.get("parameters", {})), f),
+            segments=[Segment(**_map_keys(s, ("source",), f)) for s in data.get("segments", [])],
+            transitions=[
+                TransitionTaken(**_map_keys(t, ("source", "target"), f))
+                for t in data.get("transitions", [])
+            ],
         )
     except (KeyError, TypeError, ValueError) as e:
         raise ValueError(f"{path}: malformed provenance file ({e})") from None

@@ -4,6 +4,7 @@ the exact meeting of the context poses, the Kalman fallback and the CLI's gap ch
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -295,6 +296,13 @@ def test_report_names_every_segment_and_file_frames(humanoid):
     assert js["blended_from"][0]["source_frames"] == js["source_frames"]
     scores = [x["score"] for x in js["blended_from"]]
     assert scores == sorted(scores)
+    # the best segment's own scores are named as the segment's, apart from the filled frames'
+    # L-score that the fallback compares with the Kalman transition's
+    assert js["segment_score"] == scores[0] and "lscore" not in js and "score" not in js
+    assert js["segment_lscore"] == pytest.approx(
+        js["segment_lscore_start"] + js["segment_lscore_end"]
+    )
+    assert js["library_lscore"] > 0 and js["kalman_lscore"] > 0
     prov = res.provenance("x.bvh").to_json()
     assert prov["parameters"]["blended_from"] == js["blended_from"]
     # the same library at twice the frame rate: the same segments, at twice the frame numbers
@@ -391,7 +399,12 @@ def test_cli_writes_motion_and_sidecar(files):
     assert side["tool"] == "inbetween" and side["parameters"]["gap"] == [60, 75]
     seg = side["segments"][1]
     assert (seg["output_start"], seg["output_stop"]) == (60, 75)
-    assert seg["source"].startswith(str(files / "lib"))
+    # written relative to the sidecar's folder, read back as a path to the library file
+    assert seg["source"].startswith("./lib/l") and side["output"] == "./filled.bvh"
+    from mocapkit.provenance import find_provenance
+
+    prov = find_provenance(out)
+    assert Path(prov.segments[1].source).resolve().parent == (files / "lib").resolve()
     back = read_motion(out)
     assert back.num_frames == read_motion(files / "walk.bvh").num_frames
 

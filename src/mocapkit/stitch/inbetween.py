@@ -1108,10 +1108,13 @@ class Inbetween:
             "source_backwards": self.backwards,
             "source_used": used,
             "blended_from": [dict(x) for x in self.blended_from],
+            # the best segment's own search scores: raw, joined to the context as found
             **{
-                k: None if c is None else getattr(c, k)
+                f"segment_{k}": None if c is None else getattr(c, k)
                 for k in ("rate", "score", "lscore", "lscore_start", "lscore_end", "travel", "pose")
             },
+            # the final filled frames' two-sided L-score, and the Kalman transition's: the pair
+            # the fallback compares (the segment's own differs: the fill is blended and averaged)
             "library_lscore": None if math.isnan(self.library_lscore) else self.library_lscore,
             "pose_rms_m": None if math.isnan(self.pose_rms_m) else self.pose_rms_m,
             "path_miss_m": None if math.isnan(self.path_miss_m) else self.path_miss_m,
