@@ -43,3 +43,9 @@ def test_paths_are_relative_to_the_sidecar_and_read_back_from_any_folder(tmp_pat
     assert back.inputs[2] == "api_clip" and back.transitions[0].target == "api_clip"
     assert Path(back.segments[0].source).resolve() == (work / "clips" / "a.bvh").resolve()
     assert os.path.exists(back.output) and not os.path.isabs(back.output)
+    # a path the user gave absolute stays absolute
+    monkeypatch.chdir(work)
+    absolute = str((work / "clips" / "a.bvh").resolve())
+    prov.inputs[0] = absolute
+    data = json.loads(prov.write("out/walk.bvh").read_text())
+    assert data["inputs"][0] == absolute and data["inputs"][1] == "../clips/b.bvh"

@@ -22,12 +22,12 @@ versions, ``walk.provenance.json``, are still read when they name ``walk.bvh``):
       ]
     }
 
-File paths (``output``, ``inputs``, ``source``, ``target``, and any parameter that names a
-file) are written relative to the sidecar's own folder, starting ``./`` or ``../``, so the
-sidecar stays right wherever it is read from and when its folder moves with the files; a path
-that cannot be made relative (another drive) is absolute, and a name that is not a file (an
-API caller's clip name) is kept as it is. :func:`read_provenance` turns them back into paths
-from the reader's working folder.
+File paths given relative (``output``, ``inputs``, ``source``, ``target``, and any parameter
+that names a file) are written relative to the sidecar's own folder, starting ``./`` or
+``../``, so the sidecar stays right wherever it is read from and when its folder moves with
+the files; an absolute path stays absolute (and so does one that cannot be made relative:
+another drive), and a name that is not a file (an API caller's clip name) is kept as it is.
+:func:`read_provenance` turns them back into paths from the reader's working folder.
 
 Frames are 0-based, ``*_stop`` excluded. Segment kinds: ``"clip"`` (frames copied from
 ``source``), ``"transition"`` (``source``'s frames blended with the clip the walk came from, which
@@ -122,9 +122,10 @@ class Provenance:
 
 
 def _from_folder(s: str, folder: str) -> str:
-    """``s`` as a path from ``folder`` (``./`` or ``../`` first) when it names a file or a
-    folder, else ``s``; absolute where no relative path exists (another drive)."""
-    if not s or not os.path.exists(s):
+    """``s`` as a path from ``folder`` (``./`` or ``../`` first) when it is a relative path
+    naming a file or a folder, else ``s`` (an absolute path stays as the user gave it);
+    absolute where no relative path exists (another drive)."""
+    if not s or os.path.isabs(s) or not os.path.exists(s):
         return s
     try:
         rel = os.path.relpath(os.path.abspath(s), folder)
