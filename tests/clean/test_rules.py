@@ -171,6 +171,26 @@ def test_frozen_joints() -> None:
     assert not fl.mask.any()
 
 
+def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
+    """--explain's frozen line names the criterion that decided: frozen, moving, too short,
+    KNN words holding too, or a value the joint rests at elsewhere (parked)."""
+    q = smooth(180)
+    bad = q.copy()
+    bad[30:50, 0] = q[30, 0]  # frozen 20 frames
+    bad[100:105, 0] = q[100, 0]  # held 5 frames only
+    dig = rot.quat_angle(bad, q)
+    ev = evidence(bad, dig=dig)
+    rule = FrozenJoints()
+    assert rule.describe(ev, 40, 0).startswith("held still frames 3")  # flagged
+    assert "moving here" in rule.describe(ev, 70, 0)
+    assert "shorter than 0.33 s" in rule.describe(ev, 102, 0)
+    assert "KNN words stay within" in rule.describe(evidence(bad), 40, 0)
+    parked = bad.copy()
+    parked[130:150, 0] = q[30, 0]  # it rests at the same value again later
+    why = rule.describe(evidence(parked, dig=rot.quat_angle(parked, q)), 40, 0)
+    assert "rests at elsewhere" in why and "parked" in why
+
+
 def test_smooth_veto() -> None:
     fl = flagged(90, 2, [(30, 40, 0)])
     SmoothVeto().apply(evidence(smooth()), fl)

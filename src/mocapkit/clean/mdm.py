@@ -288,18 +288,42 @@ def frozen_cells(
     still = rot.quat_angle(q[:-1], q[1:]) < speed  # (F-1, J): frame f -> f+1
     for j in range(J):
         for a, b in true_runs(still[:, j]):
-            if b - a + 1 < min_frames:
-                continue
-            fr = slice(a, b + 2)  # the run's frames, f ... f+1
-            if digression[fr, j].max() <= min_digression:
-                continue
-            near = rot.quat_angle(q[:, j], q[a, j][None]) < tol
-            near[:-1] &= still[:, j]  # at rest there, not passing through
-            near[-1] &= still[-1, j]
-            near[max(a - margin, 0) : b + margin + 2] = False
-            if near.sum() < max_recur:
-                out[fr, j] = True
+            verdict = frozen_verdict(
+                q[:, j], still[:, j], digression[:, j], a, b, min_frames, min_digression, tol,
+                max_recur, margin,
+            )  # fmt: skip
+            if verdict[0] == "frozen":
+                out[a : b + 2, j] = True  # the run's frames, f ... f+1
     return out
+
+
+def frozen_verdict(
+    q: np.ndarray,
+    still: np.ndarray,
+    digression: np.ndarray,
+    a: int,
+    b: int,
+    min_frames: int,
+    min_digression: float,
+    tol: float,
+    max_recur: int,
+    margin: int,
+) -> tuple[str, float]:
+    """:func:`frozen_cells`' verdict on one joint's still run ``a .. b`` (steps f -> f+1; ``q``
+    (F, 4), ``still`` (F-1,), ``digression`` (F,)): ``("short", 0)``, ``("calm", peak
+    digression)`` (the KNN words do not move away), ``("rests", frames held at that value
+    elsewhere)`` or ``("frozen", peak digression)``."""
+    if b - a + 1 < min_frames:
+        return "short", 0.0
+    dig = float(digression[a : b + 2].max())
+    if dig <= min_digression:
+        return "calm", dig
+    near = rot.quat_angle(q, q[a][None]) < tol
+    near[:-1] &= still  # at rest there, not passing through
+    near[-1] &= still[-1]
+    near[max(a - margin, 0) : b + margin + 2] = False
+    recur = int(near.sum())
+    return ("rests", float(recur)) if recur >= max_recur else ("frozen", dig)
 
 
 def hysteresis(weak: np.ndarray, strong: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from mocapkit.clean import mdm as mdm_mod
+from mocapkit.clean.detect._runs import run_around
 from mocapkit.clean.detect.config import DetectConfig, seconds_to_frames
 from mocapkit.core import rotations as rot
 from mocapkit.core.runs import true_runs
@@ -326,23 +327,47 @@ class Evidence:
             return self.hinge_flexion < -np.radians(self.config.hinge_deg)
 
     # ------------------------------------------------------------------ needing the maps
+    def _frozen_params(self) -> dict:
+        c = self.config
+        recur = self.frames(c.frozen_recur_seconds)
+        return {
+            "min_frames": self.frames(c.frozen_seconds, 2),
+            "speed": np.radians(c.frozen_speed_deg_s / self.fps),
+            "min_digression": np.radians(c.frozen_min_digression_deg),
+            "tol": np.radians(c.frozen_tol_deg),
+            "max_recur": recur,
+            "margin": recur,
+        }
+
+    def frozen_why(self, joint: int, frame: int) -> tuple[str, int, int, float]:
+        """Why the frozen rule does or does not flag cell (``frame``, ``joint``): ``(verdict,
+        a, b, value)`` with the still run ``a .. b`` (frames) around it; verdict "moving" (no
+        still run there), "short", "calm", "rests", "parked" (a straight hinge held straight)
+        or "frozen" (:func:`mdm.frozen_verdict`)."""
+        self._need_maps()
+        p = self._frozen_params()
+        q = self.rotations[:, joint]
+        still = rot.quat_angle(q[:-1], q[1:]) < p["speed"]
+        f = frame if frame < len(still) and still[frame] else frame - 1
+        if f < 0 or not still[f]:
+            return "moving", frame, frame, 0.0
+        a, b = run_around(still, f)
+        verdict, value = mdm_mod.frozen_verdict(
+            q, still, self.digression[:, joint], a, b, p["min_frames"], p["min_digression"],
+            p["tol"], p["max_recur"], p["margin"],
+        )  # fmt: skip
+        if verdict == "frozen" and not self.frozen[a, joint]:
+            verdict = "parked"
+        return verdict, a, b + 1, value
+
     @cached_property
     def frozen(self) -> np.ndarray:
         """(F, J) bool: frozen runs (:func:`mdm.frozen_cells`), less the straight hinges held
         within ``frozen_straight_deg`` of straight (parked at their limit)."""
         self._need_maps()
         c = self.config
-        recur = self.frames(c.frozen_recur_seconds)
-        out = mdm_mod.frozen_cells(
-            self.rotations,
-            self.digression,
-            self.frames(c.frozen_seconds, 2),
-            speed=np.radians(c.frozen_speed_deg_s / self.fps),
-            min_digression=np.radians(c.frozen_min_digression_deg),
-            tol=np.radians(c.frozen_tol_deg),
-            max_recur=recur,
-            margin=recur,
-        )
+        p = self._frozen_params()
+        out = mdm_mod.frozen_cells(self.rotations, self.digression, **p)
         if c.frozen_straight_deg > 0:
             # a straight hinge held straight is parked at its limit
             for j in self.hinges:

@@ -35,10 +35,22 @@ class FrozenJoints:
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         run = run_around(ev.frozen[:, joint], frame)
-        if run is None:
-            return f"not in a frozen run of {self.min_seconds:.2f} s or more"
-        a, b = run
-        return (
-            f"held still frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s) while its KNN words "
-            f"move {deg(ev.digression[a : b + 1, joint].max())} away"
-        )
+        if run is not None:
+            a, b = run
+            return (
+                f"held still frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s) while its KNN words "
+                f"move {deg(ev.digression[a : b + 1, joint].max())} away"
+            )
+        c = ev.config
+        verdict, a, b, value = ev.frozen_why(joint, frame)
+        held = f"held still frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s)"
+        return {
+            "moving": f"moving here (held means turning under {c.frozen_speed_deg_s:g} deg/s)",
+            "short": f"{held}: shorter than {self.min_seconds:.2f} s",
+            "calm": f"{held}, but its KNN words stay within {deg(value)} of it (they hold "
+            f"too; frozen needs {c.frozen_min_digression_deg:g} deg)",
+            "rests": f"{held} at a value it rests at elsewhere ({int(value)} frames within "
+            f"{c.frozen_tol_deg:g} deg): parked there, not frozen",
+            "parked": f"{held} straight: a knee or elbow parked at its limit, not frozen",
+            "frozen": f"{held}",
+        }[verdict]
