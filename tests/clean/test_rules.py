@@ -12,6 +12,7 @@ from mocapkit.clean.detect import (
     ORIGINAL_ORDER,
     PIPELINE,
     RETIRED,
+    BridgeHoles,
     CancellingJumps,
     DetectConfig,
     DominanceVeto,
@@ -69,7 +70,7 @@ def flagged(F: int, J: int, cells) -> Flags:
 
 def test_pipeline_is_data_and_config_has_no_frames() -> None:
     names = [r.name for r in ORIGINAL_ORDER]
-    assert names[0] == "mdm" and names[-1] == "extend" and len(set(names)) == len(names)
+    assert names[0] == "mdm" and names[-1] == "bridge" and len(set(names)) == len(names)
     assert tuple(r for r in ORIGINAL_ORDER if r not in RETIRED) == PIPELINE
     for r in ORIGINAL_ORDER:
         assert r.__doc__ and "Relies on" in r.__doc__, r.__name__
@@ -191,6 +192,20 @@ def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
     assert "rests at elsewhere" in why and "parked" in why
 
 
+def test_bridge_holes() -> None:
+    """Holes of up to 0.05 s (2 frames at 30 fps) between two flagged runs of a joint are
+    closed; a longer hole, a hole at the take's edge and other joints are not."""
+    ev = evidence(smooth())
+    fl = flagged(90, 2, [(10, 20, 0), (22, 30, 0), (40, 45, 0), (48, 50, 0), (0, 5, 1)])
+    BridgeHoles().apply(ev, fl)
+    assert fl.added["bridge"][20:22, 0].all() and fl.added["bridge"].sum() == 2
+    assert fl.mask[10:30, 0].all() and not fl.mask[45:48, 0].any()
+    fl = flagged(90, 2, [(10, 20, 0), (21, 30, 0)])
+    BridgeHoles(max_seconds=0.0).apply(ev, fl)  # off
+    assert not fl.added["bridge"].any()
+    assert "between two flagged runs" in BridgeHoles().describe(ev, 20, 0)
+
+
 def test_smooth_veto() -> None:
     fl = flagged(90, 2, [(30, 40, 0)])
     SmoothVeto().apply(evidence(smooth()), fl)
@@ -233,6 +248,11 @@ def test_noise_bursts() -> None:
     fl = Flags((90, 2))
     NoiseBursts().apply(evidence(smooth(amp=1.5)), fl)
     assert not fl.mask.any()
+    # --explain names the burst a flagged cell is in, whatever the cell's own roughness
+    ev = evidence(bad)
+    f = int(np.flatnonzero(ev.noise_bursts[:, 1])[0])
+    assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}-")
+    assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
 
 
 def test_wrong_way_hinges() -> None:

@@ -222,8 +222,10 @@ def clean_command(
     quiet: bool,
 ) -> None:
     """Find which joints are wrong when in a take, and repair them (self-similarity analysis).
-    IN is a take, or a folder of takes (folder mode: every take cleaned against its related
-    takes, in this process or on a Dask cluster; see "Running on a cluster" in the README).
+    IN is a take (.bvh, .npz, or a CMU .amc with its subject's .asf beside it: NN.asf for
+    NN_MM.amc, or the folder's only .asf), or a folder of takes (folder mode: every take
+    cleaned against its related takes, in this process or on a Dask cluster; see "Running on
+    a cluster" in the README).
 
     Every short window of each joint group ("motion-word") is compared by constrained DTW with
     every window of the context; joints whose rotation digresses from their nearest neighbours'
@@ -326,7 +328,7 @@ def clean_command(
         return
     click.echo(
         f"{input_path}: {report.frames} frames at {report.fps:g} fps, "
-        f"{len(report.context)} context take(s), {report.analysis_seconds:.1f} s"
+        f"{len(report.context)} context take(s), analysed in {report.analysis_seconds:.1f} s"
     )
     segments = report.segments
     if not segments:

@@ -95,7 +95,10 @@ def inbetween_cmd(
     warning says when the best segment's path over the ground misses the clip's by more than
     0.5 m: the library then holds nothing like the motion around the gap.
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
-    OUT`` marks them); --json writes the same with the scores.
+    OUT`` marks them); --json writes the same with the scores. A library file that cannot be
+    read, or has another skeleton, gets one error line and is left out; the gap is still
+    filled from the others, and the exit status is then 2. CLIP and library files may be
+    .bvh, .npz or CMU .amc (with its subject's .asf beside it).
 
     \b
     Examples:

@@ -14,6 +14,7 @@ REASON_COLOURS = {
     "noise": "#9467bd",
     "wrong-way-hinge": "#8c564b",
     "extend": "#f7b6d2",
+    "bridge": "#c7c7c7",
 }
 """Colour of each rule's cells (others: :data:`OTHER_COLOURS` in order of appearance)."""
 
@@ -27,6 +28,7 @@ REASON_TEXT = {
     "noise": "a burst of jitter",
     "wrong-way-hinge": "a knee or elbow bent the wrong way",
     "extend": "widened to the step where the error starts",
+    "bridge": "a hole of a frame or two between two flagged runs, closed",
 }
 """What a flag of each rule means, in a few words (a legend line)."""
 

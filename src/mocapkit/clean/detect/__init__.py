@@ -11,6 +11,7 @@ paper's MDM threshold, seeded), :class:`DominanceVeto`, :class:`CancellingJumps`
 :class:`NoiseBursts`, :class:`WrongWayHinges`, :class:`ExtendToSteps`.
 """
 
+from mocapkit.clean.detect.bridge import BridgeHoles
 from mocapkit.clean.detect.cancelling_jumps import CancellingJumps
 from mocapkit.clean.detect.config import DetectConfig, seconds_to_frames
 from mocapkit.clean.detect.dominance import DominanceVeto
@@ -45,6 +46,7 @@ __all__ = [
     "PIPELINE",
     "RETIRED",
     "UNANALYSED",
+    "BridgeHoles",
     "CancellingJumps",
     "DetectConfig",
     "DominanceVeto",

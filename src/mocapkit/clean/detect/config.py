@@ -205,6 +205,11 @@ class DetectConfig:
     #: one's; else one frame before (at) the burst (~0.9 x): the flags are the burst's frames.
     noise_edge_ratio: float = 2.0 / 3.0
 
+    # ------------------------------------------------------------------ holes
+    #: A joint's unflagged hole between two flagged runs at most this long (seconds) is
+    #: flagged: an error does not stop for a frame and start again (0: off).
+    bridge_seconds: float = 0.05
+
     # ------------------------------------------------------------------ wrong-way hinges
     #: A knee or elbow bent more than this (degrees) past straight the wrong way: anatomically
     #: impossible whatever the context holds.

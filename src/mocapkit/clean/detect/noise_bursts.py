@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from mocapkit.clean.detect._runs import deg
+from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
@@ -42,8 +42,14 @@ class NoiseBursts:
         flags.flag(self.name, ev.noise_bursts)
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
-        return (
-            f"roughness {deg(ev.roughness[frame, joint])} (burst: above "
-            f"{deg(ev.noise_level[joint])}, the larger of {self.min_deg:g} deg and "
-            f"{self.ratio:g} x the joint's median, for {self.min_seconds:g} s)"
+        need = (
+            f"above {deg(ev.noise_level[joint])} (the larger of {self.min_deg:g} deg and "
+            f"{self.ratio:g} x the joint's median) for {self.min_seconds:g} s"
         )
+        run = run_around(ev.noise_bursts[:, joint], frame)
+        if run is None:
+            return f"roughness {deg(ev.roughness[frame, joint])} here (a burst: {need})"
+        a, b = run
+        # the burst's roughness spans its frames and two before and one after it
+        peak = ev.roughness[max(a - 2, 0) : b + 2, joint].max()
+        return f"in a burst on frames {a}-{b}: roughness up to {deg(peak)} around it, {need}"

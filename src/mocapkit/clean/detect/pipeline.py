@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mocapkit.clean.detect.bridge import BridgeHoles
 from mocapkit.clean.detect.cancelling_jumps import CancellingJumps
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.dominance import DominanceVeto
@@ -32,6 +33,7 @@ ORIGINAL_ORDER: tuple[type, ...] = (
     NoiseBursts,
     WrongWayHinges,
     ExtendToSteps,
+    BridgeHoles,
 )
 """Every rule the cleaner grew, in the order it ran them (before issue #16's ablation)."""
 
@@ -47,7 +49,10 @@ PIPELINE: tuple[type, ...] = tuple(r for r in ORIGINAL_ORDER if r not in RETIRED
 """The rules of ``detect="hysteresis"``, in the order they run: the MDM threshold with seeds,
 the cancelling jumps, frozen joints, the smooth and recurring vetoes (they clear what the rules
 before them flagged; the smooth veto spares frozen runs), then the signal rules (noise bursts,
-wrong-way hinges: they need no KNN evidence, so no veto applies to them)."""
+wrong-way hinges: they need no KNN evidence, so no veto applies to them), and last the holes
+of a frame or two between two flagged runs of a joint closed (:class:`BridgeHoles`, added in
+session 10: on the Bandai-1 halves it changes no unit; on raw CMU takes it joins a glitch
+reported in pieces)."""
 
 PAPER_PIPELINE: tuple[type, ...] = (PaperThreshold,)
 """``detect="threshold"``: the paper's plain MDM threshold."""
@@ -157,8 +162,8 @@ def explain(
         table = flags.removed if rule.veto else flags.added
         cells = table.get(rule.name)
         hit = cells is not None and bool(cells[frame, joint])
-        if rule.veto:
-            verdict = "cleared it" if hit else "-"
+        if rule.veto:  # a veto only removes flags: say so, so its measure is read as such
+            verdict = "veto: cleared it" if hit else "veto: -"
             if hit:
                 cleared.append(rule.name)
         else:
