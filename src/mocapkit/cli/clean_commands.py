@@ -230,9 +230,12 @@ def clean_command(
     Every short window of each joint group ("motion-word") is compared by constrained DTW with
     every window of the context; joints whose rotation digresses from their nearest neighbours'
     mean are flagged (stretches with MDM > threshold that hold a near-certain, abrupt or frozen
-    cell), as are noise bursts and knees or elbows bent the wrong way; with --out, they are
-    replaced by the neighbours' median, blended at the edges. Joints and frames that are not
-    flagged stay bit-identical.
+    cell), and so, whatever their MDM, are pops (a jump away and back by the same turn:
+    cancelling-jumps), noise bursts and knees or elbows bent the wrong way; --explain JOINT:FRAME
+    says which rule decided a cell and why. With --out, flagged cells are replaced by the
+    neighbours' median, blended at the edges. Joints and frames that are not
+    flagged keep their rotations bit for bit (the written file's angles are derived from them
+    again and written to 12 significant digits).
 
     \b
     Examples:
