@@ -49,3 +49,18 @@ def test_paths_are_relative_to_the_sidecar_and_read_back_from_any_folder(tmp_pat
     prov.inputs[0] = absolute
     data = json.loads(prov.write("out/walk.bvh").read_text())
     assert data["inputs"][0] == absolute and data["inputs"][1] == "../clips/b.bvh"
+
+
+def test_keys_a_later_version_adds_are_ignored(tmp_path):
+    side = tmp_path / "x.bvh.provenance.json"
+    side.write_text(json.dumps({
+        "format": "mocapkit-provenance-1", "tool": "inbetween", "output": "./x.bvh",
+        "fps": 30.0, "frames": 10, "inputs": [], "parameters": {}, "future": 1,
+        "segments": [{"output_start": 0, "output_stop": 10, "kind": "clip", "backwards": True}],
+        "transitions": [{"output_frame": 5, "source": "a", "source_frame": 1, "target": "b",
+                         "target_frame": 2, "cost": 1.0, "weight": 3}],
+    }))  # fmt: skip
+    (tmp_path / "x.bvh").write_text("x")
+    prov = find_provenance(tmp_path / "x.bvh")
+    assert prov is not None and prov.segments[0].kind == "clip"
+    assert prov.transitions[0].cost == 1.0

@@ -43,7 +43,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -146,6 +146,13 @@ def _to_reader(s: str, folder: str) -> str:
     return full if rel.startswith("..") else rel
 
 
+def _known(cls: type, d: dict) -> dict:
+    """``d`` less the keys ``cls`` (a dataclass) does not know: readers ignore keys that later
+    versions add (module notes)."""
+    names = {f.name for f in fields(cls)}
+    return {k: v for k, v in d.items() if k in names}
+
+
 def _map_keys(d: dict, keys: tuple[str, ...], f: Callable[[str], str]) -> dict:
     for k in keys:
         if isinstance(d.get(k), str):
@@ -212,9 +219,12 @@ def read_provenance(path: str | Path) -> Provenance:
             frames=int(data["frames"]),
             inputs=[f(str(x)) for x in data.get("inputs", [])],
             parameters=_map_strings(dict(data.get("parameters", {})), f),
-            segments=[Segment(**_map_keys(s, ("source",), f)) for s in data.get("segments", [])],
+            segments=[
+                Segment(**_known(Segment, _map_keys(s, ("source",), f)))
+                for s in data.get("segments", [])
+            ],
             transitions=[
-                TransitionTaken(**_map_keys(t, ("source", "target"), f))
+                TransitionTaken(**_known(TransitionTaken, _map_keys(t, ("source", "target"), f)))
                 for t in data.get("transitions", [])
             ],
         )

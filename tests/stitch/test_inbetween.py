@@ -305,6 +305,9 @@ def test_report_names_every_segment_and_file_frames(humanoid):
     assert js["library_lscore"] > 0 and js["kalman_lscore"] > 0
     prov = res.provenance("x.bvh").to_json()
     assert prov["parameters"]["blended_from"] == js["blended_from"]
+    # the sidecar's two transitions cost what the written frames' junctions do
+    costs = [t["cost"] for t in prov["transitions"]]
+    assert sum(costs) == pytest.approx(js["library_lscore"])
     # the same library at twice the frame rate: the same segments, at twice the frame numbers
     fast = [resample(m, 2 * m.fps) for m in lib[:3]]
     res2 = inbetween(walk, (a, b), fast, library_names=["w1", "w2", "r"], up="Y",

@@ -806,10 +806,10 @@ def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int, up: str) ->
     return out
 
 
-def _two_sided(onpath, fill, a, b, ctx: _Context, w: int, up: str, model) -> float:
-    """The two-sided L-score of filled frames ``fill`` (frames a..b-1 of ``onpath``), scored as
-    a library candidate is: L of the past window then the first gap frames, plus L of the last
-    gap frames then the future window, in body-local features."""
+def _two_sided(onpath, fill, a, b, ctx: _Context, w: int, up: str, model) -> tuple[float, float]:
+    """The two L-scores of filled frames ``fill`` (frames a..b-1 of ``onpath``), scored as a
+    library candidate is: L of the past window then the first gap frames, and L of the last gap
+    frames then the future window, in body-local features (their sum is the two-sided score)."""
     from mocapkit.stitch.transition import _join
 
     g = b - a
@@ -820,7 +820,7 @@ def _two_sided(onpath, fill, a, b, ctx: _Context, w: int, up: str, model) -> flo
         f = np.concatenate([f, np.repeat(f[-1:], wl - f.shape[0], axis=0)])
     start = window_lscores(ctx.past, f[:wl], 0, model)[0]
     end = window_lscores(f[-wl:], ctx.future, 0, model)[0]
-    return float(start + end)
+    return float(start), float(end)
 
 
 def _lock_feet(motion: Motion, a: int, b: int, up: str, config: InbetweenConfig) -> Motion:
@@ -1034,6 +1034,9 @@ class Inbetween:
     """Set when the best segment's ground path is far from the context's
     (:attr:`InbetweenConfig.poor_fit_path_m`): the library holds nothing like the motion around
     the gap, and the fill may not look like the clip's."""
+    library_lscore_ends: tuple[float, float] = (math.nan, math.nan)
+    """The library fill's L-scores at its two junctions (their sum is :attr:`library_lscore`),
+    the costs of the sidecar's two transitions."""
 
     @property
     def fell_back(self) -> bool:
@@ -1066,11 +1069,10 @@ class Inbetween:
             s0, s1 = self.source_frames
             mid = Segment(a, b, "inbetween", self.source, s0, s1)
             first, last = (s1 - 1, s0) if self.backwards else (s0, s1 - 1)  # in gap order
+            l0, l1 = self.library_lscore_ends  # the written frames' junctions
             trans = [
-                TransitionTaken(
-                    a, self.clip_name, a - 1, self.source, first, self.candidate.lscore_start
-                ),
-                TransitionTaken(b, self.source, last, self.clip_name, b, self.candidate.lscore_end),
+                TransitionTaken(a, self.clip_name, a - 1, self.source, first, l0),
+                TransitionTaken(b, self.source, last, self.clip_name, b, l1),
             ]
         segs = [
             Segment(0, a, "clip", self.clip_name, 0, a),
@@ -1198,14 +1200,15 @@ def inbetween(
     cand = cands[0] if cands else None
     seconds = time.perf_counter() - t0
     kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
-    kal = _two_sided(onpath, kfill, a, b, ctx, w, up, model)
-    lib_score, lfill = math.nan, None
+    kal = sum(_two_sided(onpath, kfill, a, b, ctx, w, up, model))
+    lib_ends, lfill = (math.nan, math.nan), None
     if cands:
         lfill = _average_fills(
             [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config)
              for c in cands]
         )  # fmt: skip
-        lib_score = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
+        lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
+    lib_score = sum(lib_ends)
     use_kalman = (
         method == "kalman"
         or lfill is None
@@ -1235,7 +1238,7 @@ def inbetween(
         str(clip_name), used, None if output is None else str(output),
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
-        () if use_kalman else blended, method, note, pose_rms, path_miss, warning,
+        () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
     )  # fmt: skip
 
 
