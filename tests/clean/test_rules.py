@@ -489,3 +489,15 @@ def test_wrong_way_hinge_limb_folded_past_reach_is_flagged() -> None:
     assert "flexion" in WrongWayHinges().describe(ev, 50, 0)
     m = hinge_flags(wrong_bend(bad, slice(200, 212), 170.0))  # and a wrong bend elsewhere
     assert m[100:110, 0].all() and m[200:212, 0].all() and m.sum() == 22
+
+
+def test_context_of_another_rig_is_named_with_the_difference() -> None:
+    from mocapkit import datasets
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=1).motion
+    other = walk.copy()
+    names = list(other.skeleton.names)
+    names[5] = "Noggin"
+    other.skeleton = dataclasses.replace(other.skeleton, names=tuple(names))
+    with pytest.raises(ValueError, match=r"ctx\.bvh has a different skeleton .*missing joints"):
+        SelfSimilarityCleaner().fit(walk, [other], names=["ctx.bvh"])

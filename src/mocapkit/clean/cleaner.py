@@ -42,6 +42,7 @@ from mocapkit.clean.words import JointGroup, source_word_starts, word_lengths
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.runs import true_runs
+from mocapkit.core.skeleton import skeleton_difference
 
 Progress = Callable[[str, int, int], None]
 """progress(stage, done, total): called as the search advances (the CLI draws a bar)."""
@@ -145,7 +146,11 @@ class SelfSimilarityCleaner:
         for i, c in enumerate(context):
             if not _same_skeleton(motion, c):
                 label = names[i] if names is not None else f"context take {i}"
-                raise ValueError(f"{label}: its skeleton differs from the input's")
+                why = skeleton_difference(c.skeleton, motion.skeleton, "the input")
+                why = why or "its joints are in another order than the input's"
+                raise ValueError(
+                    f"{label} has {why}" if why.startswith("a ") else f"{label}: {why}"
+                )
         self.motion_ = motion
         # computed once: the rules' evidence (steps, jumps, roughness, hinges; the maps below)
         self.evidence_ = Evidence.for_motion(motion, self.config, context)

@@ -274,3 +274,24 @@ class Skeleton:
         p = self.rest_positions()
         ext = p.max(axis=0) - p.min(axis=0)
         return float(ext.max()) if ext.max() > 0 else 1.0
+
+
+def skeleton_difference(skeleton: Skeleton, reference: Skeleton, reference_name: str) -> str:
+    """What keeps ``skeleton`` from being ``reference``'s rig (the same joint names, each with
+    the same parent, in any order), in words; "" when nothing does."""
+    rs, ds = reference, skeleton
+    if set(rs.names) != set(ds.names) or len(rs.names) != len(ds.names):
+        missing = sorted(set(rs.names) - set(ds.names))
+        extra = sorted(set(ds.names) - set(rs.names))
+        return (
+            f"a different skeleton from {reference_name}: missing joints "
+            f"{missing[:5]}{'...' if len(missing) > 5 else ''}, extra joints {extra[:5]}"
+            f"{'...' if len(extra) > 5 else ''} (the same joint names are needed; "
+            "mocapkit retarget puts a motion on another rig)"
+        )
+    order = [ds.names.index(n) for n in rs.names]
+    for j, n in enumerate(rs.names):
+        pr, pd = int(rs.parents[j]), int(ds.parents[order[j]])
+        if (pr < 0) != (pd < 0) or (pr >= 0 and rs.names[pr] != ds.names[pd]):
+            return f"joint {n!r} has a different parent than in {reference_name}"
+    return ""

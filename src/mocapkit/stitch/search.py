@@ -101,21 +101,11 @@ def check_same_skeleton(
 ) -> None:
     """ValueError naming ``name`` and the differences unless ``data`` has ``reference``'s joint
     names and the same parent of every joint (in any joint order)."""
-    rs, ds = reference.skeleton, data.skeleton
-    if set(rs.names) != set(ds.names) or len(rs.names) != len(ds.names):
-        missing = sorted(set(rs.names) - set(ds.names))
-        extra = sorted(set(ds.names) - set(rs.names))
-        raise ValueError(
-            f"{name} has a different skeleton from {reference_name}: missing joints "
-            f"{missing[:5]}{'...' if len(missing) > 5 else ''}, extra joints {extra[:5]}"
-            f"{'...' if len(extra) > 5 else ''} (the same joint names are needed; "
-            "mocapkit retarget puts a motion on another rig)"
-        )
-    order = [ds.index(n) for n in rs.names]
-    for j, n in enumerate(rs.names):
-        pr, pd = int(rs.parents[j]), int(ds.parents[order[j]])
-        if (pr < 0) != (pd < 0) or (pr >= 0 and rs.names[pr] != ds.names[pd]):
-            raise ValueError(f"{name}: joint {n!r} has a different parent than in {reference_name}")
+    from mocapkit.core.skeleton import skeleton_difference
+
+    why = skeleton_difference(data.skeleton, reference.skeleton, reference_name)
+    if why:
+        raise ValueError(f"{name} has {why}" if why.startswith("a ") else f"{name}: {why}")
 
 
 def conform(data: Motion, reference: Motion, name: str = "data clip") -> Motion:
