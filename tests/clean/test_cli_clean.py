@@ -176,3 +176,12 @@ def test_clean_explains_a_cell_and_reports_reasons(files) -> None:
 def test_clean_explain_bad_input_is_one_line(files, spec, msg) -> None:
     code, _, stderr = run("clean", str(files["input"]), "--explain", spec, "--quiet")
     assert code != 0 and msg in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_clean_plot_must_be_named_png(files, tmp_path) -> None:
+    """The plot is a PNG image: a name that another program would read as text (x.txt) is
+    refused before any work, in one line, and nothing is written."""
+    out = tmp_path / "x.txt"
+    code, _, stderr = run("clean", str(files["input"]), "--plot", str(out), "--quiet")
+    assert code == 2 and "name it .png" in stderr and len(stderr.strip().splitlines()) == 1
+    assert not out.exists()

@@ -23,6 +23,7 @@ from mocapkit.cli.common import (
     load_all,
     main,
     naming,
+    plot_output,
     progress_callback,
     write_json,
 )
@@ -289,7 +290,7 @@ def clean_command(
             (out_path, WRITABLE) if out_path else None,
             data_output(report_path, "report", ".json"),
             data_output(mdm_path, "MDM", ".npy"),
-            data_output(plot_path, "plot", ".png"),
+            plot_output(plot_path),
         ],
         [input_path, *ctx_paths],
     )

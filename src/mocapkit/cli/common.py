@@ -393,6 +393,15 @@ def data_output(path: str | None, what: str, example: str) -> str | None:
     return path
 
 
+def plot_output(path: str | None) -> str | None:
+    """``path`` for a plot (:func:`data_output`), which is a PNG image: refused unless named
+    ``.png``, so that a plot is not written under a name another program reads as text."""
+    path = data_output(path, "plot", ".png")
+    if path is not None and Path(path).suffix.lower() != ".png":
+        raise CLIError(f"{path}: the plot is a PNG image; name it .png (e.g. mdm.png)")
+    return path
+
+
 @contextmanager
 def naming(*paths: str | Path | None) -> Iterator[None]:
     """Errors about the data that do not name a file name the first of ``paths``: a ValueError

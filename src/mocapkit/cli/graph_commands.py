@@ -21,6 +21,7 @@ from mocapkit.cli.common import (
     load_readable,
     main,
     naming,
+    plot_output,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
@@ -162,7 +163,7 @@ def build(
         raise CLIError("give --transitions or --threshold, not both")
     files = expand_inputs(inputs, MOTION_SUFFIXES)
     outputs = [data_output(out, "graph", "graph.json"), data_output(graphml, "GraphML", ".graphml"),
-               data_output(plot, "plot", ".png")]  # fmt: skip
+               plot_output(plot)]  # fmt: skip
     check_outputs(outputs, [*files, *([masses] if masses else [])])
     files, motions, unreadable = load_readable(files, False, show=not quiet)
     if not motions:

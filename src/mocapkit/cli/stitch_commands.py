@@ -19,6 +19,7 @@ from mocapkit.cli.common import (
     main,
     naming,
     one_line,
+    plot_output,
     report_lines,
     same_file,
     up_option,
@@ -176,7 +177,7 @@ def stitch_cmd(
             (out_path, WRITABLE) if out_path else None,
             sidecar,
             data_output(json_path, "result", ".json"),
-            data_output(plot_path, "plot", ".png"),
+            plot_output(plot_path),
         ],
         [query, *data_paths],
     )

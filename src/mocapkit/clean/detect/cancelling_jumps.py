@@ -40,7 +40,9 @@ class CancellingJumps:
         pk = np.flatnonzero(ev.jump_peaks[:, joint])
         before = pk[pk <= frame]
         after = pk[pk > frame]
-        parts = [f"jump here {deg(ev.jump_size[frame, joint])}"]
+        # a jump is a change of the frame-to-frame turn (a difference of two rotation vectors,
+        # so up to 360 deg), not a turn itself
+        parts = [f"jump (change of its turn per frame) here {deg(ev.jump_size[frame, joint])}"]
         if len(before):
             parts.append(
                 f"last jump peak frame {before[-1]} ({deg(ev.jump_size[before[-1], joint])})"
