@@ -75,6 +75,10 @@ def test_clean_without_out_writes_only_the_report(files, tmp_path) -> None:
     assert code == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["only.json"]
     assert "LeftForeArm" in stdout
+    # ranges printed as the CLI takes them, A:B with B excluded; the report has both ends
+    for s in json.loads(rep.read_text())["segments"][:50]:  # the first 50 are printed
+        assert s["stop"] == s["end"] + 1
+        assert f"frames {s['start']:5d}:{s['stop']:<5d}" in stdout
 
 
 def test_clean_baseline_and_errors(files, tmp_path) -> None:

@@ -60,8 +60,10 @@ paper's)."""
 
 @dataclass
 class Segment:
-    """A run of flagged frames on one joint (file frames, inclusive): ``peak`` MDM, the rules
-    that flagged it (``reasons``, pipeline order) and what they measured (``evidence``)."""
+    """A run of flagged frames on one joint (file frames ``start`` to ``end`` inclusive; the
+    report also gives ``stop`` = ``end`` + 1, the CLI's ``A:B`` range with B excluded):
+    ``peak`` MDM, the rules that flagged it (``reasons``, pipeline order) and what they
+    measured (``evidence``)."""
 
     joint: str
     joint_index: int
@@ -77,6 +79,7 @@ class Segment:
             "joint_index": self.joint_index,
             "start": self.start,
             "end": self.end,
+            "stop": self.end + 1,  # start:stop, stop excluded: the CLI's one range syntax
             "peak": round(float(self.peak), 6),
             "reasons": list(self.reasons),
             "evidence": dict(self.evidence),
