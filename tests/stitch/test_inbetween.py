@@ -496,6 +496,9 @@ def test_view_marks_filled_frames(files):
     assert st["data"].startswith(str(files / "lib")) and len(st["sourceFrames"]) == 2
     assert st["requested"] == "library" and len(st["blended"]) == 3
     assert st["blended"][0]["frames"] == st["sourceFrames"]
+    # the filled frames' two-sided L-score, from the sidecar's two junction costs
+    costs = [t.cost for t in vm.provenance.transitions]
+    assert len(costs) == 2 and st["lscore"] == pytest.approx(sum(costs))
 
 
 def test_demo_step(tmp_path, capsys):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -295,7 +296,8 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "landing": b,
         "landingData": b,
         "k": b - a,
-        "lscore": None,
+        # the filled frames' two-sided L-score: the sum of the two junctions' (sidecar costs)
+        "lscore": _junction_sum(plan.transitions),
         "lscoreByK": [],
         "query": clip,
         "data": mid.source,
@@ -313,6 +315,14 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
     }
+
+
+def _junction_sum(transitions) -> float | None:
+    """The sum of the transitions' costs, None unless every one has a finite cost."""
+    costs = [t.cost for t in transitions]
+    if not costs or any(c is None or not math.isfinite(c) for c in costs):
+        return None
+    return float(sum(costs))
 
 
 def graph_overlay(

@@ -659,7 +659,8 @@
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by averaging ' + blended.length + ' library segments: ' + blended.map(segText).join('; ') :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
-    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from);
+    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from +
+      (stitch.lscore != null ? '; two-sided L-score of the filled frames ' + Number(stitch.lscore).toPrecision(4) : ''));
     if (stitch.warning) info('warning: ' + stitch.warning).style.color = '#ffb74d';
   } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
