@@ -33,9 +33,9 @@ Frames are 0-based, ``*_stop`` excluded. Segment kinds: ``"clip"`` (frames copie
 ``source``), ``"transition"`` (``source``'s frames blended with the clip the walk came from, which
 the matching ``transitions`` entry names), ``"generated"`` (frames made by mocapkit, e.g. a
 stitch's injected frames), ``"inbetween"`` (frames of ``source``, time-warped and moved onto
-the frames around a gap, their ends blended into them: ``mocapkit inbetween``). Readers ignore
-keys they do not
-know, so later tools may add some.
+the frames around a gap, their ends blended into them: ``mocapkit inbetween``; with
+``"backwards": true`` when the source played in reverse). Readers ignore keys they do not know,
+so later tools may add some.
 """
 
 from __future__ import annotations
@@ -64,6 +64,15 @@ class Segment:
     source: str | None = None
     source_start: int | None = None
     source_stop: int | None = None
+    backwards: bool = False
+    """The source's frames play in reverse order (``source_stop - 1`` first; in-betweening
+    from a clip played backwards). Written only when true."""
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        if not d["backwards"]:
+            del d["backwards"]
+        return d
 
 
 @dataclass(frozen=True)
@@ -103,7 +112,7 @@ class Provenance:
             "frames": self.frames,
             "inputs": [path(x) for x in self.inputs],
             "parameters": _map_strings(dict(self.parameters), path),
-            "segments": [_map_keys(asdict(s), ("source",), path) for s in self.segments],
+            "segments": [_map_keys(s.to_json(), ("source",), path) for s in self.segments],
             "transitions": [
                 _map_keys(asdict(t), ("source", "target"), path) for t in self.transitions
             ],

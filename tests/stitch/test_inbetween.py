@@ -270,6 +270,7 @@ def test_backward_walk_from_forward_library(humanoid):
     assert np.abs(P[a:b] - T[a:b]).max() < 3.0
     prov = res.provenance("x.bvh").to_json()
     assert prov["parameters"]["source_backwards"] is True
+    assert prov["segments"][1]["backwards"] is True and "backwards" not in prov["segments"][0]
     t0, t1 = prov["transitions"]
     assert t0["target_frame"] == s1 - 1 and t1["source_frame"] == s0  # entered at its end
     assert res.to_json()["source_backwards"] is True

@@ -1067,7 +1067,7 @@ class Inbetween:
         else:
             assert self.source_frames is not None and self.candidate is not None
             s0, s1 = self.source_frames
-            mid = Segment(a, b, "inbetween", self.source, s0, s1)
+            mid = Segment(a, b, "inbetween", self.source, s0, s1, self.backwards)
             first, last = (s1 - 1, s0) if self.backwards else (s0, s1 - 1)  # in gap order
             l0, l1 = self.library_lscore_ends  # the written frames' junctions
             trans = [
