@@ -499,5 +499,5 @@ def test_context_of_another_rig_is_named_with_the_difference() -> None:
     names = list(other.skeleton.names)
     names[5] = "Noggin"
     other.skeleton = dataclasses.replace(other.skeleton, names=tuple(names))
-    with pytest.raises(ValueError, match=r"ctx\.bvh has a different skeleton .*missing joints"):
+    with pytest.raises(ValueError, match=r"ctx\.bvh: a different skeleton .*missing joints"):
         SelfSimilarityCleaner().fit(walk, [other], names=["ctx.bvh"])

@@ -151,9 +151,7 @@ class SelfSimilarityCleaner:
                 label = names[i] if names is not None else f"context take {i}"
                 why = skeleton_difference(c.skeleton, motion.skeleton, "the input")
                 why = why or "its joints are in another order than the input's"
-                raise ValueError(
-                    f"{label} has {why}" if why.startswith("a ") else f"{label}: {why}"
-                )
+                raise ValueError(f"{label}: {why}")
         self.motion_ = motion
         # computed once: the rules' evidence (steps, jumps, roughness, hinges; the maps below)
         self.evidence_ = Evidence.for_motion(motion, self.config, context)

@@ -278,7 +278,7 @@ class Skeleton:
 
 def skeleton_difference(skeleton: Skeleton, reference: Skeleton, reference_name: str) -> str:
     """What keeps ``skeleton`` from being ``reference``'s rig (the same joint names, each with
-    the same parent, in any order), in words; "" when nothing does."""
+    the same parent, in any order), in words to follow ``"NAME: "``; "" when nothing does."""
     rs, ds = reference, skeleton
     if set(rs.names) != set(ds.names) or len(rs.names) != len(ds.names):
         missing = sorted(set(rs.names) - set(ds.names))

@@ -105,7 +105,7 @@ def check_same_skeleton(
 
     why = skeleton_difference(data.skeleton, reference.skeleton, reference_name)
     if why:
-        raise ValueError(f"{name} has {why}" if why.startswith("a ") else f"{name}: {why}")
+        raise ValueError(f"{name}: {why}")
 
 
 def conform(data: Motion, reference: Motion, name: str = "data clip") -> Motion:
