@@ -5,11 +5,13 @@ decides whether a rule earns its place (``--ablate``: the pipeline without each 
 same fits); Bandai-2 and the raw CMU ASF/AMC takes (another skeleton, 120 fps) are reported
 without retuning. For every take and error kind, errors of that kind (one joint at a time, one
 per ~2 s, seeded) are injected into the clean take (for CMU: the raw take, whose own glitches
-are listed blind in tests/clean/fixtures/cmu_glitches.json; a flag on one of them is neither a
-hit nor a false alarm), and the take is analysed with a local context (the take alone) and a
-small-scale context (other takes of the same class and split). Units: (joint, source word)
-(mocapkit.clean.evaluate), on the joints that rotate. With ``--raw`` the uninjected CMU takes
-are analysed too: flagged segments off the glitch list per minute, and the listed glitches hit.
+are listed blind in tests/clean/fixtures/cmu_glitches.json from three signals independent of
+the cleaner, :func:`find_glitches`, :func:`find_excursions` and :func:`find_holds`; a flag on
+one of them is neither a hit nor a false alarm), and the take is analysed with a local context
+(the take alone) and a small-scale context (other takes of the same class and split). Units:
+(joint, source word) (mocapkit.clean.evaluate), on the joints that rotate. With ``--raw`` the
+uninjected CMU takes are analysed too: flagged segments off the glitch list per minute, and the
+listed glitches hit.
 
     PYTHONPATH=src .venv/bin/python bench/eval_clean.py --set bandai1-tune [--ablate]
     PYTHONPATH=src .venv/bin/python bench/eval_clean.py --set bandai2 --set cmu --raw
@@ -236,6 +238,37 @@ def find_excursions(
                     "peak_dev_deg": round(pk, 1),
                 }
             )
+    return out
+
+
+def find_holds(motion, min_seconds: float = 0.05) -> list:
+    """A third blind glitch signal (independent of the cleaner and of the other two): dropouts,
+    stretches where a joint's rotation repeats the same values exactly.
+
+    A captured joint is never still to the file's precision: marker noise moves every solved
+    angle by more than the last digit CMU writes (6 decimals of a degree) from one frame to the
+    next, so a rotation repeated bit for bit over ``min_seconds`` (50 ms, 6 frames at 120 fps)
+    means the solver had no data and held the last value (on the clean Bandai-1 takes, at
+    30 fps, no moving joint repeats for more than 3 frames). Only joints that rotate somewhere
+    in the take count (a joint the rig never moves repeats all along). Returns dicts (joint,
+    frames [first, last] held inclusive, held_frames)."""
+    from mocapkit.core.runs import true_runs
+
+    q = np.asarray(motion.rotations)
+    same = np.all(q[1:] == q[:-1], axis=-1)  # frame t+1 repeats frame t
+    moves = ~np.all(q == q[:1], axis=(0, 2))
+    shortest = max(2, round(min_seconds * float(motion.fps)))
+    out = []
+    for j in np.flatnonzero(moves):
+        for a, b in true_runs(same[:, j]):
+            if b - a + 2 >= shortest:  # frames a..b+1 identical
+                out.append(
+                    {
+                        "joint": motion.skeleton.names[j],
+                        "frames": [int(a), int(b + 1)],
+                        "held_frames": int(b - a + 2),
+                    }
+                )
     return out
 
 

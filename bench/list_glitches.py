@@ -1,13 +1,17 @@
-"""The second signal of the blind glitch list of the raw CMU takes (tests/clean/fixtures).
+"""The second and third signals of the blind glitch list of the raw CMU takes
+(tests/clean/fixtures).
 
 Runs ``find_excursions`` (bench/eval_clean.py: short out-and-back excursions of a joint off its
 own running-median trajectory) on every raw CMU take and lists its events that do not overlap a
 step-signal entry (same take and joint, overlapping frames) as ``"signal": "excursion"``
-entries. The motion data and that signal only: nothing of mocapkit.clean is run, and no
-evaluation output is read. An event already listed by an earlier run of this script keeps its
-eye verdict (``inspected``, ``glitch``, ``seen``); a new one is listed as not inspected, and
-events starting in the first 20 s of their take must then be judged by eye before the list is
-committed (tests/clean/test_glitch_list.py checks it).
+entries; and ``find_holds`` (dropouts: a joint's rotation repeated exactly for 50 ms or more)
+as ``"signal": "hold"`` entries, all of them (a hold names the held frames, which the step
+signal's entry for the jump out of a dropout does not). The motion data and those signals
+only: nothing of mocapkit.clean is run, and no evaluation output is read. An event already
+listed by an earlier run of this script keeps its eye verdict (``inspected``, ``glitch``,
+``seen``); a new one is listed as not inspected, and events starting in the first 20 s of
+their take must then be judged by eye before the list is committed
+(tests/clean/test_glitch_list.py checks it).
 
     PYTHONPATH=src .venv/bin/python bench/list_glitches.py           # counts only
     PYTHONPATH=src .venv/bin/python bench/list_glitches.py --write   # rewrite the excursion entries
@@ -31,11 +35,11 @@ EARLY_FRAMES = 2400  # the first 20 s at 120 fps: the part bench/eval_clean.py a
 NOT_INSPECTED = "not inspected: listed by the signal alone"
 
 
-def _find_excursions():
+def _eval_clean():
     spec = importlib.util.spec_from_file_location("eval_clean", ROOT / "bench" / "eval_clean.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    return mod.find_excursions
+    return mod
 
 
 def overlaps(e: dict, g: dict) -> bool:
@@ -48,7 +52,7 @@ def overlaps(e: dict, g: dict) -> bool:
 
 def excursion_entries(doc: dict, takes: list[str]) -> list[dict]:
     """The excursion entries for the CMU takes at ``takes`` (paths), verdicts carried over."""
-    find_excursions = _find_excursions()
+    find_excursions = _eval_clean().find_excursions
     step = [g for g in doc["glitches"] if "signal" not in g]
     known = {
         (g["take"], g["joint"], tuple(g["frames"])): g
@@ -79,26 +83,59 @@ def excursion_entries(doc: dict, takes: list[str]) -> list[dict]:
     return out
 
 
+def hold_entries(doc: dict, takes: list[str]) -> list[dict]:
+    """The hold (dropout) entries for the CMU takes at ``takes`` (paths), verdicts carried
+    over."""
+    find_holds = _eval_clean().find_holds
+    known = {
+        (g["take"], g["joint"], tuple(g["frames"])): g
+        for g in doc["glitches"]
+        if g.get("signal") == "hold"
+    }
+    kw = {k: v for k, v in doc["criterion_hold"].items() if k != "signal"}
+    out = []
+    for path in takes:
+        take = Path(path).stem
+        for e in find_holds(read_motion(path), **kw):
+            old = known.get((take, e["joint"], tuple(e["frames"])), {})
+            out.append(
+                {
+                    "take": take,
+                    "joint": e["joint"],
+                    "frames": e["frames"],
+                    "signal": "hold",
+                    "held_frames": e["held_frames"],
+                    "inspected": old.get("inspected", False),
+                    "glitch": old.get("glitch", True),
+                    "seen": old.get("seen", NOT_INSPECTED),
+                }
+            )
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--write", action="store_true", help="rewrite the excursion entries of the list"
+        "--write", action="store_true", help="rewrite the excursion and hold entries of the list"
     )
     args = ap.parse_args()
     doc = json.loads(FIXTURE.read_text())
     d = SHARED / "cmu-asfamc"
     takes = sorted(glob.glob(str(d / "01" / "*.amc"))) + sorted(glob.glob(str(d / "03" / "*.amc")))
     new = excursion_entries(doc, takes)
-    for take in sorted({g["take"] for g in new}):
-        ev = [g for g in new if g["take"] == take]
-        early = [g for g in ev if g["frames"][0] < EARLY_FRAMES]
-        print(
-            f"{take}: {len(ev)} events, {len(early)} in the first 20 s, "
-            f"{sum(g['inspected'] for g in early)} inspected, "
-            f"{sum(g['inspected'] and not g['glitch'] for g in ev)} rejected"
-        )
-    todo = [g for g in new if g["frames"][0] < EARLY_FRAMES and not g["inspected"]]
-    print(f"{len(new)} excursion events; {len(todo)} early ones still to judge by eye")
+    holds = hold_entries(doc, takes)
+    for name, entries in (("excursion", new), ("hold", holds)):
+        for take in sorted({g["take"] for g in entries}):
+            ev = [g for g in entries if g["take"] == take]
+            early = [g for g in ev if g["frames"][0] < EARLY_FRAMES]
+            print(
+                f"{name} {take}: {len(ev)} events, {len(early)} in the first 20 s, "
+                f"{sum(g['inspected'] for g in early)} inspected, "
+                f"{sum(g['inspected'] and not g['glitch'] for g in ev)} rejected"
+            )
+        todo = [g for g in entries if g["frames"][0] < EARLY_FRAMES and not g["inspected"]]
+        print(f"{len(entries)} {name} events; {len(todo)} early ones still to judge by eye")
+    new += holds
     if args.write:
         doc["glitches"] = [g for g in doc["glitches"] if "signal" not in g] + new
         FIXTURE.write_text(json.dumps(doc, indent=1))

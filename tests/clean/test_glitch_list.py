@@ -21,17 +21,21 @@ def _eval_clean():
     return mod
 
 
-def _signals(doc: dict) -> tuple[list, list]:
+def _signals(doc: dict) -> tuple[list, list, list]:
     gl = doc["glitches"]
-    return [g for g in gl if "signal" not in g], [g for g in gl if g.get("signal") == "excursion"]
+    return (
+        [g for g in gl if "signal" not in g],
+        [g for g in gl if g.get("signal") == "excursion"],
+        [g for g in gl if g.get("signal") == "hold"],
+    )
 
 
 def test_glitch_list_is_well_formed() -> None:
     doc = json.loads(FIXTURE.read_text())
     gl = doc["glitches"]
-    step, exc = _signals(doc)
-    assert len(step) + len(exc) == len(gl)
-    assert len(step) == 185 and len(exc) == 1396 and "blind" in doc["about"]
+    step, exc, holds = _signals(doc)
+    assert len(step) + len(exc) + len(holds) == len(gl)
+    assert len(step) == 185 and len(exc) == 1396 and len(holds) == 87 and "blind" in doc["about"]
     for g in gl:
         assert set(g) >= {"take", "joint", "frames", "inspected", "glitch", "seen"}
         a, b = g["frames"]
@@ -49,6 +53,10 @@ def test_glitch_list_is_well_formed() -> None:
     assert len(inspected) == 130 and sum(not g["glitch"] for g in inspected) == 15
     inspected = [g for g in exc if g["inspected"]]
     assert len(inspected) == 854 and sum(not g["glitch"] for g in inspected) == 113
+    assert all(g["held_frames"] >= 0.05 * 120 for g in holds)
+    assert all(g["held_frames"] == g["frames"][1] - g["frames"][0] + 1 for g in holds)
+    inspected = [g for g in holds if g["inspected"]]
+    assert len(inspected) == 47 and sum(not g["glitch"] for g in inspected) == 2
     # every event within the first 20 s at 120 fps (what bench/eval_clean.py analyses) was
     # checked by eye, and says what was seen
     assert all(g["inspected"] for g in gl if g["frames"][0] < 2400)
@@ -62,7 +70,7 @@ def test_glitch_signal_reproduces_the_list_on_a_short_take() -> None:
     from mocapkit.io import read_motion
 
     mod = _eval_clean()
-    step, _ = _signals(json.loads(FIXTURE.read_text()))
+    step, _, _ = _signals(json.loads(FIXTURE.read_text()))
     for take in ("03_01", "03_02"):
         found = mod.find_glitches(read_motion(CMU / "03" / f"{take}.amc"))
         listed = [g for g in step if g["take"] == take]
@@ -77,7 +85,7 @@ def test_excursion_signal_reproduces_its_entries_on_a_short_take() -> None:
 
     mod = _eval_clean()
     doc = json.loads(FIXTURE.read_text())
-    step, exc = _signals(doc)
+    step, exc, _ = _signals(doc)
     kw = {k: v for k, v in doc["criterion_excursion"].items() if k != "signal"}
     for take in ("03_01", "03_02"):
         found = mod.find_excursions(read_motion(CMU / "03" / f"{take}.amc"), **kw)
@@ -129,3 +137,48 @@ def test_find_excursions_finds_a_pop_and_not_a_smooth_swing() -> None:
     ev = mod.find_excursions(m)
     assert [(e["joint"], e["frames"]) for e in ev] == [("pop", [200, 202])]
     assert 14.0 < ev[0]["peak_dev_deg"] < 16.0
+
+
+@pytest.mark.skipif(not CMU.exists(), reason="shared CMU data not present")
+def test_hold_signal_reproduces_its_entries_on_a_short_take() -> None:
+    from mocapkit.io import read_motion
+
+    mod = _eval_clean()
+    doc = json.loads(FIXTURE.read_text())
+    _, _, holds = _signals(doc)
+    kw = {k: v for k, v in doc["criterion_hold"].items() if k != "signal"}
+    found = mod.find_holds(read_motion(CMU / "03" / "03_02.amc"), **kw)
+    listed = [g for g in holds if g["take"] == "03_02"]
+    # the take opens without data: every joint that rotates is held over frames 0-49
+    assert sum(g["frames"] == [0, 49] for g in listed) >= 20
+    assert [(g["joint"], g["frames"], g["held_frames"]) for g in found] == [
+        (g["joint"], g["frames"], g["held_frames"]) for g in listed
+    ]
+    assert not mod.find_holds(read_motion(CMU / "03" / "03_01.amc"), **kw)
+
+
+def test_find_holds_finds_a_dropout_and_not_a_slow_or_fixed_joint() -> None:
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.motion import Motion
+    from mocapkit.core.skeleton import Skeleton
+
+    mod = _eval_clean()
+    fps, n = 120.0, 240
+    t = np.arange(n) / fps
+    rv = np.zeros((n, 4, 3))
+    # joint 1: a sway whose values repeat exactly over frames 100-109 (a 10-frame dropout)
+    # and over 5 frames at 150-154 (shorter than 50 ms: not listed); joint 2: a very slow
+    # sway (0.01 deg per frame: never the same value twice); joint 3: never rotates
+    rv[:, 1, 0] = np.radians(10.0) * np.sin(2 * np.pi * t)
+    rv[100:110, 1, 0] = rv[100, 1, 0]
+    rv[150:155, 1, 0] = rv[150, 1, 0]
+    rv[:, 2, 1] = np.radians(0.01) * np.arange(n)
+    rx = ("Xrotation", "Yrotation", "Zrotation")
+    skel = Skeleton(
+        ("root", "drop", "slow", "fixed"), np.array([-1, 0, 0, 0]), np.ones((4, 3)), (rx,) * 4
+    )
+    m = Motion(skel, rot.rotvec_to_quat(rv), np.zeros((n, 3)), 1.0 / fps)
+    assert mod.find_holds(m) == [{"joint": "drop", "frames": [100, 109], "held_frames": 10}]
+    # the same hold at 30 fps is 0.33 s: still a hold (the threshold is in seconds)
+    slow = Motion(skel, m.rotations, m.root_positions, 1.0 / 30.0)
+    assert [e["frames"] for e in mod.find_holds(slow)] == [[100, 109], [150, 154]]
