@@ -61,6 +61,39 @@ def test_frozen_cells_need_a_moving_context_and_a_value_that_does_not_recur() ->
     assert mdm_mod.frozen_cells(fp, dp, min_frames=10)[21:35, 0].all()
 
 
+def test_an_exact_hold_at_a_value_the_joint_rests_near_is_frozen_unless_it_recurs_exactly() -> None:
+    """A toe resting flat (within a tremble of 0.05 deg of one value) between steps, then a
+    dropout holding the flat value bit for bit through a step: the natural rests near it do not
+    make the hold a park (they are never exact); the same hold at a value the joint parks at
+    exactly, again and again (a solver clamping it at its limit), is a park."""
+    F = 150
+    rng = np.random.default_rng(0)
+    t = np.arange(F)
+    swing = 0.5 * np.clip(np.sin(2 * np.pi * t / 30), 0, None)  # rests at 0 half of each cycle
+    tremble = np.radians(0.05) * rng.standard_normal(F)
+    live = rot.rotvec_to_quat(np.stack([swing + tremble, 0 * t, 0 * t], axis=1))[:, None]
+    held = live.copy()
+    held[60:90, 0] = live[60, 0]  # held through the step of frames 60-75
+    dig = rot.quat_angle(held, live)
+    out = mdm_mod.frozen_cells(held, dig, min_frames=10, speed=np.radians(0.2))
+    assert out[62:90, 0].all() and not out[:55, 0].any() and not out[95:, 0].any()
+    # a clamp: the joint parks at exactly 0 between steps, and the hold is at exactly 0 too
+    clamp = rot.rotvec_to_quat(np.stack([swing, 0 * t, 0 * t], axis=1))[:, None]
+    hc = clamp.copy()
+    hc[60:90, 0] = clamp[60, 0]
+    assert not mdm_mod.frozen_cells(hc, rot.quat_angle(hc, clamp), min_frames=10).any()
+
+
+def test_held_runs_split_an_exact_hold_from_the_slow_frames_beside_it() -> None:
+    F = 40
+    a = np.radians(0.001) * np.arange(F)  # turning slowly, never twice the same value
+    a[15:30] = a[15]  # frames 15-29 the same value bit for bit: steps 15-28
+    q = rot.rotvec_to_quat(np.stack([a, 0 * a, 0 * a], axis=1))
+    still = np.ones(F - 1, bool)
+    assert mdm_mod.held_runs(q, still, 10) == [(0, 14), (15, 28), (29, 38)]
+    assert mdm_mod.held_runs(q, still, 20) == [(0, 38)]  # shorter than 20 steps: not split
+
+
 def test_dominated_runs() -> None:
     mask = np.zeros((10, 3), dtype=bool)
     mask[3:6, 0] = True

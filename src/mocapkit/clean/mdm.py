@@ -279,7 +279,11 @@ def frozen_cells(
     still too: a joint parked at its limit, e.g. a straight elbow or flat toes, comes back to
     rest at the same value again and again; a frozen marker holds an arbitrary one, which the
     joint may pass through but does not rest at; the run and ``margin`` frames around it do not
-    count)."""
+    count). A hold repeating its value bit for bit (a dropout: marker noise moves a live joint
+    by more than a file's last digit every frame) is a park only where that exact value recurs
+    (a solver clamping the joint at its limit writes the same value each time): toes frozen
+    flat through a toe-off, at a value they rest near between steps, are frozen. Such a hold is
+    judged apart from the slowly turning frames beside it (:func:`held_runs`)."""
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
     out = np.zeros((F, J), dtype=bool)
@@ -287,13 +291,34 @@ def frozen_cells(
         return out
     still = rot.quat_angle(q[:-1], q[1:]) < speed  # (F-1, J): frame f -> f+1
     for j in range(J):
-        for a, b in true_runs(still[:, j]):
+        for a, b in held_runs(q[:, j], still[:, j], min_frames):
             verdict = frozen_verdict(
                 q[:, j], still[:, j], digression[:, j], a, b, min_frames, min_digression, tol,
                 max_recur, margin,
             )  # fmt: skip
             if verdict[0] == "frozen":
                 out[a : b + 2, j] = True  # the run's frames, f ... f+1
+    return out
+
+
+def held_runs(q: np.ndarray, still: np.ndarray, min_frames: int) -> list[tuple[int, int]]:
+    """The runs ``(a, b)`` (steps, inclusive) of ``still`` (F-1,) of one joint's rotations ``q``
+    (F, 4), each exact hold in them (steps repeating the value bit for bit) of at least
+    ``min_frames`` steps split out as a run of its own: a dropout that begins or ends while the
+    joint turns slowly is judged apart from the live frames beside it."""
+    exact = np.all(q[1:] == q[:-1], axis=-1)
+    out = []
+    for a, b in true_runs(still):
+        pos = a
+        for x, y in true_runs(exact[a : b + 1]):
+            if y - x + 1 < min_frames:
+                continue
+            if x + a > pos:
+                out.append((pos, x + a - 1))
+            out.append((x + a, y + a))
+            pos = y + a + 1
+        if pos <= b:
+            out.append((pos, b))
     return out
 
 
@@ -318,7 +343,13 @@ def frozen_verdict(
     dig = float(digression[a : b + 2].max())
     if dig <= min_digression:
         return "calm", dig
-    near = rot.quat_angle(q, q[a][None]) < tol
+    if np.all(q[a : b + 2] == q[a]):
+        # repeated bit for bit: a solver clamping a joint at its limit writes that same value
+        # each time it parks there, while a natural rest near it is never exact; so only an
+        # exact recurrence makes an exact hold a park (a dropout repeats one value, once)
+        near = np.all(q == q[a][None], axis=-1)
+    else:
+        near = rot.quat_angle(q, q[a][None]) < tol
     near[:-1] &= still  # at rest there, not passing through
     near[-1] &= still[-1]
     near[max(a - margin, 0) : b + margin + 2] = False

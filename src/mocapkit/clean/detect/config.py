@@ -151,7 +151,8 @@ class DetectConfig:
     frozen_speed_deg_s: float = 0.3
     #: The KNN words must move this far (degrees) from the held value somewhere in the run.
     frozen_min_digression_deg: float = 3.0
-    #: A joint resting again elsewhere within this angle (degrees) of the held value ...
+    #: A joint resting again elsewhere within this angle (degrees) of the held value (of an
+    #: exact hold: at exactly that value) ...
     frozen_tol_deg: float = 0.5
     #: ... for this long in all (seconds) is parked at a limit (a straight elbow, flat toes),
     #: not frozen; also the margin around the run that does not count.

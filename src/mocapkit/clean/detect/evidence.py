@@ -14,7 +14,6 @@ from functools import cached_property
 import numpy as np
 
 from mocapkit.clean import mdm as mdm_mod
-from mocapkit.clean.detect._runs import run_around
 from mocapkit.clean.detect.config import DetectConfig, seconds_to_frames
 from mocapkit.core import rotations as rot
 from mocapkit.core.runs import true_runs
@@ -351,7 +350,7 @@ class Evidence:
         f = frame if frame < len(still) and still[frame] else frame - 1
         if f < 0 or not still[f]:
             return "moving", frame, frame, 0.0
-        a, b = run_around(still, f)
+        a, b = next(r for r in mdm_mod.held_runs(q, still, p["min_frames"]) if r[0] <= f <= r[1])
         verdict, value = mdm_mod.frozen_verdict(
             q, still, self.digression[:, joint], a, b, p["min_frames"], p["min_digression"],
             p["tol"], p["max_recur"], p["margin"],

@@ -19,7 +19,8 @@ class FrozenJoints:
 
     Relies on: a live joint trembles; a dropped marker makes the solver repeat a stored value
     exactly, while a joint parked at its limit (straight elbow, flat toes) comes back to rest
-    at the same value again and again."""
+    at the same value again and again (exactly, if the hold is exact: a clamp; a natural rest
+    near a held value never repeats it bit for bit)."""
 
     name: ClassVar[str] = "frozen"
     veto: ClassVar[bool] = False
