@@ -516,3 +516,21 @@ def test_noise_bursts_map_back_to_the_bursts_own_frames() -> None:
         exact += off == (0, 0)
         worst = max(worst, *map(abs, off))
     assert worst <= 1 and exact >= 32
+
+
+def test_noise_bursts_go_on_over_a_dip_of_the_roughness_inside_the_burst() -> None:
+    """Noise that deviates little on two frames dips the roughness under the level inside a
+    burst: with hysteresis the burst goes on over the dip (frames above half the level) to its
+    first frames; without, the part before the dip is too short to count. Frames above half the
+    level beside a burst too short to count are never flagged."""
+    level = np.radians(20.0)
+    r = np.zeros((80, 1))
+    r[10:15] = np.radians(30.0)  # the burst's first frames: a run too short on its own
+    r[15:17] = np.radians(15.0)  # the dip
+    r[17:30] = np.radians(30.0)
+    r[50:54] = np.radians(30.0)  # an error's edge: rough for a few frames only ...
+    r[54:62] = np.radians(15.0)  # ... then fast natural motion above half the level
+    held = mdm_mod.noise_bursts(r, level, 6, hold_ratio=0.5)[:, 0]
+    cut = mdm_mod.noise_bursts(r, level, 6, hold_ratio=1.0)[:, 0]
+    assert held[11:30].all() and not held[:10].any() and not held[31:].any()
+    assert cut[18:30].all() and not cut[:17].any() and not cut[31:].any()

@@ -613,7 +613,11 @@ def burst_roughness(rotations: np.ndarray) -> np.ndarray:
 
 
 def noise_bursts(
-    roughness: np.ndarray, min_step: float, min_frames: int, edge_ratio: float = 2.0 / 3.0
+    roughness: np.ndarray,
+    min_step: float,
+    min_frames: int,
+    edge_ratio: float = 2.0 / 3.0,
+    hold_ratio: float = 1.0,
 ) -> np.ndarray:
     """(F, J) bool: runs of at least ``min_frames`` frames of :func:`burst_roughness` above
     ``min_step`` radians (one-frame gaps filled), mapped back to the burst's frames. An error's
@@ -624,15 +628,26 @@ def noise_bursts(
     one frame in, ``2.4 |w|`` inside), so they often stay under the threshold. A run whose
     first frame is under ``edge_ratio`` times the next one's roughness starts at that
     outermost frame (the burst two frames later), else one frame before the burst; likewise at
-    its end (the last frame against the one before: the outermost frame, or the burst's last)."""
+    its end (the last frame against the one before: the outermost frame, or the burst's last).
+
+    Noise is random, so a few of a burst's frames may deviate little and leave the roughness
+    under ``min_step`` for two frames or more, cutting the burst: a run of at least
+    ``min_frames`` goes on, either way, over the frames whose roughness stays above
+    ``hold_ratio`` times ``min_step`` (one-frame gaps filled; hysteresis)."""
     r = np.asarray(roughness, dtype=np.float64)
-    hi = r > min_step
-    filled = hi.copy()
-    filled[1:-1] |= hi[:-2] & hi[2:]
-    out = np.zeros(hi.shape, dtype=bool)
-    for j in np.flatnonzero(filled.any(axis=0)):
-        for a, b in true_runs(filled[:, j]):
-            if b - a >= min_frames:
+
+    def filled(m: np.ndarray) -> np.ndarray:
+        out = m.copy()
+        out[1:-1] |= m[:-2] & m[2:]
+        return out
+
+    strong = filled(r > min_step)
+    weak = filled(r > hold_ratio * np.asarray(min_step)) | strong
+    out = np.zeros(r.shape, dtype=bool)
+    for j in np.flatnonzero(strong.any(axis=0)):
+        long_runs = [(a, b) for a, b in true_runs(strong[:, j]) if b - a >= min_frames]
+        for a, b in true_runs(weak[:, j]):
+            if any(a <= x and y <= b for x, y in long_runs):
                 first = a + 2 if r[a, j] < edge_ratio * r[a + 1, j] else a + 1
                 last = b - 1 if r[b, j] < edge_ratio * r[b - 1, j] else b
                 out[first : last + 1, j] = True

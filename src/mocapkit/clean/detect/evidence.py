@@ -247,8 +247,9 @@ class Evidence:
         """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`)."""
         c = self.config
         return mdm_mod.noise_bursts(
-            self.roughness, self.noise_level, self.frames(c.noise_seconds, 2), c.noise_edge_ratio
-        )
+            self.roughness, self.noise_level, self.frames(c.noise_seconds, 2), c.noise_edge_ratio,
+            c.noise_hold_ratio,
+        )  # fmt: skip
 
     @cached_property
     def noise_level(self) -> np.ndarray:

@@ -15,14 +15,16 @@ from mocapkit.clean.detect.flags import Flags
 class NoiseBursts:
     """Flag runs of at least ``min_seconds`` whose roughness (second difference of the angular
     velocity, :func:`~mocapkit.clean.mdm.burst_roughness`) exceeds ``min_deg``, and
-    ``ratio`` times the joint's median roughness in the take, at nearly every frame
-    (:func:`~mocapkit.clean.mdm.noise_bursts`), whatever the MDM.
+    ``ratio`` times the joint's median roughness in the take, at nearly every frame, each
+    going on over the frames beside it above half that level (``noise_hold_ratio``:
+    :func:`~mocapkit.clean.mdm.noise_bursts`), whatever the MDM.
 
     Relies on: smooth motion keeps the roughness small (it grows with the cube of the
     frequency); marker noise is white, about 4.5 times its size per axis, and comes in bursts,
     while a joint that moves fast for the whole take (a hand waved at 30 fps) is rough all the
     time. The KNN words of a weakly jittered fast joint may follow the jitter, so the MDM alone
-    misses it."""
+    misses it. Noise is random: on a few frames of a burst it deviates little, which dips the
+    roughness inside the burst without ending it."""
 
     name: ClassVar[str] = "noise"
     veto: ClassVar[bool] = False
