@@ -182,13 +182,21 @@ def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
     dig = rot.quat_angle(bad, q)
     ev = evidence(bad, dig=dig)
     rule = FrozenJoints()
-    assert rule.describe(ev, 40, 0).startswith("held still frames 3")  # flagged
+    assert rule.describe(ev, 40, 0).startswith("held bit for bit (one value repeated) frames 3")
     assert "moving here" in rule.describe(ev, 70, 0)
     assert "shorter than 0.33 s" in rule.describe(ev, 102, 0)
     assert "KNN words stay within" in rule.describe(evidence(bad), 40, 0)
-    parked = bad.copy()
-    parked[130:150, 0] = q[30, 0]  # it rests at the same value again later
+    clamped = bad.copy()
+    clamped[130:150, 0] = q[30, 0]  # it holds the same value, bit for bit, again later
+    why = rule.describe(evidence(clamped, dig=rot.quat_angle(clamped, q)), 40, 0)
+    assert "parks at exactly elsewhere" in why and "clamped" in why
+    # held still but not exactly (a tremble under 0.3 deg/s), resting near that value later
+    tremble = rot.rotvec_to_quat(np.array([np.radians(0.001), 0.0, 0.0]))
+    parked = clamped.copy()
+    parked[30:50:2, 0] = rot.quat_mul(q[30, 0], tremble)
+    parked[130:150:2, 0] = rot.quat_mul(q[30, 0], tremble)
     why = rule.describe(evidence(parked, dig=rot.quat_angle(parked, q)), 40, 0)
+    assert why.startswith("held still frames 3")
     assert "rests at elsewhere" in why and "parked" in why
 
 

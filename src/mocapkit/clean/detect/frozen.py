@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numpy as np
+
 from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
@@ -35,23 +37,36 @@ class FrozenJoints:
         flags.flag(self.name, ev.frozen)
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+        q = ev.rotations[:, joint]
+
+        def held(a: int, b: int) -> str:
+            # a value repeated bit for bit is the solver holding it without data
+            exact = np.all(q[a : b + 1] == q[a])
+            how = "held bit for bit (one value repeated)" if exact else "held still"
+            return f"{how} frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s)"
+
         run = run_around(ev.frozen[:, joint], frame)
         if run is not None:
             a, b = run
             return (
-                f"held still frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s) while its KNN words "
-                f"move {deg(ev.digression[a : b + 1, joint].max())} away"
+                f"{held(a, b)} while its KNN words move "
+                f"{deg(ev.digression[a : b + 1, joint].max())} away"
             )
         c = ev.config
         verdict, a, b, value = ev.frozen_why(joint, frame)
-        held = f"held still frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s)"
+        exact = bool(np.all(q[a : b + 1] == q[a]))
+        rests = (
+            f"at a value it parks at exactly elsewhere ({int(value)} frames): clamped there"
+            if exact
+            else f"at a value it rests at elsewhere ({int(value)} frames within "
+            f"{c.frozen_tol_deg:g} deg): parked there"
+        )
         return {
             "moving": f"moving here (held means turning under {c.frozen_speed_deg_s:g} deg/s)",
-            "short": f"{held}: shorter than {self.min_seconds:.2f} s",
-            "calm": f"{held}, but its KNN words stay within {deg(value)} of it (they hold "
-            f"too; frozen needs {c.frozen_min_digression_deg:g} deg)",
-            "rests": f"{held} at a value it rests at elsewhere ({int(value)} frames within "
-            f"{c.frozen_tol_deg:g} deg): parked there, not frozen",
-            "parked": f"{held} straight: a knee or elbow parked at its limit, not frozen",
-            "frozen": f"{held}",
+            "short": f"{held(a, b)}: shorter than {self.min_seconds:.2f} s",
+            "calm": f"{held(a, b)}, but its KNN words stay within {deg(value)} of it (they "
+            f"hold too; frozen needs {c.frozen_min_digression_deg:g} deg)",
+            "rests": f"{held(a, b)} {rests}, not frozen",
+            "parked": f"{held(a, b)} straight: a knee or elbow parked at its limit, not frozen",
+            "frozen": held(a, b),
         }[verdict]
