@@ -534,3 +534,25 @@ def test_noise_bursts_go_on_over_a_dip_of_the_roughness_inside_the_burst() -> No
     cut = mdm_mod.noise_bursts(r, level, 6, hold_ratio=1.0)[:, 0]
     assert held[11:30].all() and not held[:10].any() and not held[31:].any()
     assert cut[18:30].all() and not cut[:17].any() and not cut[31:].any()
+
+
+def test_exactness_tells_a_dropout_only_where_the_data_do_not_repeat_values_all_along() -> None:
+    """A take written at twice its source's rate (each frame twice) repeats values all along:
+    there an exact hold is judged like any still run (a near rest spares it); in captured data
+    it is a dropout."""
+    F = 150
+    rng = np.random.default_rng(1)
+    t = np.arange(F)
+    swing = 0.5 * np.clip(np.sin(2 * np.pi * t / 30), 0, None)
+    live = rot.rotvec_to_quat(
+        np.stack([swing + np.radians(0.05) * rng.standard_normal(F), 0 * t, 0 * t], axis=1)
+    )[:, None]
+    doubled = live.copy()
+    doubled[1::2] = doubled[0:-1:2]  # every value written twice
+    for q, tells in ((live, True), (doubled, False)):
+        held = q.copy()
+        held[60:90, 0] = q[60, 0]
+        assert mdm_mod.exact_holds_tell(held[:, 0], 10, 0.05) is tells
+        out = mdm_mod.frozen_cells(held, rot.quat_angle(held, q), min_frames=10,
+                                   speed=np.radians(0.2))  # fmt: skip
+        assert bool(out[62:90, 0].all()) is tells

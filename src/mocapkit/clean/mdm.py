@@ -271,6 +271,7 @@ def frozen_cells(
     tol: float = np.radians(0.5),
     max_recur: int = 3,
     margin: int = 3,
+    exact_share: float = 0.05,
 ) -> np.ndarray:
     """(F, J) bool: runs of at least ``min_frames`` frames where a joint holds its rotation
     (frame-to-frame angle below ``speed``) while the KNN words move away from it (digression
@@ -283,7 +284,8 @@ def frozen_cells(
     by more than a file's last digit every frame) is a park only where that exact value recurs
     (a solver clamping the joint at its limit writes the same value each time): toes frozen
     flat through a toe-off, at a value they rest near between steps, are frozen. Such a hold is
-    judged apart from the slowly turning frames beside it (:func:`held_runs`)."""
+    judged apart from the slowly turning frames beside it (:func:`held_runs`), on joints whose
+    data do not repeat values all along (:func:`exact_holds_tell`, ``exact_share``)."""
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
     out = np.zeros((F, J), dtype=bool)
@@ -291,21 +293,38 @@ def frozen_cells(
         return out
     still = rot.quat_angle(q[:-1], q[1:]) < speed  # (F-1, J): frame f -> f+1
     for j in range(J):
-        for a, b in held_runs(q[:, j], still[:, j], min_frames):
+        tell = exact_holds_tell(q[:, j], min_frames, exact_share)
+        for a, b in held_runs(q[:, j], still[:, j], min_frames, tell):
             verdict = frozen_verdict(
                 q[:, j], still[:, j], digression[:, j], a, b, min_frames, min_digression, tol,
-                max_recur, margin,
+                max_recur, margin, tell,
             )  # fmt: skip
             if verdict[0] == "frozen":
                 out[a : b + 2, j] = True  # the run's frames, f ... f+1
     return out
 
 
-def held_runs(q: np.ndarray, still: np.ndarray, min_frames: int) -> list[tuple[int, int]]:
+def exact_holds_tell(q: np.ndarray, min_frames: int, max_share: float) -> bool:
+    """Whether an exact hold of one joint's rotations ``q`` (F, 4) tells a dropout. A captured
+    joint repeats a value bit for bit only where the solver had no data (runs of many frames);
+    a joint whose steps repeat exactly in shorter runs (under ``min_frames`` steps) on more than
+    ``max_share`` of its steps has data that repeat values all along (a lower-rate source
+    written at a higher rate, a VR or keyframed rig), and exactness tells nothing there."""
+    exact = np.all(q[1:] == q[:-1], axis=-1)
+    short = sum(b - a + 1 for a, b in true_runs(exact) if b - a + 1 < min_frames)
+    return short <= max_share * max(len(exact), 1)
+
+
+def held_runs(
+    q: np.ndarray, still: np.ndarray, min_frames: int, split: bool = True
+) -> list[tuple[int, int]]:
     """The runs ``(a, b)`` (steps, inclusive) of ``still`` (F-1,) of one joint's rotations ``q``
     (F, 4), each exact hold in them (steps repeating the value bit for bit) of at least
-    ``min_frames`` steps split out as a run of its own: a dropout that begins or ends while the
-    joint turns slowly is judged apart from the live frames beside it."""
+    ``min_frames`` steps split out as a run of its own (unless not ``split``: see
+    :func:`exact_holds_tell`): a dropout that begins or ends while the joint turns slowly is
+    judged apart from the live frames beside it."""
+    if not split:
+        return true_runs(still)
     exact = np.all(q[1:] == q[:-1], axis=-1)
     out = []
     for a, b in true_runs(still):
@@ -333,17 +352,19 @@ def frozen_verdict(
     tol: float,
     max_recur: int,
     margin: int,
+    exact_counts: bool = True,
 ) -> tuple[str, float]:
     """:func:`frozen_cells`' verdict on one joint's still run ``a .. b`` (steps f -> f+1; ``q``
     (F, 4), ``still`` (F-1,), ``digression`` (F,)): ``("short", 0)``, ``("calm", peak
     digression)`` (the KNN words do not move away), ``("rests", frames held at that value
-    elsewhere)`` or ``("frozen", peak digression)``."""
+    elsewhere)`` or ``("frozen", peak digression)``. ``exact_counts``: whether a hold repeating
+    its value bit for bit is told apart (:func:`exact_holds_tell`)."""
     if b - a + 1 < min_frames:
         return "short", 0.0
     dig = float(digression[a : b + 2].max())
     if dig <= min_digression:
         return "calm", dig
-    if np.all(q[a : b + 2] == q[a]):
+    if exact_counts and np.all(q[a : b + 2] == q[a]):
         # repeated bit for bit: a solver clamping a joint at its limit writes that same value
         # each time it parks there, while a natural rest near it is never exact; so only an
         # exact recurrence makes an exact hold a park (a dropout repeats one value, once)

@@ -157,6 +157,12 @@ class DetectConfig:
     #: ... for this long in all (seconds) is parked at a limit (a straight elbow, flat toes),
     #: not frozen; also the margin around the run that does not count.
     frozen_recur_seconds: float = 0.1
+    #: A hold repeating its value bit for bit is told apart (a dropout, not a park) only on a
+    #: joint whose steps repeat exactly in short runs on at most this share of them: captured
+    #: data never do (Bandai-1: 0.01% of its steps; a short take with one 5-frame hold: 2%),
+    #: data written at twice their source's rate or from a VR rig do all along (a Unity/VRM
+    #: recording in the BVH corpus: about half of every joint's steps).
+    frozen_exact_share: float = 0.05
     #: A straight-at-rest knee or elbow held within this angle (degrees) of straight is parked
     #: at its limit (a locked knee while standing: the solver clamps it there, exactly), not
     #: frozen, even when it never leaves that pose in the take (0: off).
@@ -262,6 +268,10 @@ class DetectConfig:
             raise ValueError("step_ratio must be positive and step_min_deg non-negative")
         if self.pair_seconds < 0:
             raise ValueError("pair_seconds must be >= 0 (0 turns the pairing off)")
+        if not 0.0 <= self.frozen_exact_share <= 1.0:
+            raise ValueError(
+                f"frozen_exact_share must lie in [0, 1], got {self.frozen_exact_share!r}"
+            )
         if not 0.0 < self.noise_hold_ratio <= 1.0:
             raise ValueError(f"noise_hold_ratio must lie in (0, 1], got {self.noise_hold_ratio!r}")
         if not 0.0 < self.noise_edge_ratio < 1.0:

@@ -337,7 +337,21 @@ class Evidence:
             "tol": np.radians(c.frozen_tol_deg),
             "max_recur": recur,
             "margin": recur,
+            "exact_share": c.frozen_exact_share,
         }
+
+    @cached_property
+    def exact_tells(self) -> np.ndarray:
+        """(J,) bool: whether a hold repeating its value bit for bit tells a dropout on each
+        joint (:func:`mdm.exact_holds_tell`)."""
+        p = self._frozen_params()
+        return np.array(
+            [
+                mdm_mod.exact_holds_tell(self.rotations[:, j], p["min_frames"], p["exact_share"])
+                for j in range(self.rotations.shape[1])
+            ],
+            dtype=bool,
+        )
 
     def frozen_why(self, joint: int, frame: int) -> tuple[str, int, int, float]:
         """Why the frozen rule does or does not flag cell (``frame``, ``joint``): ``(verdict,
@@ -351,10 +365,12 @@ class Evidence:
         f = frame if frame < len(still) and still[frame] else frame - 1
         if f < 0 or not still[f]:
             return "moving", frame, frame, 0.0
-        a, b = next(r for r in mdm_mod.held_runs(q, still, p["min_frames"]) if r[0] <= f <= r[1])
+        tell = bool(self.exact_tells[joint])
+        runs = mdm_mod.held_runs(q, still, p["min_frames"], tell)
+        a, b = next(r for r in runs if r[0] <= f <= r[1])
         verdict, value = mdm_mod.frozen_verdict(
             q, still, self.digression[:, joint], a, b, p["min_frames"], p["min_digression"],
-            p["tol"], p["max_recur"], p["margin"],
+            p["tol"], p["max_recur"], p["margin"], tell,
         )  # fmt: skip
         if verdict == "frozen" and not self.frozen[a, joint]:
             verdict = "parked"

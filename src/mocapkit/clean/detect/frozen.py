@@ -54,7 +54,7 @@ class FrozenJoints:
             )
         c = ev.config
         verdict, a, b, value = ev.frozen_why(joint, frame)
-        exact = bool(np.all(q[a : b + 1] == q[a]))
+        exact = bool(ev.exact_tells[joint] and np.all(q[a : b + 1] == q[a]))
         rests = (
             f"at a value it parks at exactly elsewhere ({int(value)} frames): clamped there"
             if exact
