@@ -50,66 +50,32 @@ def overlaps(e: dict, g: dict) -> bool:
     )
 
 
-def excursion_entries(doc: dict, takes: list[str]) -> list[dict]:
-    """The excursion entries for the CMU takes at ``takes`` (paths), verdicts carried over."""
-    find_excursions = _eval_clean().find_excursions
+def signal_entries(doc: dict, takes: list[str], signal: str) -> list[dict]:
+    """The entries of ``signal`` ("excursion": ``find_excursions``, not overlapping a
+    step-signal entry; "hold": ``find_holds``, all) for the CMU takes at ``takes`` (paths),
+    with the measure the signal reports, eye verdicts carried over from ``doc``."""
+    find = getattr(_eval_clean(), {"excursion": "find_excursions", "hold": "find_holds"}[signal])
     step = [g for g in doc["glitches"] if "signal" not in g]
     known = {
         (g["take"], g["joint"], tuple(g["frames"])): g
         for g in doc["glitches"]
-        if g.get("signal") == "excursion"
+        if g.get("signal") == signal
     }
-    kw = {k: v for k, v in doc["criterion_excursion"].items() if k != "signal"}
+    kw = {k: v for k, v in doc[f"criterion_{signal}"].items() if k != "signal"}
     out = []
     for path in takes:
         take = Path(path).stem
-        listed = [g for g in step if g["take"] == take]
-        for e in find_excursions(read_motion(path), **kw):
+        listed = [g for g in step if g["take"] == take] if signal == "excursion" else []
+        for e in find(read_motion(path), **kw):
             if any(overlaps(e, g) for g in listed):
                 continue
             old = known.get((take, e["joint"], tuple(e["frames"])), {})
+            measure = {k: v for k, v in e.items() if k not in ("joint", "frames")}
             out.append(
-                {
-                    "take": take,
-                    "joint": e["joint"],
-                    "frames": e["frames"],
-                    "signal": "excursion",
-                    "peak_dev_deg": e["peak_dev_deg"],
-                    "inspected": old.get("inspected", False),
-                    "glitch": old.get("glitch", True),
-                    "seen": old.get("seen", NOT_INSPECTED),
-                }
-            )
-    return out
-
-
-def hold_entries(doc: dict, takes: list[str]) -> list[dict]:
-    """The hold (dropout) entries for the CMU takes at ``takes`` (paths), verdicts carried
-    over."""
-    find_holds = _eval_clean().find_holds
-    known = {
-        (g["take"], g["joint"], tuple(g["frames"])): g
-        for g in doc["glitches"]
-        if g.get("signal") == "hold"
-    }
-    kw = {k: v for k, v in doc["criterion_hold"].items() if k != "signal"}
-    out = []
-    for path in takes:
-        take = Path(path).stem
-        for e in find_holds(read_motion(path), **kw):
-            old = known.get((take, e["joint"], tuple(e["frames"])), {})
-            out.append(
-                {
-                    "take": take,
-                    "joint": e["joint"],
-                    "frames": e["frames"],
-                    "signal": "hold",
-                    "held_frames": e["held_frames"],
-                    "inspected": old.get("inspected", False),
-                    "glitch": old.get("glitch", True),
-                    "seen": old.get("seen", NOT_INSPECTED),
-                }
-            )
+                {"take": take, "joint": e["joint"], "frames": e["frames"], "signal": signal,
+                 **measure, "inspected": old.get("inspected", False),
+                 "glitch": old.get("glitch", True), "seen": old.get("seen", NOT_INSPECTED)}
+            )  # fmt: skip
     return out
 
 
@@ -122,8 +88,8 @@ def main() -> int:
     doc = json.loads(FIXTURE.read_text())
     d = SHARED / "cmu-asfamc"
     takes = sorted(glob.glob(str(d / "01" / "*.amc"))) + sorted(glob.glob(str(d / "03" / "*.amc")))
-    new = excursion_entries(doc, takes)
-    holds = hold_entries(doc, takes)
+    new = signal_entries(doc, takes, "excursion")
+    holds = signal_entries(doc, takes, "hold")
     for name, entries in (("excursion", new), ("hold", holds)):
         for take in sorted({g["take"] for g in entries}):
             ev = [g for g in entries if g["take"] == take]
