@@ -231,3 +231,32 @@ def test_repair_keeps_planted_feet_planted(fitted, corrupted, takes) -> None:
     s_plain = foot_slide(plain.motion, contacts, near)
     s_bad = foot_slide(cur, contacts, near)
     assert s_locked < s_plain and s_locked < s_bad
+
+
+def test_a_repaired_toe_alone_does_not_move_the_leg(takes) -> None:
+    """A joint's own rotation does not move the joint: repairing a toe's rotation leaves the
+    toe joint (and every foot contact) where it was, so the foot lock changes nothing; a
+    repaired knee moves the foot below it, and the lock holds that foot with IK on the leg."""
+    from mocapkit.clean.repair import lock_repaired_feet
+    from mocapkit.features import foot_contacts
+
+    walk, _ = takes
+    names = list(walk.skeleton.names)
+    toe = next(j for j, n in enumerate(names) if "Toe" in n and "Right" in n)
+    knee = walk.skeleton.parents[walk.skeleton.parents[toe]]
+    contacts = foot_contacts(walk)
+    assert contacts.contacts.any()
+    planted = contacts.contacts.any(axis=1)
+    written = np.zeros((walk.num_frames, walk.num_joints), dtype=bool)
+    written[planted, toe] = True
+    res = lock_repaired_feet(walk, written)
+    assert np.array_equal(res.written, written)
+    assert np.array_equal(res.motion.rotations, walk.rotations)
+    moved = walk.copy()
+    bend = rot.rotvec_to_quat(np.array([0.15, 0.0, 0.0]))
+    moved.rotations[planted, knee] = rot.quat_mul(moved.rotations[planted, knee], bend)
+    written[:] = False
+    written[planted, knee] = True
+    res = lock_repaired_feet(moved, written)
+    assert res.contacts is not None and res.contacts.contacts.any()
+    assert (res.written & ~written).any()  # the IK wrote leg cells beside the knee's

@@ -230,9 +230,10 @@ def lock_repaired_feet(
     """Keep planted feet planted where the repair changed a leg.
 
     Contacts are those :func:`mocapkit.features.foot_contacts` detects on the repaired take;
-    only the contact runs of a foot during which the repair wrote a cell of that foot's chain
-    (the foot and every joint above it, pelvis included) are held, by damped-least-squares IK
-    on the whole leg (:func:`mocapkit.ik.lock_feet`, ``config`` a
+    only the contact runs of a foot during which the repair wrote a cell of a joint that moves
+    it (every joint above the foot joint, pelvis included: a joint's own rotation does not
+    move the joint, so a repaired toe alone leaves the leg as it was) are held, by
+    damped-least-squares IK on the whole leg (:func:`mocapkit.ik.lock_feet`, ``config`` a
     :class:`~mocapkit.ik.FootLockConfig`), so frames away from a repaired leg stay bit for bit.
 
     Relies on: a repaired leg is rebuilt from other steps of the take, whose foot lands a few
@@ -254,7 +255,7 @@ def lock_repaired_feet(
     sk = repaired.skeleton
     held = np.zeros_like(contacts.contacts)
     for k, foot in enumerate(contacts.joints):
-        above = [int(foot), *sk.ancestors(int(foot))]
+        above = list(sk.ancestors(int(foot)))  # the joints whose rotations move the foot
         touched = written[:, above].any(axis=1)
         for a, b in true_runs(contacts.contacts[:, k]):
             if touched[a : b + 1].any():
