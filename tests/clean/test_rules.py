@@ -167,9 +167,15 @@ def test_frozen_joints() -> None:
     fl = Flags((90, 2))
     FrozenJoints().apply(evidence(bad, dig=dig), fl)
     assert fl.mask[32:50, 0].all() and not fl.mask[:, 1].any()
-    fl = Flags((90, 2))  # the KNN words hold still too: a pause, not a freeze
-    FrozenJoints().apply(evidence(bad), fl)
+    # the KNN words hold still too: a pause, not a freeze, if the joint still trembles
+    paused = bad.copy()
+    paused[30:50:2, 0] = rot.quat_mul(q[30, 0], rot.rotvec_to_quat(np.array([1e-5, 0.0, 0.0])))
+    fl = Flags((90, 2))
+    FrozenJoints().apply(evidence(paused), fl)
     assert not fl.mask.any()
+    fl = Flags((90, 2))  # held bit for bit: no data, whatever the KNN words do
+    FrozenJoints().apply(evidence(bad), fl)
+    assert fl.mask[32:50, 0].all()
 
 
 def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
@@ -185,7 +191,9 @@ def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
     assert rule.describe(ev, 40, 0).startswith("held bit for bit (one value repeated) frames 3")
     assert "moving here" in rule.describe(ev, 70, 0)
     assert "shorter than 0.33 s" in rule.describe(ev, 102, 0)
-    assert "KNN words stay within" in rule.describe(evidence(bad), 40, 0)
+    paused = bad.copy()
+    paused[30:50:2, 0] = rot.quat_mul(q[30, 0], rot.rotvec_to_quat(np.array([1e-5, 0.0, 0.0])))
+    assert "KNN words stay within" in rule.describe(evidence(paused), 40, 0)
     clamped = bad.copy()
     clamped[130:150, 0] = q[30, 0]  # it holds the same value, bit for bit, again later
     why = rule.describe(evidence(clamped, dig=rot.quat_angle(clamped, q)), 40, 0)

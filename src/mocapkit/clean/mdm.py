@@ -281,7 +281,8 @@ def frozen_cells(
     rest at the same value again and again; a frozen marker holds an arbitrary one, which the
     joint may pass through but does not rest at; the run and ``margin`` frames around it do not
     count). A hold repeating its value bit for bit (a dropout: marker noise moves a live joint
-    by more than a file's last digit every frame) is a park only where that exact value recurs
+    by more than a file's last digit every frame) is frozen even where the KNN words hold too,
+    and is a park only where that exact value recurs
     (a solver clamping the joint at its limit writes the same value each time): toes frozen
     flat through a toe-off, at a value they rest near between steps, are frozen. Such a hold is
     judged apart from the slowly turning frames beside it (:func:`held_runs`), on joints whose
@@ -358,19 +359,19 @@ def frozen_verdict(
     (F, 4), ``still`` (F-1,), ``digression`` (F,)): ``("short", 0)``, ``("calm", peak
     digression)`` (the KNN words do not move away), ``("rests", frames held at that value
     elsewhere)`` or ``("frozen", peak digression)``. ``exact_counts``: whether a hold repeating
-    its value bit for bit is told apart (:func:`exact_holds_tell`)."""
+    its value bit for bit is told apart (:func:`exact_holds_tell`): such a hold is a dropout
+    even where the KNN words hold too (a natural pause is never exact), and a park only at a
+    value that recurs exactly."""
     if b - a + 1 < min_frames:
         return "short", 0.0
     dig = float(digression[a : b + 2].max())
-    if dig <= min_digression:
+    exact = exact_counts and bool(np.all(q[a : b + 2] == q[a]))
+    if dig <= min_digression and not exact:  # a pause; but a pause is never exact
         return "calm", dig
-    if exact_counts and np.all(q[a : b + 2] == q[a]):
-        # repeated bit for bit: a solver clamping a joint at its limit writes that same value
-        # each time it parks there, while a natural rest near it is never exact; so only an
-        # exact recurrence makes an exact hold a park (a dropout repeats one value, once)
-        near = np.all(q == q[a][None], axis=-1)
-    else:
-        near = rot.quat_angle(q, q[a][None]) < tol
+    # repeated bit for bit: a solver clamping a joint at its limit writes that same value each
+    # time it parks there, while a natural rest near it is never exact; so only an exact
+    # recurrence makes an exact hold a park (a dropout repeats one value, once)
+    near = np.all(q == q[a][None], axis=-1) if exact else rot.quat_angle(q, q[a][None]) < tol
     near[:-1] &= still  # at rest there, not passing through
     near[-1] &= still[-1]
     near[max(a - margin, 0) : b + margin + 2] = False
