@@ -560,3 +560,18 @@ def test_exactness_tells_a_dropout_only_where_the_data_do_not_repeat_values_all_
         out = mdm_mod.frozen_cells(held, rot.quat_angle(held, q), min_frames=10,
                                    speed=np.radians(0.2))  # fmt: skip
         assert bool(out[62:90, 0].all()) is tells
+
+
+def test_an_exact_hold_that_does_not_come_back_is_judged_as_any_still_run() -> None:
+    """A dropout comes back: a joint held bit for bit from some frame to the take's end (never
+    captured after that) is a pause where its KNN words hold too, not a dropout."""
+    F = 120
+    t = np.linspace(0, 2 * np.pi, F)
+    q = rot.rotvec_to_quat(np.stack([0.6 * np.sin(t), 0 * t, 0 * t], axis=1))[:, None]
+    held = q.copy()
+    held[60:, 0] = q[60, 0]  # to the last frame
+    calm = np.zeros((F, 1))
+    assert not mdm_mod.frozen_cells(held, calm, min_frames=10).any()
+    inside = q.copy()
+    inside[60:100, 0] = q[60, 0]  # comes back at frame 100
+    assert mdm_mod.frozen_cells(inside, calm, min_frames=10)[62:100, 0].all()

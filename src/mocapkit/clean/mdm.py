@@ -359,13 +359,16 @@ def frozen_verdict(
     (F, 4), ``still`` (F-1,), ``digression`` (F,)): ``("short", 0)``, ``("calm", peak
     digression)`` (the KNN words do not move away), ``("rests", frames held at that value
     elsewhere)`` or ``("frozen", peak digression)``. ``exact_counts``: whether a hold repeating
-    its value bit for bit is told apart (:func:`exact_holds_tell`): such a hold is a dropout
-    even where the KNN words hold too (a natural pause is never exact), and a park only at a
-    value that recurs exactly."""
+    its value bit for bit is told apart (:func:`exact_holds_tell`): such a hold, between two
+    frames that are not held, is a dropout even where the KNN words hold too (a natural pause
+    is never exact), and a park only at a value that recurs exactly."""
     if b - a + 1 < min_frames:
         return "short", 0.0
     dig = float(digression[a : b + 2].max())
-    exact = exact_counts and bool(np.all(q[a : b + 2] == q[a]))
+    # a dropout comes back: a hold reaching the take's first or last frame (a joint the take
+    # never captured, or data that start or end late) is judged as any still run
+    inside = a > 0 and b + 2 < len(q)
+    exact = exact_counts and inside and bool(np.all(q[a : b + 2] == q[a]))
     if dig <= min_digression and not exact:  # a pause; but a pause is never exact
         return "calm", dig
     # repeated bit for bit: a solver clamping a joint at its limit writes that same value each

@@ -341,7 +341,7 @@ def clean_command(
         click.echo("  no erroneous segment above the threshold")
     for s in segments[:50]:
         click.echo(
-            f"  {s.joint:>16s}  frames {s.start:5d}:{s.end + 1:<5d}  peak {s.peak:.2f}  "
+            f"  {s.joint:>16s}  frames {s.start:5d}:{s.end + 1:<5d}  MDM peak {s.peak:.2f}  "
             f"{', '.join(s.reasons)}"
         )
     if len(segments) > 50:
@@ -431,7 +431,7 @@ def cleaning_step(out: Path) -> None:
     report = clean.run(bad.motion, [ctx], source=src, context_names=[ctx_path], output=fixed_path)
     click.echo(f"  [clean] {src} with context {ctx_path}:")
     for s in report.segments:
-        click.echo(f"    flagged {s.joint} frames {s.start}:{s.end + 1} (peak {s.peak:.2f})")
+        click.echo(f"    flagged {s.joint} frames {s.start}:{s.end + 1} (MDM peak {s.peak:.2f})")
     score = evaluate.detection_counts(bad.truth, report.mask, walk.fps, rotating_joints(walk))
     click.echo(f"    detection: recall {score.recall:.2f}, precision {score.precision:.2f}")
     fixed = write_motion(report.motion, fixed_path)

@@ -118,7 +118,7 @@ def plot_mdm(
             loc="upper left",
             bbox_to_anchor=(1.01, 1.0),
             fontsize=7,
-            title="flagged by",
+            title="first rule to\nflag the cell",
             title_fontsize=7,
             frameon=False,
         )
