@@ -232,11 +232,12 @@ def clean_command(
     every window of the context; joints whose rotation digresses from their nearest neighbours'
     mean are flagged (stretches with MDM > threshold that hold a near-certain, abrupt or frozen
     cell), and so, whatever their MDM, are pops (a jump away and back by the same turn:
-    cancelling-jumps), noise bursts and knees or elbows bent the wrong way; --explain JOINT:FRAME
-    says which rule decided a cell and why. With --out, flagged cells are replaced by the
-    neighbours' median, blended at the edges, and where a repaired joint moves a planted foot
-    (a hip, knee or ankle, or the pelvis, under a foot on the ground) IK on that leg holds the
-    foot where it was planted. All other joints and frames keep their rotations bit for bit
+    cancelling-jumps), noise bursts, joints held still while their neighbours move on (frozen; a
+    dropout repeats one value bit for bit) and knees or elbows bent the wrong way; --explain
+    JOINT:FRAME says which rule decided a cell and why. With --out, flagged cells are replaced
+    by the neighbours' median, blended at the edges, and where a repaired joint moves a planted
+    foot (a hip, knee or ankle, or the pelvis, under a foot on the ground) IK on that leg holds
+    the foot where it was planted. All other joints and frames keep their rotations bit for bit
     (the written file's angles are derived from them again and written to 12 significant
     digits).
 
