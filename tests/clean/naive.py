@@ -207,6 +207,43 @@ def burst_roughness(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def noise_bursts(
+    r: np.ndarray, level: np.ndarray, min_frames: int, edge_ratio: float, hold_ratio: float
+) -> np.ndarray:
+    """Frame-by-frame version of mdm.noise_bursts, per joint: a frame is rough when above the
+    level (weakly rough above ``hold_ratio`` times it), or when its two neighbours are; a
+    burst is a stretch of weakly rough frames holding a stretch of more than ``min_frames``
+    rough ones; each end is moved to the burst's own frames (``edge_ratio``)."""
+    F, J = r.shape
+    out = np.zeros((F, J), dtype=bool)
+
+    def above(c: np.ndarray, f: int, x: float) -> bool:
+        return bool(c[f] > x or (0 < f < F - 1 and c[f - 1] > x and c[f + 1] > x))
+
+    for j in range(J):
+        lv = float(np.broadcast_to(level, (J,))[j])
+        strong = [above(r[:, j], f, lv) for f in range(F)]
+        weak = [above(r[:, j], f, hold_ratio * lv) or strong[f] for f in range(F)]
+        f = 0
+        while f < F:
+            if not weak[f]:
+                f += 1
+                continue
+            a = f
+            while f < F and weak[f]:
+                f += 1
+            b = f - 1
+            longest, cur = 0, 0  # the longest stretch of rough frames in a .. b
+            for g in range(a, b + 1):
+                cur = cur + 1 if strong[g] else 0
+                longest = max(longest, cur)
+            if longest - 1 >= min_frames:
+                first = a + 2 if r[a, j] < edge_ratio * r[a + 1, j] else a + 1
+                last = b - 1 if r[b, j] < edge_ratio * r[b - 1, j] else b
+                out[first : last + 1, j] = True
+    return out
+
+
 def excursion_match(track: np.ndarray, start: int, stop: int, others=(), flex: int = 1) -> float:
     """Loop version of mdm.excursion_match: every place and lag, scipy's Rotation for angles."""
     from scipy.spatial.transform import Rotation

@@ -6,6 +6,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mocapkit import datasets
 from mocapkit.clean import SelfSimilarityCleaner, inject
@@ -575,3 +577,21 @@ def test_an_exact_hold_that_does_not_come_back_is_judged_as_any_still_run() -> N
     inside = q.copy()
     inside[60:100, 0] = q[60, 0]  # comes back at frame 100
     assert mdm_mod.frozen_cells(inside, calm, min_frames=10)[62:100, 0].all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(min_value=0, max_value=2**32 - 1),
+    st.sampled_from([0.3, 0.5, 1.0]),
+    st.integers(min_value=2, max_value=8),
+)
+def test_noise_bursts_match_the_readable_reference(seed: int, hold: float, min_frames: int) -> None:
+    from clean.naive import noise_bursts as naive_noise_bursts
+
+    rng = np.random.default_rng(seed)
+    F, J = int(rng.integers(12, 120)), int(rng.integers(1, 4))
+    r = np.abs(rng.normal(size=(F, J))) * rng.uniform(0.1, 3.0, size=J)
+    r[rng.random((F, J)) < 0.3] *= 5.0  # bursty
+    level = rng.uniform(0.5, 3.0, size=J)
+    fast = mdm_mod.noise_bursts(r, level, min_frames, 2.0 / 3.0, hold)
+    assert np.array_equal(fast, naive_noise_bursts(r, level, min_frames, 2.0 / 3.0, hold))

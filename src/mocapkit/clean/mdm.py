@@ -282,11 +282,11 @@ def frozen_cells(
     joint may pass through but does not rest at; the run and ``margin`` frames around it do not
     count). A hold repeating its value bit for bit (a dropout: marker noise moves a live joint
     by more than a file's last digit every frame) is frozen even where the KNN words hold too,
-    and is a park only where that exact value recurs
-    (a solver clamping the joint at its limit writes the same value each time): toes frozen
-    flat through a toe-off, at a value they rest near between steps, are frozen. Such a hold is
-    judged apart from the slowly turning frames beside it (:func:`held_runs`), on joints whose
-    data do not repeat values all along (:func:`exact_holds_tell`, ``exact_share``)."""
+    and is a park only where that exact value recurs (a solver clamping the joint at its limit
+    writes the same value each time): toes frozen flat through a toe-off, at a value they rest
+    near between steps, are frozen. Such a hold is judged apart from the slowly turning frames
+    beside it (:func:`held_runs`), on joints whose data do not repeat values all along
+    (:func:`exact_holds_tell`, ``exact_share``)."""
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
     out = np.zeros((F, J), dtype=bool)
@@ -667,15 +667,18 @@ def noise_bursts(
         return out
 
     strong = filled(r > min_step)
-    weak = filled(r > hold_ratio * np.asarray(min_step)) | strong
-    out = np.zeros(r.shape, dtype=bool)
+    long = np.zeros(r.shape, dtype=bool)  # the strong runs of at least min_frames frames
     for j in np.flatnonzero(strong.any(axis=0)):
-        long_runs = [(a, b) for a, b in true_runs(strong[:, j]) if b - a >= min_frames]
-        for a, b in true_runs(weak[:, j]):
-            if any(a <= x and y <= b for x, y in long_runs):
-                first = a + 2 if r[a, j] < edge_ratio * r[a + 1, j] else a + 1
-                last = b - 1 if r[b, j] < edge_ratio * r[b - 1, j] else b
-                out[first : last + 1, j] = True
+        for a, b in true_runs(strong[:, j]):
+            if b - a >= min_frames:
+                long[a : b + 1, j] = True
+    runs = hysteresis(filled(r > hold_ratio * np.asarray(min_step)), long)
+    out = np.zeros(r.shape, dtype=bool)
+    for j in np.flatnonzero(runs.any(axis=0)):
+        for a, b in true_runs(runs[:, j]):
+            first = a + 2 if r[a, j] < edge_ratio * r[a + 1, j] else a + 1
+            last = b - 1 if r[b, j] < edge_ratio * r[b - 1, j] else b
+            out[first : last + 1, j] = True
     return out
 
 
