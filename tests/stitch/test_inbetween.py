@@ -293,7 +293,8 @@ def test_report_names_every_segment_and_file_frames(humanoid):
     res = inbetween(walk, (a, b), lib[:3], library_names=["w1", "w2", "r"], up="Y",
                     method="library")  # fmt: skip
     js = res.to_json()
-    assert len(js["blended_from"]) == 3 and js["source_used"] and not js["fell_back"]
+    assert len(js["blended_from"]) == DEFAULT_CONFIG.neighbours
+    assert js["source_used"] and not js["fell_back"]
     assert js["blended_from"][0]["source_frames"] == js["source_frames"]
     scores = [x["score"] for x in js["blended_from"]]
     assert scores == sorted(scores)
@@ -495,7 +496,7 @@ def test_view_marks_filled_frames(files):
     st = page_data([vm])["stitch"]
     assert st["kind"] == "inbetween" and st["generated"] == [60, 75]
     assert st["data"].startswith(str(files / "lib")) and len(st["sourceFrames"]) == 2
-    assert st["requested"] == "library" and len(st["blended"]) == 3
+    assert st["requested"] == "library" and len(st["blended"]) == DEFAULT_CONFIG.neighbours
     assert st["blended"][0]["frames"] == st["sourceFrames"]
     # the filled frames' two-sided L-score, from the sidecar's two junction costs
     costs = [t.cost for t in vm.provenance.transitions]
