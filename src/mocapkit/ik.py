@@ -276,11 +276,17 @@ def _solve_frames(
     it = 0
     active = np.ones(Fa, dtype=bool)
     res = np.zeros((Fa, E))
+    # the best pose met so far per frame: near a straight leg pulled at an unreachable target
+    # the steps can wander off (a leg kicked out on one frame); a frame keeps its best pose
+    best_rot = lrot.copy()
+    best_res = np.full((Fa, E), np.inf)
     for it in range(1, iterations + 1):  # noqa: B007 - `it` is reported
         gpos, grot = fk_arrays(parents, lrot, ltrans)
         eff = np.concatenate([gpos[:, list(p["chain"].effectors)] for p in plan], axis=1)
         err = targets - eff
         res = np.linalg.norm(err, axis=-1)
+        better = res.max(axis=1) < best_res.max(axis=1)
+        best_rot[better], best_res[better] = lrot[better], res[better]
         active = res.max(axis=1) > tol
         if not active.any():
             break
@@ -344,7 +350,33 @@ def _solve_frames(
         gpos, _ = fk_arrays(parents, lrot, ltrans)
         eff = np.concatenate([gpos[:, list(p["chain"].effectors)] for p in plan], axis=1)
         res = np.linalg.norm(targets - eff, axis=-1)
+    worse = res.max(axis=1) > best_res.max(axis=1)
+    lrot[worse], res[worse] = best_rot[worse], best_res[worse]
     return lrot, res, it
+
+
+def _rigid_pairs_apart(tgt: np.ndarray, cur: np.ndarray, chains: Sequence[Chain], sk) -> None:
+    """Put each effector that hangs rigidly below another effector of its chain (a toe below
+    its ankle: no chain joint between them) at its own distance from that one's target, in
+    place: targets pulling the two apart can be met by no pose, and a solver pulled both ways
+    settles on a different compromise each frame (a knee jittering by centimetres)."""
+    col = 0
+    for c in chains:
+        cols = {e: col + i for i, e in enumerate(c.effectors)}
+        col += len(c.effectors)
+        moving = set(c.joints)
+        for child in c.effectors:
+            for above in sk.ancestors(child):
+                if above in cols:  # the nearest effector above, nothing moving between
+                    a, b = cols[above], cols[child]
+                    length = np.linalg.norm(cur[:, b] - cur[:, a], axis=-1)
+                    d = tgt[:, b] - tgt[:, a]
+                    n = np.linalg.norm(d, axis=-1)
+                    ok = n > 1e-12
+                    tgt[ok, b] = tgt[ok, a] + d[ok] * (length[ok] / n[ok])[:, None]
+                    break
+                if above in moving:
+                    break
 
 
 def solve(
@@ -398,6 +430,7 @@ def solve(
     gpos, grot = fk_arrays(sk.parents, lrot, ltrans)
     cur = gpos[:, effs]
     tgt = cur + w[idx, :, None] * (targets[idx] - cur)
+    _rigid_pairs_apart(tgt, cur, chains, sk)
     min_flex = []
     for p in plan:
         c = p["chain"]

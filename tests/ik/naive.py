@@ -37,9 +37,12 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
     hinge in chain order, the lowest flexion allowed (radians)."""
     lrot = lrot.copy()
     effs = [e for c in chains for e in c[1]]
+    best, best_err = lrot.copy(), np.inf  # the pose closest to the targets met so far
     for _ in range(iters):
         gpos, grot = fk_frame(parents, lrot, ltrans)
         err = targets - gpos[effs]
+        if np.linalg.norm(err, axis=-1).max() < best_err:
+            best, best_err = lrot.copy(), np.linalg.norm(err, axis=-1).max()
         if np.linalg.norm(err, axis=-1).max() <= tol:
             break
         # Jacobian, one column per degree of freedom
@@ -98,4 +101,7 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
                     lrot[j] = rot.quat_normalize(rot.quat_mul(rot.quat_inv(g_prev_new), g_new))
                 g_prev_new = g_new
     gpos, _ = fk_frame(parents, lrot, ltrans)
+    if np.linalg.norm(targets - gpos[effs], axis=-1).max() > best_err:
+        lrot = best
+        gpos, _ = fk_frame(parents, lrot, ltrans)
     return lrot, np.linalg.norm(targets - gpos[effs], axis=-1)

@@ -83,6 +83,29 @@ def test_fast_solver_matches_naive(walk, shift, seed):
     assert np.allclose(res, ref_res, atol=1e-9)
 
 
+@settings(max_examples=15, deadline=None)
+@given(pull=st.floats(0.1, 0.6), seed=st.integers(0, 3))
+def test_targets_no_foot_can_meet_give_a_steady_leg(walk, pull, seed):
+    """The ankle held where it is and the toe pulled ``pull`` metres forward: no rigid foot
+    meets both. The solver returns no pose farther from the targets than the input's (it keeps
+    its best pose), and the compromise is the same from frame to frame: the knee moves no more
+    between two frames than it does in the input plus the toe's own pull changes (none)."""
+    m = walk[seed * 10 : seed * 10 + 12]
+    chains = leg_chains(m)
+    pos, _ = forward_kinematics(m)
+    effs = [e for c in chains for e in c.effectors]
+    targets = pos[:, effs].copy()
+    targets[:, 1::2, 2] += pull  # every chain's second effector (the toe)
+    r = solve(m, chains, targets)
+    before = np.linalg.norm(targets - pos[:, effs], axis=-1).max(axis=1)
+    assert np.all(r.residual.max(axis=1) <= before + 1e-9)
+    p2, _ = forward_kinematics(r.motion)
+    knees = [c.hinges[0] for c in chains]
+    moved = np.linalg.norm(np.diff(p2[:, knees], axis=0), axis=-1)
+    own = np.linalg.norm(np.diff(pos[:, knees], axis=0), axis=-1)
+    assert moved.max() < own.max() + 0.02  # metres
+
+
 def test_solve_reaches_targets_and_keeps_knees(walk):
     m = walk
     body = body_of(m)
