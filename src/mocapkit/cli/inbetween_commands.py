@@ -56,8 +56,9 @@ from mocapkit.stitch.search import check_same_skeleton
     default="auto",
     show_default=True,
     help="auto: the library, or the Kalman transition when the library fill's two-sided "
-    f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's (a "
-    "library with nothing like the context); "
+    f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's or its "
+    f"best segment's ground path misses the clip's by over {DEFAULT_CONFIG.poor_fit_path_m:g} m "
+    "(a library with nothing like the context); "
     "library: never fall back; kalman: the Kalman transition.",
 )
 @up_option()
@@ -87,13 +88,15 @@ def inbetween_cmd(
     Every segment of every library clip (also played backwards), of the gap's length and of
     nearby lengths time-warped to fit, is scored by how well its body-local poses match the
     last two frames before the gap and the first frame after it, plus how the body travels
-    over the ground across the gap. The three best segments are each moved over the ground
-    onto both ends, their remaining pose differences blended away, and averaged, so the result
-    meets the context poses exactly. With --method auto the Kalman transition of stitching
-    fills the gap instead when the library fill's two-sided L-score (smoothness at both
-    junctions, lower is better) is more than 4x the Kalman transition's own, and says so. A
-    warning says when the best segment's path over the ground misses the clip's by more than
-    0.5 m: the library then holds nothing like the motion around the gap.
+    over the ground across the gap. The best segments (six) are each moved over the
+    ground onto both ends, their remaining pose differences blended away, and averaged, so the
+    result meets the context poses exactly. The gap needs at least 3 frames of the clip before
+    it and 1 after it (to fill a clip's missing start or end, trim the clip or extend it
+    first). With --method auto the Kalman transition of stitching fills the gap instead, and
+    says so, when the library fill's two-sided L-score (smoothness at both junctions, lower is
+    better) is more than 4x the Kalman transition's own, or when the best segment's path
+    over the ground misses the clip's by more than 0.5 m (the library then holds nothing like
+    the motion around the gap; --method library keeps the library fill, with a warning).
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
     OUT`` marks them); --json writes the same with the scores. A library file that cannot be
     read, or has another skeleton, gets one error line and is left out; the gap is still
@@ -125,6 +128,8 @@ def inbetween_cmd(
         click.echo(f"mocapkit: note: {clip} left out of the library (it is the clip)", err=True)
         lib_paths = others
     if not lib_paths and method != "kalman":
+        if unnamed:
+            raise CLIError("--library: no usable library file (see the errors above)")
         raise CLIError("--library: no library motion besides the clip")
     check_outputs(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
@@ -174,8 +179,8 @@ def inbetween_cmd(
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
             f"score {x['score']:.4g}"
         )
-    if res.warning:
-        hint = " (--method kalman fills it with the smoother's transition instead)"
+    if res.warning and res.method == "library":  # "auto" fell back on it, and says so below
+        hint = " (--method auto or kalman fills it with the smoother's transition instead)"
         click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     scores = (
@@ -187,6 +192,8 @@ def inbetween_cmd(
             why = "--method kalman"
         elif res.note:
             why = res.note
+        elif res.warning:
+            why = "the library holds nothing like the motion around the gap"
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         say(f"filled frames {a}:{b} with the Kalman transition ({why})")
@@ -194,7 +201,8 @@ def inbetween_cmd(
         n = len(res.blended_from)
         what = res.source if n == 1 else f"{n} library segments averaged"
         within = (
-            f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
+            f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's "
+            "and its path fits"
             if method == "auto"
             else ""
         )
