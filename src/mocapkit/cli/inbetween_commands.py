@@ -56,9 +56,8 @@ from mocapkit.stitch.search import check_same_skeleton
     default="auto",
     show_default=True,
     help="auto: the library, or the Kalman transition when the library fill's two-sided "
-    f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's or its "
-    f"best segment's ground path misses the clip's by over {DEFAULT_CONFIG.poor_fit_path_m:g} m "
-    "(a library with nothing like the context); "
+    f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's (a "
+    "library with nothing like the context); "
     "library: never fall back; kalman: the Kalman transition.",
 )
 @up_option()
@@ -94,9 +93,10 @@ def inbetween_cmd(
     it and 1 after it (to fill a clip's missing start or end, trim the clip or extend it
     first). With --method auto the Kalman transition of stitching fills the gap instead, and
     says so, when the library fill's two-sided L-score (smoothness at both junctions, lower is
-    better) is more than 4x the Kalman transition's own, or when the best segment's path
-    over the ground misses the clip's by more than 0.5 m (the library then holds nothing like
-    the motion around the gap; --method library keeps the library fill, with a warning).
+    better) is more than 4x the Kalman transition's own. A warning says when the best
+    segment's path over the ground misses the clip's by more than 0.5 m: the library then
+    holds nothing like the motion around the gap (--method kalman fills it with the
+    smoother's transition instead).
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
     OUT`` marks them); --json writes the same with the scores. A library file that cannot be
     read, or has another skeleton, gets one error line and is left out; the gap is still
@@ -179,8 +179,8 @@ def inbetween_cmd(
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
             f"score {x['score']:.4g}"
         )
-    if res.warning and res.method == "library":  # "auto" fell back on it, and says so below
-        hint = " (--method auto or kalman fills it with the smoother's transition instead)"
+    if res.warning:
+        hint = " (--method kalman fills it with the smoother's transition instead)"
         click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     scores = (
@@ -192,8 +192,6 @@ def inbetween_cmd(
             why = "--method kalman"
         elif res.note:
             why = res.note
-        elif res.warning:
-            why = "the library holds nothing like the motion around the gap"
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         say(f"filled frames {a}:{b} with the Kalman transition ({why})")
@@ -201,8 +199,7 @@ def inbetween_cmd(
         n = len(res.blended_from)
         what = res.source if n == 1 else f"{n} library segments averaged"
         within = (
-            f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's "
-            "and its path fits"
+            f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
             if method == "auto"
             else ""
         )

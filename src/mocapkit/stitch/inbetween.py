@@ -90,9 +90,7 @@ without a margin sent 10, 11, 1 and 0 of the gaps of 5, 15, 30 and 45 frames to 
 transition, which was the better fill on 5, 0, 0 and 0 of them (L2P at 15 frames 4.9 against
 1.55 never falling back). The ratio of the two scores does not tell the better fill (ratios of
 the Kalman's wins 0.6 to 1.3, of the library's 0.1 to 2.3); the margin keeps the fallback for a
-library that has nothing like the context. So does a best segment whose ground path misses
-the clip's by more than :attr:`InbetweenConfig.poor_fit_path_m` (:func:`falls_back`): a library
-body dragged over the ground to meet a clip that travels otherwise slides its planted feet.
+library that has nothing like the context.
 
 **Feet.** Finally the feet the filled frames plant are held still by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`).
@@ -125,7 +123,6 @@ __all__ = [
     "InbetweenLibrary",
     "NoLibraryFitError",
     "check_gap",
-    "falls_back",
     "inbetween",
     "kalman_fill",
     "kalman_lscore",
@@ -190,8 +187,7 @@ class InbetweenConfig:
     so the context frames are untouched and the junctions do not pop."""
     fallback: bool = True
     """Fill with the Kalman transition when the library fill's two-sided L-score is more than
-    ``fallback_margin`` times the Kalman transition's own, or the library holds nothing like the
-    motion (:attr:`poor_fit_path_m`; :func:`falls_back`)."""
+    ``fallback_margin`` times the Kalman transition's own."""
     fallback_margin: float = 4.0
     """See :attr:`fallback` and the module docstring (Fallback): above every ratio seen on the
     tuning takes where the library fill was the better one."""
@@ -211,12 +207,9 @@ class InbetweenConfig:
     of a library of hand gestures by more than 0.5 m in 89% and 100% of them. The poses at
     the gap's ends tell less (up to 10.8 cm RMS per joint from the locomotion library, 6.6 cm
     or more in 95% of windows from the gestures; a limit on them warned about no window the
-    path did not) and are reported, not judged. "auto" then fills with the Kalman transition
-    (:func:`falls_back`): a library body that travels unlike the clip's is dragged over the
-    ground to meet it, and its planted feet slide (a Bandai-1 run filled from two hand-gesture
-    takes: 1.8-3.0 m/s, against 0.1-0.2 m/s in the take), though such a fill can still be
-    closer to the truth in L2P than the Kalman transition from one future frame (it was at
-    every length but 5 frames on those tuning windows)."""
+    path did not) and are reported, not judged. Only a warning: on those windows the fill from
+    the gestures was still closer to the truth (L2P) than the Kalman transition from one future
+    frame at every length but 5 frames."""
     neighbours: int = 6
     """How many of the best non-overlapping candidates fill the gap together: each is
     ground-warped and end-blended on its own, then their poses are averaged (rotations by
@@ -1223,11 +1216,10 @@ def inbetween(
         )  # fmt: skip
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
     lib_score = sum(lib_ends)
-    pose_rms, path_miss, warning = _fit_of(cand, config)
     use_kalman = (
         method == "kalman"
         or lfill is None
-        or (method == "auto" and config.fallback and falls_back(lib_score, kal, path_miss, config))
+        or (method == "auto" and config.fallback and lib_score > config.fallback_margin * kal)
     )
     fill = kfill if use_kalman else lfill
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip)
@@ -1247,6 +1239,7 @@ def inbetween(
         for c in cands
     )
     best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
+    pose_rms, path_miss, warning = _fit_of(cand, config)
     return Inbetween(
         motion, (a, b), how, cand, best["source"], kal, count, seconds,
         str(clip_name), used, None if output is None else str(output),
@@ -1254,17 +1247,6 @@ def inbetween(
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
         () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
     )  # fmt: skip
-
-
-def falls_back(lib_score: float, kalman_score: float, path_miss_m: float,
-               config: InbetweenConfig) -> bool:  # fmt: skip
-    """Whether "auto" fills with the Kalman transition instead of the library: the library
-    fill's two-sided L-score is over :attr:`InbetweenConfig.fallback_margin` times the Kalman
-    transition's, or the best segment's ground path misses the clip's by more than
-    :attr:`InbetweenConfig.poor_fit_path_m` (the library holds nothing like the motion)."""
-    return bool(
-        lib_score > config.fallback_margin * kalman_score or path_miss_m > config.poor_fit_path_m
-    )
 
 
 def _fit_of(cand: Candidate | None, config: InbetweenConfig) -> tuple[float, float, str]:
