@@ -90,8 +90,8 @@ def inbetween_cmd(
     over the ground across the gap. The best segments (six) are each moved over the
     ground onto both ends, their remaining pose differences blended away, and averaged, so the
     result meets the context poses exactly. The gap needs at least 3 frames of the clip before
-    it and 1 after it (to fill a clip's missing start or end, trim the clip or extend it
-    first). With --method auto the Kalman transition of stitching fills the gap instead, and
+    it and 1 after it: a gap that reaches the clip's first 3 frames or its last frame is
+    refused. With --method auto the Kalman transition of stitching fills the gap instead, and
     says so, when the library fill's two-sided L-score (smoothness at both junctions, lower is
     better) is more than 4x the Kalman transition's own. A warning says when the best
     segment's path over the ground misses the clip's by more than 0.5 m: the library then
