@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,23 @@ def test_clean_without_out_writes_only_the_report(files, tmp_path) -> None:
     for s in json.loads(rep.read_text())["segments"][:50]:  # the first 50 are printed
         assert s["stop"] == s["end"] + 1
         assert f"frames {s['start']:5d}:{s['stop']:<5d}" in stdout
+
+
+def test_clean_report_on_standard_output_is_json_alone(files, tmp_path) -> None:
+    """``--report -`` gives a script the JSON alone on stdout (the summary goes to stderr);
+    a stream or a pipe given as a file name is refused, not replaced."""
+    code, stdout, stderr = run("clean", str(files["input"]), "--report", "-")
+    assert code == 0
+    rep = json.loads(stdout)
+    assert rep["flagged_cells"] > 0 and "LeftForeArm" in stderr
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    code, stdout, stderr = run("clean", str(files["input"]), "--report", str(fifo))
+    assert code == 2 and fifo.is_fifo()
+    assert stderr.strip() == (
+        f"mocapkit: error: {fifo}: is a pipe, not a file; give a file name (or '-' where the "
+        "option takes it)"
+    )
 
 
 def test_clean_baseline_and_errors(files, tmp_path) -> None:

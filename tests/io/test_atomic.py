@@ -35,6 +35,41 @@ def test_writes_and_replaces(tmp_path: Path) -> None:
     assert oct(p.stat().st_mode & 0o777) != oct(0o600)  # not mkstemp's private mode
 
 
+def test_a_symlink_is_followed_and_kept(tmp_path: Path) -> None:
+    """Writing through a link replaces the file it points to; the link stays a link (a rename
+    over the link would turn it into a file and leave the target stale)."""
+    target = tmp_path / "real" / "report.json"
+    target.parent.mkdir()
+    target.write_text("old")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    assert check_output(link) == link
+    assert atomic_write_text(link, "new") == link
+    assert link.is_symlink() and target.read_text() == "new"
+    dangling = tmp_path / "dangling.json"
+    dangling.symlink_to(tmp_path / "real" / "made.json")
+    atomic_write_text(dangling, "made")
+    assert dangling.is_symlink() and (tmp_path / "real" / "made.json").read_text() == "made"
+    assert _listing(tmp_path) == [
+        "dangling.json", "link.json", "real", "real/made.json", "real/report.json",
+    ]  # fmt: skip
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes on this system")
+def test_a_pipe_or_device_is_refused_not_replaced(tmp_path: Path) -> None:
+    """A rename over /dev/stdout or a named pipe would replace it for every later reader."""
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    streams = [Path(p) for p in ("/dev/stdout", "/dev/fd/1") if os.path.lexists(p)]
+    for path in (fifo, Path(os.devnull), *streams):
+        for call in (check_output, lambda p: atomic_write_text(p, "x")):
+            with pytest.raises(OutputPathError, match="not a file; give a file name") as e:
+                call(path)
+            assert "\n" not in str(e.value)
+    assert fifo.is_fifo() and Path(os.devnull).is_char_device()
+    assert _listing(tmp_path) == ["pipe.json"]
+
+
 def test_parent_is_a_file(tmp_path: Path) -> None:
     f = tmp_path / "a.bvh"
     f.write_text("x")

@@ -25,6 +25,7 @@ from mocapkit.cli.common import (
     naming,
     plot_output,
     progress_callback,
+    report_lines,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
@@ -131,7 +132,11 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
-    "--report", "report_path", type=click.Path(dir_okay=False), help="Write a JSON report."
+    "--report",
+    "report_path",
+    type=click.Path(dir_okay=False),
+    help="Write a JSON report (- prints it on standard output, the summary lines then go to "
+    "standard error).",
 )
 @click.option(
     "--mdm",
@@ -329,34 +334,35 @@ def clean_command(
             plot_clean_report(report, plot_path)
         if report_path:
             write_json(report_path, report.to_json())
+    say = report_lines(report_path)
     if quiet:
         for e in report.explanations:
-            click.echo(str(e))
+            say(str(e))
         return
-    click.echo(
+    say(
         f"{input_path}: {report.frames} frames at {report.fps:g} fps, "
         f"{len(report.context)} context take(s), analysed in {report.analysis_seconds:.1f} s"
     )
     segments = report.segments
     if not segments:
-        click.echo("  no erroneous segment above the threshold")
+        say("  no erroneous segment above the threshold")
     for s in segments[:50]:
-        click.echo(
+        say(
             f"  {s.joint:>16s}  frames {s.start:5d}:{s.end + 1:<5d}  MDM peak {s.peak:.2f}  "
             f"{', '.join(s.reasons)}"
         )
     if len(segments) > 50:
-        click.echo(f"  ... {len(segments) - 50} more (see --report)")
+        say(f"  ... {len(segments) - 50} more (see --report)")
     for e in report.explanations:
-        click.echo(str(e))
+        say(str(e))
     for label, path in (
         ("repaired take", out_path),
         ("report", report_path),
         ("MDM", mdm_path),
         ("plot", plot_path),
     ):
-        if path:
-            click.echo(f"  wrote {label}: {path}")
+        if path and path != "-":
+            say(f"  wrote {label}: {path}")
 
 
 @main.command("reconstruct")

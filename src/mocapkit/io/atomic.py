@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextvars
 import errno
 import os
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager, suppress
@@ -78,6 +79,40 @@ def _reason(e: OSError) -> str:
     return e.strerror or str(e)
 
 
+def _not_a_file(path: Path) -> str | None:
+    """Why ``path`` is no place for a file (a pipe, a device, a socket, a process's stream such
+    as ``/dev/stdout``, itself or through links), else None: a rename over it would replace it
+    (``/dev/stdout`` for every later process, or the file a shell redirected it to) and writing
+    into it cannot be atomic."""
+    hop = os.path.abspath(path)
+    for _ in range(40):  # the link chain, each hop as written (not resolved through /proc)
+        if hop.startswith(("/dev/", "/proc/")):
+            return "is a device or a process's stream, not a file; " + _USE_A_FILE
+        if not os.path.islink(hop):
+            break
+        hop = os.path.join(os.path.dirname(hop), os.readlink(hop))
+        hop = os.path.abspath(hop)
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    kind = "a pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+    return f"is {kind}, not a file; " + _USE_A_FILE
+
+
+_USE_A_FILE = "give a file name (or '-' where the option takes it)"
+
+
+def _final_target(path: Path) -> Path:
+    """``path`` with its symlinks followed: writing replaces the file a link points to and keeps
+    the link (renaming over the link itself would turn it into a file)."""
+    if not path.is_symlink():
+        return path
+    return Path(os.path.realpath(path))
+
+
 def _why_not_writable(path: Path) -> str | None:
     """Why ``path`` cannot be written as a file (None when it looks writable): checks the path
     itself, then its nearest existing folder, without creating anything."""
@@ -85,6 +120,10 @@ def _why_not_writable(path: Path) -> str | None:
         return "expected a file name, got a folder"
     if path.is_dir():
         return "is a folder, expected a file name"
+    why = _not_a_file(path)
+    if why is not None:
+        return why
+    path = _final_target(path)
     anc = path.parent
     while True:
         if anc.exists() or anc.is_symlink():
@@ -229,14 +268,20 @@ def _write_error(target: Path, e: OSError) -> OutputPathError:
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (readers never see a half-written file).
 
-    Missing folders are created. On any failure nothing is left behind (no temporary file, no
+    Missing folders are created. A symlink is followed: the file it points to is replaced and
+    the link kept. A pipe, device or socket is refused (a rename would replace it, and a write
+    into it cannot be atomic). On any failure nothing is left behind (no temporary file, no
     folder this call created) and an OSError about the path is an :class:`OutputPathError`.
     Inside :func:`all_or_nothing` the final rename waits for the end of the block.
     """
-    path = Path(path)
+    given = Path(path)
+    if given.is_dir():
+        raise OutputPathError(given, "is a folder, expected a file name", errno.EISDIR)
+    why = _not_a_file(given)
+    if why is not None:
+        raise OutputPathError(given, why)
+    path = _final_target(given)
     directory = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise OutputPathError(path, "is a folder, expected a file name", errno.EISDIR)
     created = _make_folders(directory, path)
     tmp = None
     try:
@@ -256,16 +301,16 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
         if pending is not None:
             pending.moves.append((tmp, path))
             pending.folders.extend(created)
-            return path
+            return given
         os.replace(tmp, path)
     except BaseException as e:
         if tmp is not None:
             _unlink(tmp)
         _remove_folders(created)
         if isinstance(e, OSError):
-            raise _write_error(path, e) from None
+            raise _write_error(given, e) from None
         raise
-    return path
+    return given
 
 
 def remove_stale_temporaries(paths: Iterable[str | Path]) -> int:
