@@ -260,3 +260,42 @@ def test_a_repaired_toe_alone_does_not_move_the_leg(takes) -> None:
     res = lock_repaired_feet(moved, written)
     assert res.contacts is not None and res.contacts.contacts.any()
     assert (res.written & ~written).any()  # the IK wrote leg cells beside the knee's
+
+
+def test_the_foot_lock_changes_only_frames_the_repair_touched(takes) -> None:
+    """A knee repaired over a few frames in the middle of a stance: the lock holds the foot
+    where the untouched frames of that stance plant it, changes no other frame, and the foot
+    does not jump where the repair ends (newcomer report: a whole stance held at one point
+    moved good frames by 5 cm and made the toe jump 21 cm at toe-off)."""
+    from mocapkit.clean.repair import lock_repaired_feet
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.features import foot_contacts
+
+    walk, _ = takes
+    names = list(walk.skeleton.names)
+    toe = next(j for j, n in enumerate(names) if "Toe" in n and "Right" in n)
+    ankle = walk.skeleton.parents[toe]
+    knee = walk.skeleton.parents[ankle]
+    k = list(foot_contacts(walk).joints).index(toe)
+    a, b = max(true_runs(foot_contacts(walk).contacts[:, k]), key=lambda r: r[1] - r[0])
+    assert b - a >= 12
+    span = np.arange(a + 3, b - 3)  # the repaired frames, inside the stance
+    moved = walk.copy()
+    bend = rot.rotvec_to_quat(np.array([0.12, 0.0, 0.0]))
+    moved.rotations[span, knee] = rot.quat_mul(moved.rotations[span, knee], bend)
+    written = np.zeros((walk.num_frames, walk.num_joints), dtype=bool)
+    written[span, knee] = True
+    res = lock_repaired_feet(moved, written)
+    other = np.ones(walk.num_frames, bool)
+    other[span] = False
+    assert np.array_equal(res.motion.rotations[other], moved.rotations[other])
+    before, _ = forward_kinematics(walk)
+    bent, _ = forward_kinematics(moved)
+    after, _ = forward_kinematics(res.motion)
+    flat = [0, 2]  # procedural walks are Y-up
+    miss = np.linalg.norm(after[span][:, toe, flat] - before[span][:, toe, flat], axis=-1)
+    miss_bent = np.linalg.norm(bent[span][:, toe, flat] - before[span][:, toe, flat], axis=-1)
+    assert miss.max() < 0.5 * miss_bent.max()  # before the fix: 1.6 times
+    step = np.linalg.norm(np.diff(after[a - 2 : b + 3, toe, flat], axis=0), axis=-1)
+    step_true = np.linalg.norm(np.diff(before[a - 2 : b + 3, toe, flat], axis=0), axis=-1)
+    assert step.max() <= step_true.max() + 0.1 * miss_bent.max()

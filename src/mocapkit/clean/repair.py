@@ -227,22 +227,30 @@ class FootLockResult:
 def lock_repaired_feet(
     repaired: Motion, written: np.ndarray, config: object | None = None
 ) -> FootLockResult:
-    """Keep planted feet planted where the repair changed a leg.
+    """Keep planted feet planted where the repair changed a leg, and change nothing else.
 
-    Contacts are those :func:`mocapkit.features.foot_contacts` detects on the repaired take;
-    only the contact runs of a foot during which the repair wrote a cell of a joint that moves
-    it (every joint above the foot joint, pelvis included: a joint's own rotation does not
-    move the joint, so a repaired toe alone leaves the leg as it was) are held, by
-    damped-least-squares IK on the whole leg (:func:`mocapkit.ik.lock_feet`, ``config`` a
-    :class:`~mocapkit.ik.FootLockConfig`), so frames away from a repaired leg stay bit for bit.
+    A foot joint is *touched* at the frames where the repair wrote a cell of a joint that moves
+    it (every joint above it, pelvis included: a joint's own rotation does not move the joint,
+    so a repaired toe alone leaves the leg as it was). Contacts are those
+    :func:`mocapkit.features.foot_contacts` detects on the repaired take; a contact run with
+    touched frames is held by damped-least-squares IK on the whole leg (:func:`mocapkit.ik.solve`,
+    ``config`` a :class:`~mocapkit.ik.FootLockConfig`) at the positions its untouched frames
+    plant the foot (interpolated between them; :func:`mocapkit.ik.lock_targets` ``pins``), so
+    the held foot meets the capture's own foot where the repair ends. Only touched frames
+    change: away from a contact the pull fades out before the first untouched frame, and every
+    untouched frame stays bit for bit (a whole run held at one point moved good frames by
+    centimetres and made the foot jump where the run ended).
 
     Relies on: a repaired leg is rebuilt from other steps of the take, whose foot lands a few
-    centimetres elsewhere; the performer's foot did not slide while planted."""
+    centimetres elsewhere; the performer's foot did not slide while planted, and the frames the
+    repair did not write show where it was."""
     import dataclasses
 
+    from mocapkit.body import body_of
+    from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.core.runs import true_runs
-    from mocapkit.features import foot_contacts
-    from mocapkit.ik import FootLockConfig, leg_chains, lock_feet
+    from mocapkit.features import foot_contacts, ground_frame
+    from mocapkit.ik import FootLockConfig, leg_chains, lock_targets, solve
 
     written = np.asarray(written, dtype=bool)
     try:
@@ -253,19 +261,45 @@ def lock_repaired_feet(
     if not chains or contacts is None or not len(contacts.joints):
         return FootLockResult(repaired, written, None)
     sk = repaired.skeleton
+    effs = [e for c in chains for e in c.effectors]
+    F = repaired.num_frames
+    touched = np.stack([written[:, list(sk.ancestors(e))].any(axis=1) for e in effs], axis=1)
+    flags = np.zeros((F, len(effs)), dtype=bool)
     held = np.zeros_like(contacts.contacts)
     for k, foot in enumerate(contacts.joints):
-        above = list(sk.ancestors(int(foot)))  # the joints whose rotations move the foot
-        touched = written[:, above].any(axis=1)
+        if int(foot) not in effs:
+            continue
+        e = effs.index(int(foot))
         for a, b in true_runs(contacts.contacts[:, k]):
-            if touched[a : b + 1].any():
-                held[a : b + 1, k] = True
-    if not held.any():
-        return FootLockResult(repaired, written, dataclasses.replace(contacts, contacts=held))
+            if touched[a : b + 1, e].any():
+                held[a : b + 1, k] = flags[a : b + 1, e] = True
+    held_contacts = dataclasses.replace(contacts, contacts=held)
+    if not flags.any():
+        return FootLockResult(repaired, written, held_contacts)
     cfg = config if config is not None else FootLockConfig()
-    res = lock_feet(repaired, dataclasses.replace(contacts, contacts=held), cfg, chains=chains)
+    body = body_of(repaired)
+    pos, _ = forward_kinematics(repaired)
+    blend = repaired.seconds_to_frames(cfg.blend)
+    up = None if cfg.lock_height else ground_frame(body.up)[1]
+    targets, weights = lock_targets(
+        pos[:, effs], flags, blend, cfg.anchor, up, cfg.ramp, pins=flags & ~touched
+    )
+    # frames from the nearest untouched one: the pull outside a contact fades to 0 before it
+    # (inside a run the pinned targets already meet the untouched foot)
+    edge = np.full((F, len(effs)), float(F))
+    for e in range(len(effs)):
+        free = np.flatnonzero(~touched[:, e])
+        if len(free):
+            i = np.arange(F)
+            j = np.clip(np.searchsorted(free, i), 1, len(free)) - 1
+            nxt = np.clip(j + 1, 0, len(free) - 1)
+            edge[:, e] = np.minimum(np.abs(i - free[j]), np.abs(free[nxt] - i))
+    x = np.clip(edge / (blend + 1), 0.0, 1.0)
+    fade = np.where(flags, 1.0, x * x * (3 - 2 * x))
+    weights = weights * fade * touched
+    res = solve(repaired, chains, targets, weights, cfg.ik, body)
     changed = np.any(res.motion.rotations != repaired.rotations, axis=-1)
-    return FootLockResult(res.motion, written | changed, res.contacts)
+    return FootLockResult(res.motion, written | changed, held_contacts)
 
 
 def foot_slide(motion: Motion, contacts: object, frames: np.ndarray | None = None) -> float:

@@ -29,6 +29,26 @@ from mocapkit.core.motion import Motion
 __all__ = ["CleanReport", "run"]
 
 
+EVIDENCE_KEYS = {
+    "mdm_peak": "highest movement digression (0-1) in the run",
+    "digression_deg": "largest angle between the joint and its nearest neighbours' pose",
+    "neighbour_spread_deg": "mean angle among those neighbours (how much the joint varies)",
+    "jump_deg": (
+        "largest change of the joint's turn per frame around the run, against both the step "
+        "before and after (a difference of two rotation vectors: up to 360, not a rotation)"
+    ),
+    "step_deg": (
+        "largest change of the turn per frame against the mean of its neighbouring steps "
+        "(a difference of rotation vectors: up to 360, not a rotation)"
+    ),
+    "spike_deg": "smallest angle by which the run leaves the joint's own smooth path",
+    "roughness_deg": "largest second difference of the angular velocity in the run (per frame)",
+    "wrong_way_deg": "how far the hinge bends the wrong way",
+    "held_seconds": "how long the joint is held exactly still",
+}
+"""What each key of a segment's ``evidence`` measures (degrees, seconds), in the report."""
+
+
 @dataclass(frozen=True, eq=False)
 class CleanReport:
     """What a cleaning run found and did.
@@ -100,8 +120,13 @@ class CleanReport:
             "rules": list(self.rules),
             "config": None if self.config is None else self.config.as_dict(),
             "segments": [s.as_dict() for s in self.segments],
+            "evidence_keys": EVIDENCE_KEYS,
             "flagged_cells": self.flagged_cells,
             "repaired_cells": self.repaired_cells,
+            "repaired_cells_are": (
+                "the flagged cells, the blend margin around each run, and the leg joints the "
+                "foot lock turned where the repair moved a planted foot"
+            ),
             "blend_margin_frames": self.repair.margin,
             "analysis_seconds": round(self.analysis_seconds, 3),
             "output": self.output,

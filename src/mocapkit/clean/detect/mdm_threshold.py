@@ -88,14 +88,26 @@ class MDMHysteresis:
         seeds = abrupt_seeds(ev)[a : b + 1, joint]
         kinds = []
         if peak > max(self.seed_threshold, self.threshold):
-            kinds.append(f"MDM peak {peak:.3f} > {self.seed_threshold:g}")
+            kinds.append(f"MDM peak {_fine(peak, self.seed_threshold)} > {self.seed_threshold:g}")
         if seeds.any():
             kinds.append(f"abrupt cell at frame {a + int(np.argmax(seeds))}")
+        # a cell below the threshold is in the run only as an abrupt seed (a step far above
+        # the joint's own enters the error there)
+        own = "" if v > self.threshold else f" (below {self.threshold:g}: an abrupt cell)"
         if kinds:
-            return f"MDM {v:.3f} in a run {a}-{b} above {self.threshold:g} seeded by " + (
+            return f"MDM {v:.3f}{own} in a run {a}-{b} above {self.threshold:g} seeded by " + (
                 ", ".join(kinds)
             )
         return (
             f"MDM {v:.3f} in a run {a}-{b} above {self.threshold:g} with no seed (peak "
             f"{peak:.3f} <= {self.seed_threshold:g}, no abrupt cell or step)"
         )
+
+
+def _fine(value: float, bound: float) -> str:
+    """``value`` with as many decimals as show it apart from ``bound`` (0.9994 against 0.999,
+    not 0.999 > 0.999)."""
+    for digits in range(3, 8):
+        if round(value, digits) != round(bound, digits):
+            return f"{value:.{digits}f}"
+    return f"{value:g}"

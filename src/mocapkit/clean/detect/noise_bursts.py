@@ -50,7 +50,15 @@ class NoiseBursts:
         )
         run = run_around(ev.noise_bursts[:, joint], frame)
         if run is None:
-            return f"roughness {deg(ev.roughness[frame, joint])} here (a burst: {need})"
+            here = f"roughness {deg(ev.roughness[frame, joint])} here"
+            above = run_around(ev.roughness[:, joint] > ev.noise_level[joint], frame)
+            if above is None:
+                return f"{here}, not a burst: a burst is {need}"
+            secs = (above[1] - above[0] + 1) / ev.fps
+            return (
+                f"{here}, above the level on frames {above[0]}-{above[1]} only ({secs:.2f} s): "
+                f"not a burst (a burst is {need}; a single pop is left to the other rules)"
+            )
         a, b = run
         # the burst's roughness spans its frames and two before and one after it
         peak = ev.roughness[max(a - 2, 0) : b + 2, joint].max()

@@ -129,7 +129,10 @@ class SmoothVeto:
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         pad = ev.frames(self.pad_seconds)
         s = ev.steps[max(frame - pad, 0) : frame + pad + 1, joint].max()
-        out = f"largest step within {self.pad_seconds:g} s: {deg(s)} (needs {self.min_deg:g})"
+        out = (
+            f"largest step (change of the turn per frame) within {self.pad_seconds:g} s: "
+            f"{deg(s)} (needs {self.min_deg:g})"
+        )
         if self.nearest:
             out += "; a step vouches for the nearest flagged run only"
             if self.trim:
