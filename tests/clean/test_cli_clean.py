@@ -207,3 +207,16 @@ def test_clean_plot_must_be_named_png(files, tmp_path) -> None:
     code, _, stderr = run("clean", str(files["input"]), "--plot", str(out), "--quiet")
     assert code == 2 and "name it .png" in stderr and len(stderr.strip().splitlines()) == 1
     assert not out.exists()
+    out = tmp_path / "m.csv"  # the MDM is binary .npy: not under a text name
+    code, _, stderr = run("clean", str(files["input"]), "--mdm", str(out), "--quiet")
+    assert code == 2 and "name it .npy" in stderr and len(stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_clean_a_one_frame_take_says_it_is_too_short(files, tmp_path) -> None:
+    """One frame has nothing to compare: the error says so (it said no joint rotates)."""
+    one = write_motion(read_motion(files["clean"])[:1], tmp_path / "one.bvh")
+    code, _, stderr = run("clean", str(one))
+    assert code == 2
+    assert "the take is too short: 1 frame(s) spanning 0.00 s" in stderr
+    assert len(stderr.strip().splitlines()) == 1

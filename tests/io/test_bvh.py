@@ -233,6 +233,11 @@ def test_lenient_repairs_and_says_so() -> None:
     # a non-number is never "safe" to repair
     with pytest.raises(BVHError):
         parse_bvh(SMALL.replace("0 0 45 90", "0 0 4x5 90"), lenient=True)
+    # nor a short row inside the data: which channel is missing cannot be told; it says so
+    rows = SMALL.rstrip("\n").split("\n")
+    rows[-2] = " ".join(rows[-2].split()[:-1])
+    with pytest.raises(BVHError, match="repairs only an incomplete last row"):
+        parse_bvh("\n".join(rows) + "\n", lenient=True)
 
 
 def test_fill_from_neighbours_interpolates_between_valid_frames() -> None:

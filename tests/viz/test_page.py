@@ -74,6 +74,13 @@ def test_overlays_are_attached_to_the_right_motion():
     assert q[12, 3] == 255 and q[5, 3] == 0
     with pytest.raises(ValueError, match="joints"):
         page_data([ViewMotion(a, "a.bvh")], mdm=np.zeros((40, 3)))
+    # a report of another take (a CMU report on a Bandai take) is refused, not drawn
+    other = {"input": "01_02.amc", "frames": 4346, "joints": ["root", "rthumb"], "segments": []}
+    with pytest.raises(ValueError, match=r"names 2 joints, a.bvh has .*not in it: root, rthumb"):
+        page_data([ViewMotion(a, "a.bvh")], clean_report=other)
+    other["joints"] = list(a.skeleton.names)
+    with pytest.raises(ValueError, match="covers 4346 frames, a.bvh has 40"):
+        page_data([ViewMotion(a, "a.bvh")], clean_report=other)
     st = page_data(
         [ViewMotion(a, "a.bvh")],
         stitch={

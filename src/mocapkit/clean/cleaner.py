@@ -159,6 +159,14 @@ class SelfSimilarityCleaner:
         tex = make_texture(motion, self.fps, "input")
         ctx_tex = [make_texture(c, self.fps, f"ctx{i}").rotations for i, c in enumerate(context)]
         self.texture_ = tex
+        N, step, M = word_lengths(self.fps)
+        if tex.rotations.shape[0] < N or motion.num_frames < 2:  # before the groups: a short
+            # take would be reported as having no rotating joint
+            raise ValueError(
+                f"the take is too short: {motion.num_frames} frame(s) spanning "
+                f"{(motion.num_frames - 1) * motion.frame_time:.2f} s; cleaning compares motion "
+                f"words of {N / self.fps:.2f} s"
+            )
         active = rotating_joints(motion)
         for c in context:
             active |= rotating_joints(c)
@@ -167,9 +175,10 @@ class SelfSimilarityCleaner:
         if groups is None:
             groups = default_groups(motion.skeleton, include=np.flatnonzero(active))
         if not groups:
-            raise ValueError("no joint group has two or more rotating joints")
+            raise ValueError(
+                "no joint group has two or more rotating joints (the take holds still)"
+            )
         self.groups_ = list(groups)
-        N, step, M = word_lengths(self.fps)
         exclude = (
             None
             if self.config.exclude_seconds is None
@@ -178,10 +187,6 @@ class SelfSimilarityCleaner:
         self.exclude = exclude
         self.word_lengths_ = (N, step, M)
         src = tex.rotations
-        if src.shape[0] < N:
-            raise ValueError(
-                f"the take is too short: {src.shape[0]} analysis frames, a word needs {N}"
-            )
         starts = source_word_starts(src.shape[0], N, step)
         self.starts_ = starts
         report = progress or (lambda stage, done, total: None)

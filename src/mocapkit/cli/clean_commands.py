@@ -23,6 +23,7 @@ from mocapkit.cli.common import (
     load_all,
     main,
     naming,
+    npy_output,
     plot_output,
     progress_callback,
     report_lines,
@@ -297,7 +298,7 @@ def clean_command(
         [
             (out_path, WRITABLE) if out_path else None,
             data_output(report_path, "report", ".json"),
-            data_output(mdm_path, "MDM", ".npy"),
+            npy_output(mdm_path, "MDM"),
             plot_output(plot_path),
         ],
         [input_path, *ctx_paths],

@@ -188,8 +188,8 @@ def load(path: str, lenient: bool, asf: str | None = None, fps: float | None = N
 LENIENT = click.option(
     "--lenient",
     is_flag=True,
-    help="Repair what is safe (frame-count mismatch, blank or truncated rows, NaN gaps) and "
-    "report it, instead of failing.",
+    help="Repair what is safe (frame-count mismatch, blank rows, an incomplete last row, NaN "
+    "gaps) and report it, instead of failing.",
 )
 
 
@@ -390,6 +390,15 @@ def data_output(path: str | None, what: str, example: str) -> str | None:
         raise CLIError(
             f"{path}: a motion file name for the {what}; give it another extension (e.g. {example})"
         )
+    return path
+
+
+def npy_output(path: str | None, what: str) -> str | None:
+    """``path`` for a NumPy array (:func:`data_output`): refused unless named ``.npy``, so
+    that ``--mdm m.csv`` does not write binary under a text name."""
+    path = data_output(path, what, ".npy")
+    if path is not None and Path(path).suffix.lower() != ".npy":
+        raise CLIError(f"{path}: the {what} is a NumPy array; name it .npy (e.g. mdm.npy)")
     return path
 
 

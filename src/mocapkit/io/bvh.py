@@ -540,11 +540,19 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
             res = _numparse.parse_rows(block[: res.err_offset], ncols, allow_nan=True)
             values = res.values
         elif res.status == _numparse.BAD_COUNT:
+            # lenient reading drops only an incomplete last row: inside the data, which of the
+            # channels is missing cannot be told, so every later value would be misread
+            why = (
+                " (lenient reading repairs only an incomplete last row: in a row inside the data "
+                "the missing channel cannot be told)"
+                if lenient
+                else ""
+            )
             raise BVHError(
                 source,
                 line,
                 f"motion row {res.values.shape[0] + 1} has {res.err_count} values; "
-                f"the hierarchy declares {ncols} channels",
+                f"the hierarchy declares {ncols} channels{why}",
             )
         elif res.status == _numparse.OVERFLOW:
             raise BVHError(

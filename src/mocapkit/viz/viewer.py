@@ -207,6 +207,17 @@ def clean_overlay(
     idx = _match_motion(motions, report.get("input"), frames)
     m = motions[idx].motion
     names = list(m.skeleton.names)
+    # a report of another take would mark joints and frames that are not this take's
+    joints, n = report.get("joints"), report.get("frames")
+    of = f"the clean report (of {report.get('input') or 'another take'})"
+    if joints is not None and list(joints) != names:
+        missing = [j for j in joints if j not in names][:3]
+        raise ValueError(
+            f"{of} names {len(joints)} joints, {motions[idx].name} has {len(names)}"
+            + (f" (not in it: {', '.join(map(str, missing))})" if missing else "")
+        )
+    if n is not None and int(n) != m.num_frames:
+        raise ValueError(f"{of} covers {n} frames, {motions[idx].name} has {m.num_frames}")
     out_segs = []
     for s in segs:
         j = s.get("joint_index")

@@ -163,11 +163,11 @@ def explain(
         cells = table.get(rule.name)
         hit = cells is not None and bool(cells[frame, joint])
         if rule.veto:  # a veto only removes flags: say so, so its measure is read as such
-            verdict = "veto: cleared it" if hit else "veto: -"
+            verdict = "veto: cleared it" if hit else "veto: not applied"
             if hit:
                 cleared.append(rule.name)
         else:
-            verdict = "flagged it" if hit else "-"
+            verdict = "flagged it" if hit else "did not flag"
             if hit and flags.mask[frame, joint]:
                 reasons.append(rule.name)
         try:
