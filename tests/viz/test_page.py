@@ -79,7 +79,7 @@ def test_overlays_are_attached_to_the_right_motion():
     with pytest.raises(ValueError, match=r"names 2 joints, a.bvh has .*not in it: root, rthumb"):
         page_data([ViewMotion(a, "a.bvh")], clean_report=other)
     other["joints"] = list(a.skeleton.names)
-    with pytest.raises(ValueError, match="covers 4346 frames, a.bvh has 40"):
+    with pytest.raises(ValueError, match=r"covers 4346 frames, a\.bvh has 40"):
         page_data([ViewMotion(a, "a.bvh")], clean_report=other)
     st = page_data(
         [ViewMotion(a, "a.bvh")],
