@@ -239,3 +239,18 @@ def test_generated_humanoid_parts_and_no_ground_root() -> None:
 )
 def test_split_name(name: str, side: str, base: str) -> None:
     assert split_name(name) == (side, base)
+
+
+def test_joints_meant_reads_a_name_of_another_convention() -> None:
+    """A joint typed in one convention names the rig's joint of that part (for suggestions):
+    Bandai's Knee_L is Mixamo's LeftLeg; a side-less name means both sides."""
+    from mocapkit import datasets
+
+    sk = datasets.procedural_motion("walk", seconds=1.0, seed=0).motion.skeleton
+    body = body_of(sk)
+    names = list(sk.names)
+    meant = {n: [names[j] for j in body.joints_meant(n)] for n in ("Knee_L", "lfemur", "knee")}
+    assert meant == {
+        "Knee_L": ["LeftLeg"], "lfemur": ["LeftUpLeg"], "knee": ["LeftLeg", "RightLeg"],
+    }  # fmt: skip
+    assert body.joints_meant("Banana") == []

@@ -256,6 +256,22 @@ class Body:
         p = self._by_key.get(key)
         return None if p is None else p.joint
 
+    def joints_meant(self, name: str) -> list[int]:
+        """The joints a name from another convention means on this rig (``"Knee_L"``,
+        ``"left knee"``, ``"LeftLeg"`` -> Bandai's ``LowerLeg_L``): the name's side and base
+        (:func:`split_name`) against every convention's part names; every side when it states
+        none. For suggestions to a user who typed a joint the rig does not have."""
+        side, base = split_name(name)
+        meant = []
+        centre = {"pelvis": _PELVIS, "neck": _NECK, "head": _HEAD}
+        for part, pats in (*_PATTERNS.items(), *centre.items()):
+            if not any(re.search(p, base) for p in pats) and base != part:
+                continue
+            for p in self.parts:
+                if p.name == part and (not side or p.side in (side, "unknown")):
+                    meant.append(p.joint)
+        return sorted(set(meant))
+
     def pair(self, name: str) -> tuple[int, int] | None:
         """``(left, right)`` joints of a sided part, or None unless both sides are known."""
         a, b = self.joint(f"left_{name}"), self.joint(f"right_{name}")

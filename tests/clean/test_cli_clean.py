@@ -193,6 +193,8 @@ def test_clean_explains_a_cell_and_reports_reasons(files) -> None:
 @pytest.mark.parametrize(
     "spec, msg",
     [("LeftForeArm", "expected JOINT:FRAME"), ("Nope:3", "no joint named"),
+     ("Knee_L:3", "no joint named 'Knee_L' (did you mean LeftLeg?)"),
+     ("leftforearm:3", "(did you mean LeftForeArm?)"),
      ("Head:x", "expected JOINT:FRAME"), ("Head:99999", "outside")],
 )  # fmt: skip
 def test_clean_explain_bad_input_is_one_line(files, spec, msg) -> None:

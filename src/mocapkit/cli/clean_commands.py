@@ -23,6 +23,7 @@ from mocapkit.cli.common import (
     load_all,
     main,
     naming,
+    no_joint_named,
     npy_output,
     plot_output,
     progress_callback,
@@ -60,7 +61,7 @@ def parse_contact(spec: str, motion: Motion) -> Any:
         if len(parts) not in (2, 3):
             raise CLIError(f"--contact {spec!r}: expected {form}")
         if parts[0] not in names:
-            raise CLIError(f"--contact {spec!r}: no joint named {parts[0]!r}")
+            raise CLIError(f"--contact {spec!r}: {no_joint_named(parts[0], motion.skeleton)}")
         try:
             lo, hi = RangeSpec.parse(parts[1], "--contact").frames(motion.fps, motion.num_frames)
         except RangeError as e:
@@ -72,7 +73,7 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     if len(parts) not in (2, 3):
         raise CLIError(f"--contact {spec!r}: expected {form}")
     if parts[0] not in names:
-        raise CLIError(f"--contact {spec!r}: no joint named {parts[0]!r}")
+        raise CLIError(f"--contact {spec!r}: {no_joint_named(parts[0], motion.skeleton)}")
     try:
         a, b = (int(x) for x in parts[1].split("-"))
     except ValueError:
@@ -95,7 +96,7 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     joint, when = spec.rsplit(":", 1)
     names = list(motion.skeleton.names)
     if joint not in names:
-        raise CLIError(f"--explain {spec!r}: no joint named {joint!r}")
+        raise CLIError(f"--explain {spec!r}: {no_joint_named(joint, motion.skeleton)}")
     try:
         frame = round(float(when[:-1]) * motion.fps) if when.endswith("s") else int(when)
     except (ValueError, OverflowError):

@@ -14,6 +14,7 @@ from typing import Any
 import click
 
 from mocapkit.core.motion import Motion
+from mocapkit.core.skeleton import Skeleton
 from mocapkit.io import MocapFileError, RepairWarning, files_under, read_motion
 from mocapkit.io.atomic import OutputPathError, atomic_write_text
 from mocapkit.jsonio import to_json_text
@@ -391,6 +392,26 @@ def data_output(path: str | None, what: str, example: str) -> str | None:
             f"{path}: a motion file name for the {what}; give it another extension (e.g. {example})"
         )
     return path
+
+
+def no_joint_named(name: str, skeleton: Skeleton) -> str:
+    """ "no joint named 'X'" with the joints likely meant: the part the name means in another
+    convention (the body model: ``Knee_L`` -> ``LowerLeg_L``), else close spellings (case
+    ignored), else the first few of the rig's joints."""
+    import difflib
+
+    from mocapkit.body import body_of
+
+    names = list(skeleton.names)
+    close = [names[j] for j in body_of(skeleton).joints_meant(name)]
+    lower = {n.lower(): n for n in names}
+    close = close or [
+        lower[m] for m in difflib.get_close_matches(name.lower(), list(lower), 3, 0.6)
+    ]
+    if close:
+        return f"no joint named {name!r} (did you mean {', '.join(close)}?)"
+    shown = ", ".join(list(names)[:12]) + (", ..." if len(names) > 12 else "")
+    return f"no joint named {name!r} (this rig's joints: {shown})"
 
 
 def npy_output(path: str | None, what: str) -> str | None:

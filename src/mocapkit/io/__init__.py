@@ -103,6 +103,11 @@ def read_motion(
         return read_asfamc(Path(asf) if asf else find_asf(path), path, fps=fps)
     if ext in GLTF:
         return read_gltf(path)
+    if ext == ".asf":  # a skeleton alone: its motions are the .amc files beside it
+        raise MocapFileError(
+            path, None, "an .asf file holds the skeleton only; give an .amc take (its .asf is "
+            "found beside it, or named with --asf where a command takes it)"
+        )  # fmt: skip
     raise MocapFileError(path, None, f"unknown file type {ext!r}; expected one of {READABLE}")
 
 
