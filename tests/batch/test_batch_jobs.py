@@ -239,6 +239,23 @@ def test_changed_input_or_output_is_redone(library, tmp_path, tmp_path_factory):
     assert clean_library(lib, tmp_path / "f", tmp_path / "r", other).cleaned == 6
 
 
+def test_reports_alone_then_with_repaired_takes(library, tmp_path, reference, tree):
+    """Without out_dir only the reports are written (the same as with it, less the repaired
+    take's name); a later run with out_dir redoes the takes, to write what is missing."""
+    alone = clean_library(library, None, tmp_path / "r", CFG)
+    assert (alone.cleaned, len(alone.failed)) == (12, 1)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r"]
+    ref = json.loads((reference["dir"] / "reports" / "summary.json").read_text())
+    got = json.loads((tmp_path / "r" / "summary.json").read_text())
+    for a, b in zip(ref["records"], got["records"], strict=True):
+        assert b.get("output") is None
+        a.pop("output", None), b.pop("output", None)
+        assert a == b
+    both = clean_library(library, tmp_path / "f", tmp_path / "r", CFG)
+    assert both.cleaned == 12
+    assert tree(tmp_path / "f") == tree(reference["dir"] / "fixed")
+
+
 def test_output_inside_library_refused(library):
     with pytest.raises(ValueError, match="inside the library"):
         clean_library(library, library / "fixed", library.parent / "r", CFG)
@@ -253,7 +270,7 @@ def test_unreachable_scheduler_is_one_line():
     ("args", "message"),
     [
         (["--out", "x.bvh"], "is a folder: --out works on one take"),
-        (["--out-dir", "F"], "give --out-dir DIR and --report-dir DIR"),
+        (["--out-dir", "F"], "give --report-dir DIR (and --out-dir DIR for the repaired takes)"),
         (["--out-dir", "F", "--report-dir", "R", "--explain", "Hips:3"], "--explain works on one"),
     ],
 )

@@ -175,7 +175,7 @@ def _record(report: Any, task: TakeTask) -> dict[str, Any]:
         "segments": segments,
         "context": list(task.context),
         "report": task.report_name,
-        "output": task.output_name,
+        "output": task.output_name or None,
     }
 
 
@@ -212,17 +212,18 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
             context,
             source=task.name,
             context_names=names,
-            output=task.output_name,
+            output=task.output_name or None,
             **kwargs,
         )
         js = {k: v for k, v in report.to_json().items() if k not in VOLATILE_REPORT_KEYS}
-        write_motion(report.motion, task.output)
+        if task.output:  # no out_dir: the reports alone
+            write_motion(report.motion, task.output)
         atomic_write_text(task.report, to_json_text(js) + "\n")
         record = _record(report, task)
         record["context"] = names
         if skipped:
             record["context_skipped"] = skipped
-        outputs = [task.output, task.report]
+        outputs = [p for p in (task.output, task.report) if p]
     except errors as e:
         record = {"take": task.name, "error": _error_line(task.name, e)}
         outputs = []
@@ -272,7 +273,7 @@ def _with_suffix(rel: str, suffix: str) -> str:
 
 def clean_library(
     library: str | Path,
-    out_dir: str | Path,
+    out_dir: str | Path | None,
     report_dir: str | Path,
     config: LibraryCleanConfig | None = None,
     *,
@@ -281,7 +282,7 @@ def clean_library(
     on_take: Callable[[dict[str, Any]], None] | None = None,
 ) -> LibraryClean:
     """Clean every take of ``library`` (see the module docstring): the repaired takes go to
-    ``out_dir/<take>.bvh``, the reports to ``report_dir/takes/<take>.json`` (in reports and
+    ``out_dir/<take>.bvh`` (None: no repaired takes, the reports alone), the reports to ``report_dir/takes/<take>.json`` (in reports and
     summary these are named relative to ``out_dir`` and ``report_dir``), the summary to
     ``report_dir/summary.json`` and ``report_dir/overview.html``. ``runner`` says where the
     takes are cleaned (default: in this process); ``progress(done, total)`` counts the takes
@@ -290,10 +291,11 @@ def clean_library(
     from mocapkit.jsonio import to_json_text
 
     config = config or LibraryCleanConfig()
-    lib, out, rep = Path(library), Path(out_dir), Path(report_dir)
+    lib, rep = Path(library), Path(report_dir)
+    out = None if out_dir is None else Path(out_dir)
     takes = find_takes(lib)
     for name, d in (("--out-dir", out), ("--report-dir", rep)):
-        if _inside(d, lib):
+        if d is not None and _inside(d, lib):
             raise ValueError(
                 f"{d}: {name} is inside the library {lib}; its files would be read as takes "
                 "by the next run (choose a folder outside it)"
@@ -305,7 +307,8 @@ def clean_library(
         except OSError as e:
             hashes[t] = f"unreadable: {e.strerror}"
     ctx = context_of(takes, config.context_by, config.context_max)
-    cfg = config.to_json()
+    # whether repaired takes are written is part of what a take's entry vouches for
+    cfg = {**config.to_json(), "repaired_takes": out is not None}
     manifest = Manifest(rep)
     records: dict[str, dict[str, Any]] = {}
     tasks: list[TakeTask] = []
@@ -318,8 +321,9 @@ def clean_library(
         tasks.append(
             TakeTask(
                 t, str(lib / t), tuple(ctx[t]), tuple(str(lib / c) for c in ctx[t]),
-                str(out / _with_suffix(t, ".bvh")), str(rep / "takes" / _with_suffix(t, ".json")),
-                cfg, key, str(rep), _with_suffix(t, ".bvh"), "takes/" + _with_suffix(t, ".json"),
+                "" if out is None else str(out / _with_suffix(t, ".bvh")),
+                str(rep / "takes" / _with_suffix(t, ".json")), cfg, key, str(rep),
+                "" if out is None else _with_suffix(t, ".bvh"), "takes/" + _with_suffix(t, ".json"),
             )
         )  # fmt: skip
     runner = runner or Runner()
@@ -332,7 +336,7 @@ def clean_library(
             on_take(records[t])
     # a worker killed mid-write leaves a temporary file; its task was rerun elsewhere
     remove_stale_temporaries(
-        [p for t in tasks for p in (t.output, t.report, manifest.entry_path(t.name))]
+        [p for t in tasks for p in (t.output, t.report, manifest.entry_path(t.name)) if p]
     )
     ordered = tuple(records[t] for t in takes)
     summary = library_summary(lib, config, ordered)

@@ -103,7 +103,7 @@ def peak_memory_line(runner: Runner) -> str:
 
 def clean_folder(
     library: str,
-    out_dir: str,
+    out_dir: str | None,
     report_dir: str,
     context_by: str,
     context_max: int,

@@ -180,7 +180,7 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     default=None,
     metavar="DIR",
     help="Folder mode (IN is a folder of takes): where the repaired takes go (DIR/<take>; not "
-    "inside IN).",
+    "inside IN). Without it, only the reports are written.",
 )
 @click.option(
     "--report-dir",
@@ -255,6 +255,7 @@ def clean_command(
       mocapkit clean take.bvh --context takes/ --two-stage --threshold 0.6 --out fixed.bvh
       mocapkit clean take.bvh --out fixed.bvh --contact LeftHand@1.8s:2.4s
       mocapkit clean bandai/ --out-dir fixed/ --report-dir reports/
+      mocapkit clean bandai/ --report-dir reports/      (reports only: which takes are bad)
       mocapkit clean cmu/ --out-dir fixed/ --report-dir reports/ --context-by folder --workers 8
       mocapkit clean lib/ --out-dir fixed/ --report-dir reports/ \\
           --scheduler tcp://127.0.0.1:8786
@@ -279,8 +280,11 @@ def clean_command(
                 f"{'works' if len(given) == 1 else 'work'} on one take; a folder takes "
                 "--out-dir and --report-dir (and --context-by, --context-max)"
             )
-        if not out_dir or not report_dir:
-            raise CLIError(f"{input_path} is a folder: give --out-dir DIR and --report-dir DIR")
+        if not report_dir:
+            raise CLIError(
+                f"{input_path} is a folder: give --report-dir DIR (and --out-dir DIR for the "
+                "repaired takes)"
+            )
         # the library's own default threshold unless one was given (it keys the manifest)
         source = click.get_current_context().get_parameter_source("threshold")
         given_threshold = None if source is click.core.ParameterSource.DEFAULT else threshold
