@@ -282,8 +282,9 @@ def clean_library(
     on_take: Callable[[dict[str, Any]], None] | None = None,
 ) -> LibraryClean:
     """Clean every take of ``library`` (see the module docstring): the repaired takes go to
-    ``out_dir/<take>.bvh`` (None: no repaired takes, the reports alone), the reports to ``report_dir/takes/<take>.json`` (in reports and
-    summary these are named relative to ``out_dir`` and ``report_dir``), the summary to
+    ``out_dir/<take>.bvh`` (None: no repaired takes, the reports alone), the reports to
+    ``report_dir/takes/<take>.json`` (in reports and summary these are named relative to
+    ``out_dir`` and ``report_dir``), the summary to
     ``report_dir/summary.json`` and ``report_dir/overview.html``. ``runner`` says where the
     takes are cleaned (default: in this process); ``progress(done, total)`` counts the takes
     to clean; ``on_take(record)`` is called with every take's record in name order."""
