@@ -218,6 +218,27 @@ def test_default_config_meets_context_exactly(humanoid, neighbours):
     assert np.abs(P[a:b] - T[a:b]).max() < 60 * step
 
 
+def test_the_clips_own_take_in_the_library_fills_the_gap_alone(humanoid):
+    """The clip's own take in the library matches the context exactly (score ~0): the other
+    segments, far worse, count for nothing, and the gap gets the take's own frames back
+    (averaged equally, five worse segments moved it by 5.5 cm on average, newcomer report).
+    Segments about as good as the best share the weight."""
+    from dataclasses import replace
+
+    walk, lib = humanoid
+    a, b = 40, 70
+    others = [m for m in lib if m.num_frames != walk.num_frames][2:]  # the run and the idle
+    config = replace(DEFAULT_CONFIG, foot_lock=False)
+    res = inbetween(walk, (a, b), [*others, walk[20:90].copy()], up="Y", method="library",
+                    config=config)  # fmt: skip
+    weights = [x["weight"] for x in res.blended_from]
+    assert res.blended_from[0]["score"] < 0.01 and weights[0] > 0.99
+    assert abs(sum(weights) - 1.0) < 1e-3
+    assert res.difference_to(walk) < 1e-6  # the take's own frames
+    alike = inbetween(walk, (a, b), lib, up="Y", method="library", config=config)
+    assert all(0.05 < x["weight"] < 0.5 for x in alike.blended_from)  # walks alike: shared
+
+
 def test_fallback_when_kalman_scores_lower(humanoid):
     """The fallback compares like with like: the two-sided L-score of the library fill and of
     the Kalman fill, both on the final filled frames; it fires when the library's is more than

@@ -88,7 +88,8 @@ def inbetween_cmd(
     nearby lengths time-warped to fit, is scored by how well its body-local poses match the
     last two frames before the gap and the first frame after it, plus how the body travels
     over the ground across the gap. The best segments (six) are each moved over the
-    ground onto both ends, their remaining pose differences blended away, and averaged, so the
+    ground onto both ends, their remaining pose differences blended away, and averaged, the
+    better-scored counting more (a segment matching the context exactly all but alone), so the
     result meets the context poses exactly. The gap needs at least 3 frames of the clip before
     it and 1 after it: a gap that reaches the clip's first 3 frames or its last frame is
     refused. With --method auto the Kalman transition of stitching fills the gap instead, and
@@ -177,7 +178,7 @@ def inbetween_cmd(
         say(
             f"  averaged with: {x['source']} frames {f0}:{f1}"
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
-            f"score {x['score']:.4g}"
+            f"score {x['score']:.4g}, weight {x['weight']:.2f}"
         )
     if res.warning:
         hint = " (--method kalman fills it with the smoother's transition instead)"
@@ -196,8 +197,8 @@ def inbetween_cmd(
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         say(f"filled frames {a}:{b} with the Kalman transition ({why})")
     else:
-        n = len(res.blended_from)
-        what = res.source if n == 1 else f"{n} library segments averaged"
+        n = sum(1 for x in res.blended_from if x["weight"] >= 0.005)
+        what = res.source if n == 1 else f"{n} library segments averaged (weighted by score)"
         within = (
             f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
             if method == "auto"

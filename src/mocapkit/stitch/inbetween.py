@@ -127,6 +127,7 @@ __all__ = [
     "kalman_fill",
     "kalman_lscore",
     "library_fill",
+    "neighbour_weights",
     "prepare_library",
     "search_inbetween",
     "search_inbetween_top",
@@ -935,21 +936,36 @@ def library_fill(
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
 
 
-def _average_fills(fills: Sequence[Motion]) -> Motion:
-    """The mean of fills of the same frames: local rotations by the normalised sum of the
-    quaternions (each put in the first fill's hemisphere), local translations by the mean."""
+def _average_fills(fills: Sequence[Motion], scores: Sequence[float] | None = None) -> Motion:
+    """The weighted mean of fills of the same frames: local rotations by the normalised weighted
+    sum of the quaternions (each put in the first fill's hemisphere), local translations by the
+    weighted mean. Weights: :func:`neighbour_weights` of the candidates' ``scores`` (equal
+    without)."""
     if len(fills) == 1:
         return fills[0]
+    w = np.ones(len(fills)) if scores is None else neighbour_weights(scores)
     first = fills[0]
     q = np.zeros_like(first.rotations)
-    for f in fills:
+    for wi, f in zip(w, fills, strict=True):
         r = f.rotations
-        q += np.where(np.sum(r * first.rotations, -1, keepdims=True) < 0, -r, r)
-    tr = np.mean([f.local_translations() for f in fills], axis=0)
+        q += wi * np.where(np.sum(r * first.rotations, -1, keepdims=True) < 0, -r, r)
+    tr = np.tensordot(w / w.sum(), np.stack([f.local_translations() for f in fills]), axes=1)
     has_t = first.translations is not None
     return Motion(
         first.skeleton, rot.quat_normalize(q), tr[:, 0], first.frame_time, tr if has_t else None
     )
+
+
+def neighbour_weights(scores: Sequence[float]) -> np.ndarray:
+    """Weights of the averaged candidates (best first): ``exp(-(s - s0) / (s0 + 1))`` with s0 the
+    best score, in the score's units (a squared tolerance). A candidate as good as the best
+    counts as much; one twice as far from the context counts e^-1 as much; where the best
+    meets the context exactly (the clip's own take in the library, s0 = 0), candidates
+    hundreds of units worse count for nothing (averaged equally they moved the exact fill by
+    5.5 cm on average, newcomer report)."""
+    s = np.asarray(scores, dtype=np.float64)
+    s0 = float(s.min())
+    return np.exp(-(s - s0) / (s0 + 1.0))
 
 
 def kalman_fill(
@@ -1212,7 +1228,7 @@ def inbetween(
     if cands:
         lfill = _average_fills(
             [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config)
-             for c in cands]
+             for c in cands], [c.score for c in cands],
         )  # fmt: skip
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
     lib_score = sum(lib_ends)
@@ -1228,15 +1244,18 @@ def inbetween(
         motion = _lock_feet(motion, a, b, up, config)
     how = "kalman" if use_kalman else "library"
     used = () if lib is None else tuple(dict.fromkeys(lib.names))  # each file once
+    share = neighbour_weights([c.score for c in cands]) if cands else np.zeros(0)
+    share = share / share.sum() if cands else share
     blended = tuple(
         {
+            "weight": round(float(wk), 4),
             "source": lib.names[c.clip],
             "source_frames": list(lib.clip_frames(c.clip, *c.source_frames(b - a))),
             "backwards": bool(lib.backwards and lib.backwards[c.clip]),
             "rate": c.rate,
             "score": c.score,
         }
-        for c in cands
+        for c, wk in zip(cands, share, strict=True)
     )
     best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
     pose_rms, path_miss, warning = _fit_of(cand, config)
