@@ -110,7 +110,7 @@ def inbetween_cmd(
       mocapkit inbetween walk.bvh --gap 2.0s:3.0s --library a.bvh --library b.bvh --out o.bvh
     """
     from mocapkit.provenance import sidecar_path
-    from mocapkit.stitch.inbetween import inbetween
+    from mocapkit.stitch.inbetween import check_gap, inbetween
 
     say = report_lines(json_path)
 
@@ -139,8 +139,9 @@ def inbetween_cmd(
     q = load(clip, lenient)
     warn_if_up_disagrees(q, up, clip)
     with naming(clip):
-        try:
-            a, b = spec.frames(q.fps, q.num_frames)
+        try:  # the take's bound is the gap's own rule (check_gap), said in full
+            a, b = spec.frames(q.fps, None)
+            check_gap((a, b), q.num_frames, clip)
         except RangeError as e:
             raise CLIError(f"{clip}: {e}") from None
     # as every library job: a file that cannot be read, or has another skeleton, is left out

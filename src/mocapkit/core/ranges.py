@@ -123,7 +123,7 @@ class RangeSpec:
             what = f"frame {lo}" if self.single else f"frames {lo}:{hi}"
             raise RangeError(
                 f"{where}: {what} past the end of the take ({num_frames} frames, "
-                f"{num_frames / fps:.6g} s at {fps:.6g} fps; expected within 0:{num_frames})"
+                f"{num_frames / fps:.4g} s at {fps:.4g} fps; expected within 0:{num_frames})"
             )
         if hi < lo:
             mixed = (
