@@ -229,11 +229,14 @@ def inbetween_demo_step(out: Path) -> None:
     walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
     lib = [datasets.procedural_motion(k, 6.0, seed=s).motion for k, s in
            (("walk", 1), ("walk", 2), ("run", 1), ("idle", 3))]  # fmt: skip
-    names = ["humanoid_walk_s1", "humanoid_walk_s2", "humanoid_run_s1", "humanoid_idle_s3"]
+    # the clip and the library are written too, so the sidecar names files one can open
+    original = write_motion(walk, out / "inbetween_walk_original.bvh")
+    names = [str(write_motion(m, out / "inbetween_library" / f"{n}.bvh")) for m, n in
+             zip(lib, ("walk_s1", "walk_s2", "run_s1", "idle_s3"), strict=True)]  # fmt: skip
     bvh = out / "inbetween_walk.bvh"
     a, b = 60, 90
     res = inbetween(
-        walk, (a, b), lib, library_names=names, up="Y", clip_name="humanoid_walk",
+        walk, (a, b), lib, library_names=names, up="Y", clip_name=str(original),
         output=str(bvh),
     )  # fmt: skip
     write_motion(res.motion, bvh)
@@ -246,7 +249,10 @@ def inbetween_demo_step(out: Path) -> None:
         f"{' from ' + ', '.join(used) if used else ''}; largest joint difference to the "
         f"blanked frames {err * 100:.1f} cm"
     )
-    click.echo(f"  wrote {bvh}, {side.name} (mocapkit view {bvh.name} marks the filled frames)")
+    click.echo(
+        f"  wrote {bvh}, {side.name} and the clip and library it came from (mocapkit view "
+        f"{bvh} marks the filled frames)"
+    )
     res.motion.check_finite("demo: the in-betweened motion")
 
 

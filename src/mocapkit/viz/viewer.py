@@ -320,6 +320,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
                 "data": x.get("source"),
                 "frames": x.get("source_frames"),
                 "backwards": bool(x.get("backwards")),
+                "weight": x.get("weight"),
             }
             for x in plan.parameters.get("blended_from") or []
         ],

@@ -652,12 +652,13 @@
   }
   if (stitch && stitch.kind === 'inbetween') {
     var segText = function (x) {
-      return base(x.data) + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '');
+      return base(x.data) + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '') +
+        (x.weight != null ? ' (weight ' + Number(x.weight).toFixed(2) + ')' : '');
     };
     var blended = stitch.blended || [];
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
-      blended.length > 1 ? 'by averaging ' + blended.length + ' library segments: ' + blended.map(segText).join('; ') :
+      blended.length > 1 ? 'by averaging ' + blended.length + ' library segments, weighted by how well they match: ' + blended.map(segText).join('; ') :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from +
       (stitch.lscore != null ? '; two-sided L-score of the filled frames ' + Number(stitch.lscore).toPrecision(4) : ''));
