@@ -652,3 +652,32 @@ def test_foot_lock_holds_a_planted_foot_where_the_context_plants_it():
     near = np.abs(P[start:b, foot][:, [0, 2]] - P[b, foot][[0, 2]]).max()
     assert near < 0.5 * np.abs(slid).max()
     np.testing.assert_array_equal(out.rotations[b:], drift.rotations[b:])
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), jump=st.floats(0.05, 1.5))
+def test_foot_lock_correction_turns_no_faster_than_the_limit(seed, jump):
+    """The foot lock's correction of a leg joint (after its IK, against the fill) never turns
+    faster than the limit per frame, is unchanged where it already does, and a frame the lock
+    left alone stays so: a hold let go of within a frame (a knee straight, then 146 deg) fades
+    instead of snapping the leg."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.stitch.inbetween import _rate_limited
+
+    rng = np.random.default_rng(seed)
+    F, J = 24, 3
+    before = rot.quat_normalize(rng.normal(size=(F, J, 4)))
+    axis = rng.normal(size=(J, 3))
+    axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+    angle = np.zeros((F, J))
+    angle[8:16] = jump  # a correction switched on and off at once
+    angle[:, 2] = np.linspace(0.0, 0.02 * (F - 1), F)  # a slow one: left as it is
+    after = rot.quat_mul(rot.rotvec_to_quat(angle[..., None] * axis[None]), before)
+    step = 0.05
+    out = _rate_limited(before, after, step)
+    d = rot.quat_mul(out, rot.quat_inv(before))
+    got = np.linalg.norm(rot.quat_to_rotvec(np.where(d[..., :1] < 0, -d, d)), axis=-1)
+    assert np.all(np.abs(np.diff(got, axis=0)) <= step + 1e-7)
+    assert np.all(got <= angle + 1e-7)
+    np.testing.assert_allclose(got[:, 2], angle[:, 2], atol=1e-7)
+    np.testing.assert_allclose(out[:8, :2], before[:8, :2], atol=1e-12)
