@@ -68,6 +68,12 @@ def test_a_pipe_or_device_is_refused_not_replaced(tmp_path: Path) -> None:
             assert "\n" not in str(e.value)
     assert fifo.is_fifo() and Path(os.devnull).is_char_device()
     assert _listing(tmp_path) == ["pipe.json"]
+    if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK):  # a file there is a file
+        shm = Path("/dev/shm") / f"mocapkit-test-{os.getpid()}.json"
+        try:
+            assert atomic_write_text(shm, "ok").read_text() == "ok"
+        finally:
+            shm.unlink(missing_ok=True)
 
 
 def test_parent_is_a_file(tmp_path: Path) -> None:

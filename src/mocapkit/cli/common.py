@@ -395,9 +395,9 @@ def data_output(path: str | None, what: str, example: str) -> str | None:
 
 
 def no_joint_named(name: str, skeleton: Skeleton) -> str:
-    """ "no joint named 'X'" with the joints likely meant: the part the name means in another
-    convention (the body model: ``Knee_L`` -> ``LowerLeg_L``), else close spellings (case
-    ignored), else the first few of the rig's joints."""
+    """The message "no joint named 'X'" with the joints likely meant: the part the name means
+    in another convention (the body model: ``Knee_L`` -> ``LowerLeg_L``), else close spellings
+    (case ignored), else the first few of the rig's joints."""
     import difflib
 
     from mocapkit.body import body_of

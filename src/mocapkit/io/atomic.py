@@ -86,8 +86,8 @@ def _not_a_file(path: Path) -> str | None:
     into it cannot be atomic."""
     hop = os.path.abspath(path)
     for _ in range(40):  # the link chain, each hop as written (not resolved through /proc)
-        if hop.startswith(("/dev/", "/proc/")):
-            return "is a device or a process's stream, not a file; " + _USE_A_FILE
+        if hop.startswith(_STREAM_PREFIXES) or hop in _STREAMS:
+            return "is a process's stream, not a file; " + _USE_A_FILE
         if not os.path.islink(hop):
             break
         hop = os.path.join(os.path.dirname(hop), os.readlink(hop))
@@ -103,6 +103,10 @@ def _not_a_file(path: Path) -> str | None:
 
 
 _USE_A_FILE = "give a file name (or '-' where the option takes it)"
+# a process's open files: their links lead to whatever the shell redirected (a file in
+# /dev/shm is an ordinary file and is written as one)
+_STREAMS = ("/dev/stdin", "/dev/stdout", "/dev/stderr")
+_STREAM_PREFIXES = ("/proc/", "/dev/fd/")
 
 
 def _final_target(path: Path) -> Path:

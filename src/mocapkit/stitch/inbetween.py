@@ -69,8 +69,9 @@ joint's larger rotation offset over more frames, so that the correction turns it
 :attr:`InbetweenConfig.blend_max_speed_deg`), so
 frames A-1 and B of the result are the context's exactly and the frames between are the
 library's motion. The fills of the :attr:`InbetweenConfig.neighbours` candidates are averaged
-(normalised quaternion sum, mean translation): each meets the context exactly, so their mean
-does too, and it is the better estimate of the unknown motion where the candidates disagree.
+(normalised quaternion sum, mean translation), each weighted by its score
+(:func:`neighbour_weights`): each meets the context exactly, so their mean does too, and it is
+the better estimate of the unknown motion where the candidates disagree.
 On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the root on the
 body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are written
 back in the clip's own convention (its root interpolated between A-1 and B, the joint below
@@ -93,7 +94,8 @@ the Kalman's wins 0.6 to 1.3, of the library's 0.1 to 2.3); the margin keeps the
 library that has nothing like the context.
 
 **Feet.** Finally the feet the filled frames plant are held still by IK on the legs
-(:attr:`InbetweenConfig.foot_lock`).
+(:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
+:attr:`InbetweenConfig.blend_max_speed_deg`.
 """
 
 from __future__ import annotations
