@@ -390,6 +390,17 @@ def test_check_gap(gap, msg):
         check_gap(gap, 150)
 
 
+def test_a_gap_in_seconds_is_read_at_the_clips_frame_rate():
+    assert check_gap("2.0s:3.0s", 150, fps=30.0) == (60, 90)
+    assert check_gap("60:3.0s", 150, fps=30.0) == (60, 90)
+    with pytest.raises(ValueError, match="frame rate is needed"):
+        check_gap("2.0s:3.0s", 150)
+    walk = datasets.procedural_motion("walk", 4.0, seed=0).motion
+    seconds = inbetween(walk, "1.0s:2.0s", None, method="kalman")
+    frames = inbetween(walk, (30, 60), None, method="kalman")
+    assert seconds.gap == frames.gap == (30, 60)
+
+
 def test_prepare_library_rejects_other_skeleton(humanoid):
     walk, _ = humanoid
     plain = datasets.procedural_motion("walk", 2.0, seed=0).motion

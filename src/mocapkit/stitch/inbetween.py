@@ -273,14 +273,20 @@ METHODS = ("auto", "library", "kalman")
 # --------------------------------------------------------------------------------- checks
 
 
-def check_gap(gap, num_frames: int, name: str = "clip") -> tuple[int, int]:
-    """``(A, B)`` of a gap given as ``(A, B)`` or ``"A:B"`` (frames A..B-1 replaced), or a
+def check_gap(
+    gap, num_frames: int, name: str = "clip", fps: float | None = None
+) -> tuple[int, int]:
+    """``(A, B)`` of a gap given as ``(A, B)`` or ``"A:B"`` (frames A..B-1 replaced; either end
+    may be a time such as ``"2.0s:3.0s"``, read at ``fps``, the clip's frame rate), or a
     ValueError saying what is expected: 3 <= A < B < num_frames (three past frames set the
     smoother's prior, and at least one future frame is needed to lead into)."""
     if isinstance(gap, str):
         from mocapkit.core.ranges import RangeSpec
 
-        a, b = RangeSpec.parse(gap, "gap", closed=True).frames(1.0, None)
+        spec = RangeSpec.parse(gap, "gap", closed=True)
+        if fps is None and any(e is not None and e.seconds for e in (spec.start, spec.stop)):
+            raise ValueError(f"gap {gap!r} is in seconds: the clip's frame rate is needed")
+        a, b = spec.frames(1.0 if fps is None else fps, None)
     else:
         try:
             a, b = (int(x) for x in gap)
@@ -1229,7 +1235,7 @@ def inbetween(
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
-    a, b = check_gap(gap, clip.num_frames, clip_name)
+    a, b = check_gap(gap, clip.num_frames, clip_name, clip.fps)
     if future_frames is not None and int(future_frames) < 1:
         raise ValueError(f"future_frames must be >= 1, got {future_frames}")
     up = up or features.detect_up_axis(clip)
