@@ -665,6 +665,26 @@ def test_foot_lock_holds_a_planted_foot_where_the_context_plants_it():
     np.testing.assert_array_equal(out.rotations[b:], drift.rotations[b:])
 
 
+def test_a_foot_lock_correction_that_turns_the_other_way_is_spread_over_frames():
+    """Newcomer report: the lock's correction of a foot went from -18 deg to +21.5 deg about
+    one axis between two frames, a 40 deg snap that a cap on its size alone let through."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.stitch.inbetween import _rate_limited
+
+    F = 30
+    before = np.tile(rot.rotvec_to_quat(np.array([0.3, 0.1, 0.0]))[None, None], (F, 1, 1))
+    angle = np.zeros(F)
+    angle[5:15], angle[15:25] = -np.radians(18.0), np.radians(21.5)
+    v = angle[:, None, None] * np.array([0.0, 1.0, 0.0])
+    after = rot.quat_mul(rot.rotvec_to_quat(v), before)
+    step = np.radians(3.0)
+    out = _rate_limited(before, after, step)
+    turn = rot.quat_mul(out[1:], rot.quat_inv(out[:-1]))
+    turn = 2 * np.arccos(np.clip(np.abs(turn[..., 0]), 0.0, 1.0))
+    assert turn.max() <= step + 1e-7
+    np.testing.assert_allclose(out[[0, -1]], after[[0, -1]], atol=1e-12)  # ends kept
+
+
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 10_000), jump=st.floats(0.05, 1.5))
 def test_foot_lock_correction_turns_no_faster_than_the_limit(seed, jump):
@@ -692,3 +712,34 @@ def test_foot_lock_correction_turns_no_faster_than_the_limit(seed, jump):
     assert np.all(got <= angle + 1e-7)
     np.testing.assert_allclose(got[:, 2], angle[:, 2], atol=1e-7)
     np.testing.assert_allclose(out[:8, :2], before[:8, :2], atol=1e-12)
+
+
+def test_the_api_refuses_what_it_cannot_fill_in_one_line():
+    """Newcomer report (API): a library prepared at another frame rate was used silently, NaN in
+    the clip gave a contradictory 'no library clip is long enough', infinite or NaN settings
+    failed deep inside, and a 0-frame library clip crashed."""
+    from mocapkit.features import resample
+
+    walk = datasets.procedural_motion("walk", 4.0, seed=0).motion
+    lib = [datasets.procedural_motion("walk", 4.0, seed=1).motion]
+    prepared = prepare_library(lib, walk)
+    with pytest.raises(ValueError, match="prepared for clips at 30 fps, the clip is at 60 fps"):
+        inbetween(resample(walk, 60), (60, 90), prepared)
+    bad = walk.copy()
+    bad.rotations[40, 2] = np.nan
+    with pytest.raises(ValueError, match="non-finite rotation at frame 40"):
+        inbetween(bad, (50, 70), lib)
+    for field_value in (
+        {"travel_weight": np.inf},
+        {"lock_ramp_seconds": np.nan},
+        {"foot_lock": "no"},
+        {"neighbours": True},
+        {"lock_context_seconds": -1},
+    ):
+        with pytest.raises(ValueError, match=next(iter(field_value))):
+            InbetweenConfig(**field_value)
+    assert InbetweenConfig(neighbours=np.int64(3)).neighbours == 3
+    with pytest.raises(ValueError, match="empty: the library clip has no frames"):
+        inbetween(walk, (50, 70), [walk[5:5]], library_names=["empty"])
+    res = inbetween(walk, (50, 70), lib)
+    json.dumps(res.to_json(), allow_nan=False)

@@ -151,6 +151,8 @@ def inbetween_cmd(
     for p, m in zip(lib_paths, lib, strict=True):
         try:
             check_same_skeleton(m, q, str(p), clip)
+            if m.num_frames == 0:
+                raise ValueError(f"{p}: it has no frames")
             kept.append((p, m))
         except ValueError as e:
             skipped.append(one_line(e))

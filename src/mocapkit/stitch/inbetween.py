@@ -104,7 +104,7 @@ import functools
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -182,7 +182,11 @@ class InbetweenConfig:
     straight to 146° (newcomer report: a Bandai-1 walk filled at 80:110, knee acceleration 9.1
     cm/frame² against 1.9 unlocked; 5.1 with the limit, 7.5 at 270°/s). On the tuning takes
     this costs foot skate at 15, 30 and 45 frames (38.6, 39.3, 41.5 cm/s against 36.1, 36.3,
-    38.5) for slightly lower L2P (2.160, 2.593, 3.164 against 2.170, 2.615, 3.181) and NPSS."""
+    38.5) for slightly lower L2P (2.160, 2.593, 3.164 against 2.170, 2.615, 3.181) and NPSS.
+    A correction that turns the other way from one frame to the next is slowed too (newcomer
+    report: Foot_L 40-81 deg in one frame on Bandai-1 walk-back/walk-left fills; now within 3
+    deg of the fill's own largest step); tuning takes at 15, 30, 45 frames: L2P 2.160, 2.594,
+    3.169 and foot skate 38.3, 38.8, 40.9 cm/s (38.6, 39.3, 41.5 before)."""
     foot_lock: bool = True
     """Hold the feet the filled frames plant still (IK on the legs, :mod:`mocapkit.ik`): the
     ground warp and the end offsets move the whole body a little every frame, and the Kalman
@@ -244,6 +248,21 @@ class InbetweenConfig:
     every length; what it is for, backward walks, the tuning split does not hold."""
 
     def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.type == "bool" and not isinstance(v, (bool, np.bool_)):
+                raise ValueError(f"{f.name} must be True or False, got {v!r}")
+            if f.type == "float" and not (
+                isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v)
+            ):
+                raise ValueError(f"{f.name} must be a finite number, got {v!r}")
+        if isinstance(self.neighbours, (bool, np.bool_)) or not isinstance(
+            self.neighbours, (int, np.integer)
+        ):
+            raise ValueError(f"neighbours must be an int >= 1, got {self.neighbours!r}")
+        object.__setattr__(self, "neighbours", int(self.neighbours))
+        if not (self.lock_context_seconds >= 0 and self.lock_ramp_seconds >= 0):
+            raise ValueError("lock_context_seconds and lock_ramp_seconds must be >= 0")
         if not (self.window_seconds > 0 and self.blend_seconds >= 0):
             raise ValueError("window_seconds must be > 0 and blend_seconds >= 0")
         if not self.blend_max_speed_deg > 0:
@@ -260,7 +279,7 @@ class InbetweenConfig:
             raise ValueError(f"poor_fit_path_m must be > 0, got {self.poor_fit_path_m}")
         if not self.fallback_margin > 0:
             raise ValueError(f"fallback_margin must be > 0, got {self.fallback_margin}")
-        if not (isinstance(self.neighbours, int) and self.neighbours >= 1):
+        if not self.neighbours >= 1:
             raise ValueError(f"neighbours must be an int >= 1, got {self.neighbours!r}")
 
 
@@ -427,6 +446,9 @@ def prepare_library(
     prepped, feats, ground, heading = [], [], [], []
     scale = [reference.frame_time / m.frame_time for m in motions]
     for m, n in zip(motions, names, strict=True):
+        if m.num_frames == 0:
+            raise ValueError(f"{n}: the library clip has no frames")
+        m.check_finite(n)
         m = _fit_proportions(conform(m, reference, n), m, reference)
         m = features.ground_root_on_path(m, up)
         prepped.append(m)
@@ -540,9 +562,12 @@ class NoLibraryFitError(ValueError):
 
 @dataclass(frozen=True)
 class Candidate:
-    """A library segment for the gap: library clip ``clip``, its fractional frame ``start``
-    taking the place of the last past frame A-1, ``rate`` library frames per clip frame (the
-    segment covers library frames ``start .. start + rate (g+1)``), and its scores."""
+    """A library segment for the gap: ``clip`` indexes :attr:`InbetweenLibrary.motions` (the
+    prepared motions: each file resampled to the clip's frame rate, then the same played
+    backwards, so it is not an index into the list given), its fractional frame ``start``
+    taking the place of the last past frame A-1, ``rate`` frames of that motion per clip frame
+    (the segment covers its frames ``start .. start + rate (g+1)``), and its scores. Frames of
+    the file itself: :meth:`InbetweenLibrary.clip_frames`."""
 
     clip: int
     start: float
@@ -559,7 +584,8 @@ class Candidate:
         return self.lscore_start + self.lscore_end
 
     def source_frames(self, gap: int) -> tuple[int, int]:
-        """Library frames (rounded, stop excluded) that fill the gap's ``gap`` frames."""
+        """Frames of the prepared motion (rounded, stop excluded) that fill the gap's ``gap``
+        frames; :meth:`InbetweenLibrary.clip_frames` turns them into the file's frames."""
         return round(self.start + self.rate), round(self.start + self.rate * gap) + 1
 
 
@@ -893,20 +919,30 @@ def _lock_feet(motion: Motion, a: int, b: int, up: str, config: InbetweenConfig)
     res = ik.solve(ex, chains, targets, weights, lock.ik, body)
     legs = sorted({j for c in chains for j in c.joints})
     step = math.radians(config.blend_max_speed_deg) * motion.frame_time
-    locked = _rate_limited(ex.rotations[:, legs], res.motion.rotations[:, legs], step)
+    # frames a-1 .. b: the correction is none at both (context), and ramps within the gap
+    span = slice(a - 1 - lo, b + 1 - lo)
+    locked = _rate_limited(ex.rotations[span, legs], res.motion.rotations[span, legs], step)
     out = motion.copy()
-    out.rotations[a:b, legs] = locked[a - lo : b - lo]
+    out.rotations[a:b, legs] = locked[1:-1]
     return out
 
 
 def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.ndarray:
     """``after`` (F, J, 4) with each joint's correction from ``before`` (the rotation
-    ``after before^-1``) turning no faster than ``max_step`` radians per frame: its angle is
-    capped by an envelope that grows at most ``max_step`` a frame from every frame where it is
-    smaller (two passes). A hold that the foot lock lets go of within a frame or two (a knee
-    held straight, then its own 146 deg) otherwise snaps the leg; the correction is not part
-    of the motion, and turns no faster than the end offsets do
-    (:attr:`InbetweenConfig.blend_max_speed_deg`)."""
+    ``after before^-1``) turning no faster than ``max_step`` radians per frame. A hold that the
+    foot lock lets go of within a frame or two (a knee held straight, then its own 146 deg), or
+    a correction that turns the other way from one frame to the next (-18 deg, then +21 deg
+    about the foot's axis), otherwise snaps the leg; the correction is not part of the motion,
+    and turns no faster than the end offsets do (:attr:`InbetweenConfig.blend_max_speed_deg`).
+
+    Two steps, on the correction's rotation vector: its angle is capped by an envelope that
+    grows at most ``max_step`` a frame from every frame where it is smaller (so it fades
+    before a hold is let go of, and is nowhere larger than asked); then the vector follows the
+    capped one, moving at most ``max_step`` a frame, forward from the first frame and backward
+    from the last (a change of direction is spread over frames; the first and last frames
+    keep theirs: none, on the context frames around a gap). Where nothing had to be slowed the
+    result is ``after`` exactly. The rotation-vector difference bounds the turn between two
+    frames (the exponential map shortens distances)."""
     d = rot.quat_mul(after, rot.quat_inv(before))
     d = np.where(d[..., :1] < 0, -d, d)
     v = rot.quat_to_rotvec(d)
@@ -916,9 +952,21 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
         cap[f] = np.minimum(cap[f], cap[f - 1] + max_step)
     for f in range(len(cap) - 2, -1, -1):
         cap[f] = np.minimum(cap[f], cap[f + 1] + max_step)
-    scale = np.where(angle > 1e-12, cap / np.maximum(angle, 1e-12), 1.0)
-    out = rot.quat_mul(rot.rotvec_to_quat(v * scale[..., None]), before)
-    return np.where((scale >= 1.0)[..., None], after, rot.quat_normalize(out))
+    capped = v * np.where(angle > 1e-12, cap / np.maximum(angle, 1e-12), 1.0)[..., None]
+
+    def follow(target: np.ndarray, start: np.ndarray) -> np.ndarray:
+        out = target.copy()
+        out[0] = start
+        for f in range(1, len(out)):
+            step = target[f] - out[f - 1]
+            n = np.linalg.norm(step, axis=-1, keepdims=True)
+            out[f] = out[f - 1] + step * np.minimum(1.0, max_step / np.maximum(n, 1e-12))
+        return out
+
+    lim = follow(follow(capped, capped[0])[::-1], capped[-1])[::-1]
+    out = rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(lim), before))
+    same = np.all(lim == v, axis=-1)
+    return np.where(same[..., None], after, out)
 
 
 def _back_to_clip(fill: Motion, clip: Motion, a: int, b: int, onpath: bool) -> Motion:
@@ -1178,12 +1226,12 @@ class Inbetween:
             },
             # the final filled frames' two-sided L-score, and the Kalman transition's: the pair
             # the fallback compares (the segment's own differs: the fill is blended and averaged)
-            "library_lscore": None if math.isnan(self.library_lscore) else self.library_lscore,
-            "pose_rms_m": None if math.isnan(self.pose_rms_m) else self.pose_rms_m,
-            "path_miss_m": None if math.isnan(self.path_miss_m) else self.path_miss_m,
+            "library_lscore": _finite_or_none(self.library_lscore),
+            "pose_rms_m": _finite_or_none(self.pose_rms_m),
+            "path_miss_m": _finite_or_none(self.path_miss_m),
             "warning": self.warning or None,
             "note": self.note or None,
-            "kalman_lscore": self.kalman_lscore,
+            "kalman_lscore": _finite_or_none(self.kalman_lscore),
             "candidates": self.candidates,
             "search_seconds": round(self.search_seconds, 4),
             "output": self.output,
@@ -1203,6 +1251,15 @@ def _as_library(library, clip: Motion, names, up: str, config: InbetweenConfig) 
             raise ValueError("the library was prepared with other warps than the config's")
         if any(library.backwards) != config.backwards:
             raise ValueError("the library was prepared with another 'backwards' than the config's")
+        lib_fps = 1.0 / library.motions[0].frame_time
+        if not math.isclose(lib_fps, clip.fps, rel_tol=1e-6):
+            raise ValueError(
+                f"the library was prepared for clips at {lib_fps:.6g} fps, the clip is at "
+                f"{clip.fps:.6g} fps: prepare it with this clip as the reference"
+            )
+        if names is not None:
+            raise ValueError("library_names names the motions of a list; a prepared library "
+                             "has its names (prepare_library's names)")  # fmt: skip
         return library
     motions = [library] if isinstance(library, Motion) else list(library)
     return prepare_library(motions, clip, names, up=up, config=config)
@@ -1236,6 +1293,7 @@ def inbetween(
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     a, b = check_gap(gap, clip.num_frames, clip_name, clip.fps)
+    clip.check_finite(clip_name)
     if future_frames is not None and int(future_frames) < 1:
         raise ValueError(f"future_frames must be >= 1, got {future_frames}")
     up = up or features.detect_up_axis(clip)
@@ -1306,6 +1364,11 @@ def inbetween(
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
         () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
     )  # fmt: skip
+
+
+def _finite_or_none(x: float) -> float | None:
+    """JSON has no NaN or Infinity: a score that could not be computed is null."""
+    return float(x) if math.isfinite(x) else None
 
 
 def _fit_of(cand: Candidate | None, config: InbetweenConfig) -> tuple[float, float, str]:
