@@ -444,7 +444,7 @@ def search_timing(lib_files, extra_files, reference, config):
     from mocapkit.features import ground_root_on_path
     from mocapkit.io import read_motion
     from mocapkit.stitch import search_features
-    from mocapkit.stitch.inbetween import _context, prepare_library, search_inbetween
+    from mocapkit.stitch.inbetween import gap_context, prepare_library, search_inbetween
 
     motions, total = [], 0
     for f in [*lib_files, *extra_files]:
@@ -465,7 +465,7 @@ def search_timing(lib_files, extra_files, reference, config):
     qf = motion_features(reference, "Y")
     a = min(60, reference.num_frames // 3)
     b = min(a + 30, reference.num_frames - 5)
-    ctx = _context(ground_root_on_path(reference, "Y"), a, b, 5, "Y", None)
+    ctx = gap_context(ground_root_on_path(reference, "Y"), a, b, 5, "Y", None)
     for _ in range(2):  # warm-up (numba compile), then timed
         t0 = time.perf_counter()
         search_features(qf, a - 1, clips, k_max=30)

@@ -19,9 +19,9 @@ from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.io import read_motion, write_motion
 from mocapkit.stitch.inbetween import (
     DEFAULT_CONFIG,
+    GapContext,
     InbetweenConfig,
     InbetweenLibrary,
-    _Context,
     _Warped,
     check_gap,
     inbetween,
@@ -75,7 +75,7 @@ def test_search_matches_brute_force(gap):
         warps=(0.8, 1.0, 1.25), pose_weight=0.0, lscore_weight=1.0, travel_weight=5.0
     )
     lib = _synthetic_library(1, (30, 9, 26), m, config.warps)
-    ctx = _Context(
+    ctx = GapContext(
         np.cumsum(rng.normal(size=(5, m)), 0),
         np.cumsum(rng.normal(size=(2, m)), 0),
         rng.normal(0, 10, 2),
@@ -91,7 +91,7 @@ def test_search_matches_brute_force(gap):
 
 
 def _random_context(rng, m):
-    return _Context(
+    return GapContext(
         np.cumsum(rng.normal(size=(5, m)), 0),
         np.cumsum(rng.normal(size=(2, m)), 0),
         rng.normal(0, 10, 2),
@@ -383,7 +383,8 @@ def test_offset_blend_meets_ends_and_limits_speed(angle, n, blend, speed):
 @pytest.mark.parametrize(
     "gap, msg",
     [((0, 10), "3 <= A < B"), ((20, 20), "3 <= A < B"), ((20, 10), "3 <= A < B"),
-     ((20, 150), "3 <= A < B"), ("x", "gap")],
+     ((20, 150), "3 <= A < B"), ("x", "gap"), ((60.5, 90.2), "whole frames"),
+     ((True, 90), "whole frames")],
 )  # fmt: skip
 def test_check_gap(gap, msg):
     with pytest.raises(ValueError, match=msg):

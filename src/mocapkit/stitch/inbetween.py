@@ -120,11 +120,13 @@ __all__ = [
     "DEFAULT_CONFIG",
     "METHODS",
     "Candidate",
+    "GapContext",
     "Inbetween",
     "InbetweenConfig",
     "InbetweenLibrary",
     "NoLibraryFitError",
     "check_gap",
+    "gap_context",
     "inbetween",
     "kalman_fill",
     "kalman_lscore",
@@ -308,15 +310,26 @@ def check_gap(
         a, b = spec.frames(1.0 if fps is None else fps, None)
     else:
         try:
-            a, b = (int(x) for x in gap)
+            a, b = (_whole_frame(x) for x in gap)
         except (TypeError, ValueError):
-            raise ValueError(f"gap must be (A, B) or 'A:B', got {gap!r}") from None
+            raise ValueError(f"gap must be (A, B) in whole frames or 'A:B', got {gap!r}") from None
     if not 3 <= a < b < num_frames:
         raise ValueError(
             f"{name}: gap {a}:{b}: expected 3 <= A < B < {num_frames} (it has {num_frames} "
             "frames; at least 3 context frames are needed before the gap and 1 after it)"
         )
     return a, b
+
+
+def _whole_frame(x) -> int:
+    """``x`` as a frame number; ValueError unless it is a whole number (60.5 is not a frame)."""
+    if isinstance(x, (bool, np.bool_)):
+        raise ValueError(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)) and float(x).is_integer():
+        return int(x)
+    raise ValueError(x)
 
 
 # --------------------------------------------------------------------------------- library
@@ -590,8 +603,9 @@ class Candidate:
 
 
 @dataclass(frozen=True, eq=False)
-class _Context:
-    """What the search needs from the clip around the gap."""
+class GapContext:
+    """What the search needs from the clip around the gap (:func:`gap_context`): body-local
+    features of the past and future windows, and the pelvis' ground path across the gap."""
 
     past: np.ndarray  # (w_p, m) features A-w_p..A-1
     future: np.ndarray  # (w_f, m) features B..
@@ -609,7 +623,13 @@ def _rotate2(v: np.ndarray, angle) -> np.ndarray:
     return np.stack([c * x - s * z, s * x + c * z], axis=-1)
 
 
-def _context(clip: Motion, a: int, b: int, w: int, up: str, future_frames: int | None):
+def gap_context(
+    clip: Motion, a: int, b: int, w: int = 5, up: str = "Y", future_frames: int | None = None
+) -> GapContext:
+    """The :class:`GapContext` of the gap ``a:b`` of ``clip`` for :func:`search_inbetween`:
+    ``w`` frames on each side (fewer at the clip's ends; at most ``future_frames`` after it).
+    A clip with a ground root (Bandai's ``joint_Root``) is given with the root on the body's
+    path (:func:`mocapkit.features.ground_root_on_path`), as :func:`inbetween` does."""
     from mocapkit import features
 
     wp = min(w, a)
@@ -623,7 +643,7 @@ def _context(clip: Motion, a: int, b: int, w: int, up: str, future_frames: int |
     gp = features.root_trajectory(part, up)
     hd = features.heading_angles(part, up, unwrap=True)
     i0, i1 = wp - 1, wp + g
-    return _Context(
+    return GapContext(
         past,
         future,
         _rotate2(gp[i1] - gp[i0], hd[i0]),
@@ -633,7 +653,7 @@ def _context(clip: Motion, a: int, b: int, w: int, up: str, future_frames: int |
 
 
 def _travel_costs(
-    W: _Warped, ctx: _Context, g: int, config: InbetweenConfig, mpu: float
+    W: _Warped, ctx: GapContext, g: int, config: InbetweenConfig, mpu: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(cost, valid) per warped frame s (the frame on A-1): the ground-path term."""
     N = W.feats.shape[0]
@@ -661,7 +681,7 @@ def _travel_costs(
 
 
 def _pose_costs(
-    W: _Warped, ctx: _Context, g: int, config: InbetweenConfig, mpu: float
+    W: _Warped, ctx: GapContext, g: int, config: InbetweenConfig, mpu: float
 ) -> np.ndarray:
     """(N,) per warped frame s (the frame on A-1): the pose term, squared body-local distances
     of frames s-1, s, s+g+1 to the context's A-2, A-1, B over joints and squared tolerance
@@ -691,7 +711,7 @@ def _pose_costs(
 
 
 def search_inbetween(
-    ctx: _Context,
+    ctx: GapContext,
     gap: int,
     library: InbetweenLibrary,
     *,
@@ -708,7 +728,7 @@ def search_inbetween(
 
 
 def search_inbetween_top(
-    ctx: _Context,
+    ctx: GapContext,
     gap: int,
     library: InbetweenLibrary,
     k: int = 1,
@@ -855,7 +875,7 @@ def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int, up: str) ->
     return out
 
 
-def _two_sided(onpath, fill, a, b, ctx: _Context, w: int, up: str, model) -> tuple[float, float]:
+def _two_sided(onpath, fill, a, b, ctx: GapContext, w: int, up: str, model) -> tuple[float, float]:
     """The two L-scores of filled frames ``fill`` (frames a..b-1 of ``onpath``), scored as a
     library candidate is: L of the past window then the first gap frames, and L of the last gap
     frames then the future window, in body-local features (their sum is the two-sided score)."""
@@ -1303,7 +1323,7 @@ def inbetween(
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
     w = max(3, clip.seconds_to_frames(config.window_seconds))
     onpath = features.ground_root_on_path(clip, up)
-    ctx = _context(onpath, a, b, w, up, future_frames)
+    ctx = gap_context(onpath, a, b, w, up, future_frames)
     mpu = features.metres_per_unit(clip, None)
     t0 = time.perf_counter()
     note = ""
