@@ -514,6 +514,7 @@ def lock_targets(
     up: np.ndarray | None = None,
     ramp: str = "target",
     pins: np.ndarray | None = None,
+    drift: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per foot joint (columns): targets (F, n, 3) and weights (F, n) for :func:`solve`.
 
@@ -529,7 +530,13 @@ def lock_targets(
     around a filled gap, which the fill must not change): a run holding pinned frames is
     anchored on them instead (at a pinned frame its own position, between two pinned frames
     interpolated, beyond the last one that one's), so the foot stays where the fixed frames
-    plant it and does not have to slide there when the lock lets go."""
+    plant it and does not have to slide there when the lock lets go.
+
+    ``drift`` (F, n, 3): how far a planted foot is meant to move into each frame from the one
+    before (the small motion of the captured foot a fill was made from: its roll and settling).
+    Within a run the hold moves by it: the anchors above are taken of the positions less the
+    run's accumulated drift, which is then added back, so a foot that moves as meant is left
+    where it is, and pinned frames are still met exactly. None: held still."""
     F, n = flags.shape
     targets = positions.copy()
     weights = np.zeros((F, n))
@@ -537,13 +544,17 @@ def lock_targets(
     for k in range(n):
         best = np.full(F, -1.0)
         for a, b in true_runs(flags[:, k]):
-            seg = positions[a : b + 1, k]
+            cum = np.zeros((b + 1 - a, 3))
+            if drift is not None:
+                cum[1:] = np.cumsum(drift[a + 1 : b + 1, k], axis=0)
+            seg = positions[a : b + 1, k] - cum
             pinned = np.flatnonzero(pins[a : b + 1, k]) if pins is not None else ()
             if len(pinned):  # per frame of the run: the pinned positions, interpolated
                 i = np.arange(len(seg))
                 pts = np.stack([np.interp(i, pinned, seg[pinned, d]) for d in range(3)], -1)
             else:
                 pts = np.broadcast_to(seg.mean(axis=0) if anchor == "mean" else seg[0], seg.shape)
+            pts = pts + cum
             lo, hi = max(0, a - blend_frames), min(F - 1, b + blend_frames)
             fr = np.arange(lo, hi + 1)
             dist = np.where(fr < a, a - fr, np.where(fr > b, fr - b, 0))

@@ -150,6 +150,29 @@ def test_lock_targets_blend_is_smooth():
     assert np.allclose(t[15:25, 0], pos[15:25, 0].mean(axis=0))
 
 
+@pytest.mark.parametrize("anchor", ["first", "mean"])
+def test_lock_targets_with_drift_move_the_hold_as_meant(anchor):
+    """drift: a foot that moves within its contact exactly as meant is held where it is; one
+    that slides more is held to the meant path; pinned frames are met exactly either way."""
+    F = 40
+    rng = np.random.default_rng(0)
+    pos = np.cumsum(rng.normal(0, 0.01, size=(F, 1, 3)), axis=0)
+    flags = np.zeros((F, 1), dtype=bool)
+    flags[10:30] = True
+    meant = np.zeros_like(pos)
+    meant[1:] = np.diff(pos, axis=0)
+    t, w = lock_targets(pos, flags, 4, anchor, drift=meant)
+    assert np.allclose(t[10:30], pos[10:30]) and np.all(w[10:30] == 1)
+    slid = pos.copy()
+    slid[20:] += np.linspace(0, 0.05, F - 20)[:, None, None]  # 5 cm more than meant
+    t, _ = lock_targets(slid, flags, 4, "first", drift=meant)
+    assert np.allclose(t[10:30], pos[10:30])  # back on the meant path
+    pins = np.zeros((F, 1), dtype=bool)
+    pins[:12] = True
+    t, _ = lock_targets(slid, flags, 4, anchor, pins=pins, drift=meant)
+    assert np.allclose(t[10:12], slid[10:12]) and np.allclose(t[12:30], pos[12:30])
+
+
 def test_lock_targets_offset_ramp_keeps_the_swing():
     """ramp="offset": over the blends the target moves with the joint (a constant correction
     per side, weighted down), inside the run it is the anchor, continuous at the run's ends."""
