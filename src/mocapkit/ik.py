@@ -396,7 +396,8 @@ def solve(
         targets: (F, E, 3) effector positions (file units).
         weights: (F, E) in [0, 1]: each target is pulled ``weight`` of the way from the input's
             effector position (0: hold the input, 1: reach the target). Frames where every
-            weight is 0 are left exactly as they are. Default: all ones.
+            weight is 0 are left exactly as they are, and so is a chain on a frame where all
+            its effectors' weights are 0. Default: all ones.
         config: solver tunables; lengths in metres.
         body: the motion's body (for its unit), computed when None.
 
@@ -452,6 +453,14 @@ def solve(
         cfg.max_step,
         cfg.iterations,
     )
+    # a chain none of whose effectors has a weight on a frame is left exactly as it was (its
+    # solve only moved it by rounding: 1e-6 deg on a leg nothing asked to move)
+    e0 = 0
+    for c in chains:
+        idle = ~(w[idx, e0 : e0 + len(c.effectors)] > 0).any(axis=1)
+        joints = list(c.joints)
+        new_l[np.ix_(idle, joints)] = lrot[np.ix_(idle, joints)]
+        e0 += len(c.effectors)
     out.rotations[idx] = new_l
     residual[idx] = res
     return IKResult(out, residual, solved, it)

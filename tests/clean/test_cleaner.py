@@ -299,3 +299,41 @@ def test_the_foot_lock_changes_only_frames_the_repair_touched(takes) -> None:
     step = np.linalg.norm(np.diff(after[a - 2 : b + 3, toe, flat], axis=0), axis=-1)
     step_true = np.linalg.norm(np.diff(before[a - 2 : b + 3, toe, flat], axis=0), axis=-1)
     assert step.max() <= step_true.max() + 0.1 * miss_bent.max()
+
+
+def test_the_cleaner_api_refuses_what_it_cannot_analyse_and_survives_a_failed_fit(
+    takes, corrupted
+) -> None:
+    """Newcomer report (API): one take given as the context hung (iterating a Motion), a fit
+    that failed left the cleaner broken, a take too short to find like words came back clean,
+    a generator context was used up by the skeleton check, pipeline=[] ran every rule, and NaN
+    or mistyped settings passed."""
+    from mocapkit.clean import DetectConfig
+
+    walk, other = takes
+    bad = corrupted[0] if isinstance(corrupted, tuple) else corrupted
+    single = SelfSimilarityCleaner().fit(walk, other)
+    listed = SelfSimilarityCleaner().fit(walk, [other])
+    np.testing.assert_array_equal(single.mdm_, listed.mdm_)
+    gen = SelfSimilarityCleaner().fit(walk, (m for m in [other]))
+    np.testing.assert_array_equal(gen.mdm_, listed.mdm_)
+    with pytest.raises(ValueError, match="1 names for 2 context takes"):
+        SelfSimilarityCleaner().fit(walk, [other, other], names=["a"])
+    c = SelfSimilarityCleaner().fit(walk)
+    before = c.mdm_.copy()
+    with pytest.raises(ValueError, match="too short"):
+        c.fit(walk[:5])
+    np.testing.assert_array_equal(c.mdm_, before)  # the earlier fit is intact
+    assert c.segments() == SelfSimilarityCleaner().fit(walk).segments()
+    with pytest.raises(ValueError, match="found a like word away from itself"):
+        SelfSimilarityCleaner().fit(walk[:30])
+    SelfSimilarityCleaner().fit(walk[:30], [other])  # a context gives the words neighbours
+    assert not SelfSimilarityCleaner(pipeline=[]).fit(walk).mask().any()
+    with pytest.raises(TypeError, match="rule classes"):
+        SelfSimilarityCleaner(pipeline=["noise"])
+    for bad_setting in ({"gain": np.nan}, {"floor_deg": np.inf}, {"k": 2.5}, {"k": True},
+                        {"two_stage": "no"}, {"step_quantile": 150.0}, {"max_run": -1},
+                        {"stage1_threshold": 2.0}):  # fmt: skip
+        with pytest.raises(ValueError, match=next(iter(bad_setting))):
+            DetectConfig(**bad_setting)
+    del bad

@@ -127,6 +127,8 @@ class SelfSimilarityCleaner:
         self.config = cfg.replace(**changes) if changes else cfg
         self.groups = None if groups is None else list(groups)
         self.pipeline = None if pipeline is None else tuple(pipeline)
+        if self.pipeline is not None:
+            build(self.config, self.pipeline)  # a TypeError now for what is not a rule
 
     @property
     def threshold(self) -> float:
@@ -145,7 +147,26 @@ class SelfSimilarityCleaner:
         progress: Progress | None = None,
         names: Sequence[str] | None = None,
     ) -> SelfSimilarityCleaner:
-        """Analyse ``motion`` against itself and the ``context`` takes (same skeleton)."""
+        """Analyse ``motion`` against itself and the ``context`` takes (same skeleton; a list,
+        or one take). A fit that fails (ValueError) leaves the cleaner as it was."""
+        context = [context] if isinstance(context, Motion) else list(context)
+        if names is not None and len(names) != len(context):
+            raise ValueError(f"{len(names)} names for {len(context)} context takes")
+        saved = dict(self.__dict__)
+        try:
+            return self._fit(motion, context, progress, names)
+        except BaseException:
+            self.__dict__.clear()
+            self.__dict__.update(saved)
+            raise
+
+    def _fit(
+        self,
+        motion: Motion,
+        context: list[Motion],
+        progress: Progress | None,
+        names: Sequence[str] | None,
+    ) -> SelfSimilarityCleaner:
         for i, c in enumerate(context):
             if not _same_skeleton(motion, c):
                 label = names[i] if names is not None else f"context take {i}"
@@ -157,7 +178,10 @@ class SelfSimilarityCleaner:
         self.evidence_ = Evidence.for_motion(motion, self.config, context)
         self._flags: dict[float, Flags] = {}
         tex = make_texture(motion, self.fps, "input")
-        ctx_tex = [make_texture(c, self.fps, f"ctx{i}").rotations for i, c in enumerate(context)]
+        labels = names if names is not None else [f"context take {i}" for i in range(len(context))]
+        ctx_tex = [
+            make_texture(c, self.fps, n).rotations for c, n in zip(context, labels, strict=True)
+        ]
         self.texture_ = tex
         N, step, M = word_lengths(self.fps)
         if tex.rotations.shape[0] < N or motion.num_frames < 2:  # before the groups: a short
@@ -197,6 +221,13 @@ class SelfSimilarityCleaner:
         else:
             self.neighbours_ = self._two_stage(src, ctx_tex, starts, report)
         self._finish_maps()
+        if not self.analysed_.any():
+            raise ValueError(
+                f"the take is too short: {motion.num_frames} frames spanning "
+                f"{(motion.num_frames - 1) * motion.frame_time:.2f} s, and no motion word of "
+                f"{N / self.fps:.2f} s found a like word away from itself"
+                + ("" if context else " (give context takes, or a longer take)")
+            )
         return self
 
     def _search(

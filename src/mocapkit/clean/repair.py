@@ -1,9 +1,11 @@
 """Replacing erroneous joint values (Sec. 4), on the take's own frames.
 
-Which cells change: for every joint, the frames whose MDM exceeds the threshold ("flagged
-cells"), each run of them dilated by ``margin`` frames on both sides (the *blend margin*). Exactly
-those (joint, frame) cells are written; every other rotation of the take, and every root
-position, is copied bit for bit.
+Which cells change: for every joint, the frames the detection flags ("flagged cells": the
+cleaner's mask, its pipeline's decision, not the MDM alone), each run of them dilated by
+``margin`` frames on both sides (the *blend margin*); then, with the foot lock
+(:func:`lock_repaired_feet`), the leg joints it turns on the frames it holds. Exactly those
+(joint, frame) cells are written; every other rotation of the take, and every root position,
+is copied bit for bit.
 
 What they get: a composite track (the take's rotation outside the flagged cells, the replacement
 inside, made hemisphere-continuous) smoothed by a quadratic Savitzky-Golay filter of
@@ -45,8 +47,9 @@ class RepairResult:
 
     Attributes:
         motion: the repaired Motion.
-        flagged: (F, J) bool, cells above the threshold.
-        written: (F, J) bool, cells written (flagged dilated by the blend margin).
+        flagged: (F, J) bool, the cells the detection flagged (the cleaner's mask).
+        written: (F, J) bool, cells written (flagged dilated by the blend margin, and the leg
+            cells the foot lock turned).
         margin: the blend margin in frames.
         held_contacts: the foot contacts held by :func:`lock_repaired_feet` (a
             :class:`~mocapkit.features.FootContacts`), None when feet were not locked.

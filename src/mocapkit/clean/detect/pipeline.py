@@ -68,8 +68,15 @@ def pipeline_for(config: DetectConfig) -> tuple[type, ...]:
 
 def build(config: DetectConfig, pipeline: Sequence[type] | None = None) -> list:
     """The rule objects of ``pipeline`` (default :func:`pipeline_for`) with their thresholds
-    from ``config``."""
-    return [r.from_config(config) for r in (pipeline or pipeline_for(config))]
+    from ``config``; an empty pipeline flags nothing."""
+    rules = pipeline_for(config) if pipeline is None else tuple(pipeline)
+    for r in rules:
+        if not hasattr(r, "from_config"):
+            raise TypeError(
+                f"pipeline entries are rule classes (e.g. mocapkit.clean.detect.PIPELINE's), "
+                f"got {r!r}"
+            )
+    return [r.from_config(config) for r in rules]
 
 
 def run_pipeline(
