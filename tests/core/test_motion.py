@@ -124,3 +124,17 @@ def test_fill_missing_slerps_rotations_and_interpolates_positions() -> None:
     assert np.all(rot.quat_angle(fixed.rotations, truth.rotations) < 1e-12)
     np.testing.assert_array_equal(fixed.root_positions[0], m.root_positions[1])
     assert np.isnan(m.rotations[2, 2, 0]), "input must not be modified"
+
+
+def test_an_int_index_past_either_end_is_an_index_error() -> None:
+    """motion[k] past the end used to give an empty Motion, so iterating a Motion (a take passed
+    where a list of takes was expected) never ended."""
+    from mocapkit import datasets
+
+    m = datasets.procedural_motion("walk", 1.0).motion
+    assert m[-1].allclose(m[m.num_frames - 1 :]) and m[0].num_frames == 1
+    with pytest.raises(IndexError, match="out of range"):
+        m[m.num_frames]
+    with pytest.raises(IndexError, match="out of range"):
+        m[-m.num_frames - 1]
+    assert len(list(iter(m))) == m.num_frames

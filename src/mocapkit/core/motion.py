@@ -106,9 +106,14 @@ class Motion:
         )
 
     def __getitem__(self, index: slice | Sequence[int] | np.ndarray) -> Motion:
-        """Frames selected by a slice or an index array (a new Motion sharing nothing)."""
+        """Frames selected by a slice or an index array (a new Motion sharing nothing); an int
+        selects that one frame (negative from the end), IndexError past either end."""
         if isinstance(index, int | np.integer):
-            index = slice(int(index), int(index) + 1 if index != -1 else None)
+            k = int(index)
+            if not -self.num_frames <= k < self.num_frames:
+                raise IndexError(f"frame {k} out of range for {self.num_frames} frames")
+            k %= self.num_frames
+            index = slice(k, k + 1)
         return Motion(
             self.skeleton,
             self.rotations[index].copy(),
