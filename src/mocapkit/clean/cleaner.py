@@ -200,7 +200,8 @@ class SelfSimilarityCleaner:
             groups = default_groups(motion.skeleton, include=np.flatnonzero(active))
         if not groups:
             raise ValueError(
-                "no joint group has two or more rotating joints (the take holds still)"
+                "fewer than two joints of a group rotate (the take holds still, or only "
+                f"{int(active.sum())} joint(s) move): self-similarity compares joints in groups"
             )
         self.groups_ = list(groups)
         exclude = (

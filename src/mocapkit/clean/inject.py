@@ -59,7 +59,8 @@ def inject(
     - bend: 10-30 frames of the hinge (knee/elbow) bent the wrong way: the flexion component
       about the joint's main axis is mirrored and pushed 20-50 deg past straight.
     - flip: 3-15 frames rotated by 180 deg about a random axis.
-    - frozen: 15-40 frames holding the value of the window's first frame.
+    - frozen: a window of 15-40 frames holding the value of its first frame (that frame keeps
+      its own value, so ``frames`` marks the 14-39 after it).
     """
     if kind not in ERROR_KINDS:
         raise ValueError(f"unknown error kind {kind!r}; choose from {', '.join(ERROR_KINDS)}")
