@@ -439,3 +439,13 @@ def test_outputs_get_normal_file_permissions(tmp_path) -> None:
     umask = os.umask(0)
     os.umask(umask)
     assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~umask
+
+
+def test_an_unchanged_small_angle_is_written_as_the_file_had_it() -> None:
+    """Newcomer report: read then written, a Bandai take's -5.69484e-05 became
+    -5.69483999995e-05 (the quaternion round trip's ~1e-14 deg printed to 12 digits) on every
+    row; rotation channels are written to 1e-12 deg, below the round trip's rounding."""
+    text = SMALL.replace("1 2 3 0 -90 0", "-5.69484e-05 -9.11063e-06 123.456 0 -90 0")
+    m = parse_bvh(text)
+    rows = format_bvh(m).split("Frame Time:")[1].splitlines()[1:]
+    assert [float(v) for v in rows[1].split()[6:9]] == [-5.69484e-05, -9.11063e-06, 123.456]

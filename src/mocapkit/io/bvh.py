@@ -619,6 +619,10 @@ def read_bvh(path: str | Path, lenient: bool = False) -> Motion:
 # writing
 
 
+ANGLE_DECIMALS = 12
+"""Decimals of degrees a written rotation channel keeps (1.7e-14 rad)."""
+
+
 def format_number(x: float) -> str:
     """Shortest text that reads back as exactly ``x`` (used for Frame Time)."""
     return repr(float(x))
@@ -637,7 +641,10 @@ def motion_to_channels(motion: Motion) -> np.ndarray:
         joints = [j for j, _ in items]
         cols = np.array([c for _, c in items])
         angles = np.rad2deg(rot.quat_to_euler(motion.rotations[:, joints], order))
-        out[:, cols] = angles
+        # to 1e-12 deg: the quaternion round trip leaves ~1e-14 deg of rounding, which printed
+        # to 12 digits turned a file's -5.69484e-05 into -5.69483999995e-05 (far below any
+        # capture's precision, but not the text the file had)
+        out[:, cols] = np.round(angles, ANGLE_DECIMALS)
     trans = motion.local_translations()
     for j, cols in pos_cols:
         out[:, cols] = trans[:, j]
