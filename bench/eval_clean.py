@@ -50,7 +50,10 @@ from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix
 from mocapkit.clean.inject import ERROR_KINDS
 from mocapkit.clean.repair import foot_slide
 from mocapkit.clean.texture import rotating_joints
-from mocapkit.features import foot_contacts, resample
+from mocapkit.core import rotations as rot
+from mocapkit.core.kinematics import forward_kinematics
+from mocapkit.features import foot_contacts, metres_per_unit, resample
+from mocapkit.ik import leg_chains
 from mocapkit.io import read_motion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -303,7 +306,9 @@ def slide_row(slides: dict, key: tuple, clean, cor, cl) -> None:
     near = ndimage.binary_dilation(cor.frames, iterations=clean.seconds_to_frames(0.5))
     plain = cl.repair(foot_lock=False).motion
     locked = cl.repair().motion
-    row = slides.setdefault(key, {k: [] for k in ("clean", "injected", "repaired", "locked")})
+    keys = ("clean", "injected", "repaired", "locked", "off_repaired", "off_locked",
+            "worst_repaired", "worst_locked", "turn_repaired", "turn_locked")  # fmt: skip
+    row = slides.setdefault(key, {k: [] for k in keys})
     for k, m in (
         ("clean", clean),
         ("injected", cor.motion),
@@ -313,6 +318,23 @@ def slide_row(slides: dict, key: tuple, clean, cor, cl) -> None:
         v = foot_slide(m, contacts, near)
         if np.isfinite(v):
             row[k].append(v)
+    # how far the feet end up from the clean take's (cm, mean over the frames near the errors):
+    # the lock must not buy its slide by moving the feet away from where they were
+    cm = 100.0 * metres_per_unit(clean, None)
+    legs = sorted({j for c in leg_chains(clean) for j in c.joints})
+    feet = list(contacts.joints)
+    p0 = forward_kinematics(clean)[0][near][:, feet]
+    for k, m in (("repaired", plain), ("locked", locked)):
+        d = np.linalg.norm(forward_kinematics(m)[0][near][:, feet] - p0, axis=-1) * cm
+        if d.size == 0:
+            continue
+        row[f"off_{k}"].append(float(d.mean()))
+        # the largest turn of a leg joint away from the clean take's (degrees)
+        q = rot.quat_mul(m.rotations[near][:, legs], rot.quat_inv(clean.rotations[near][:, legs]))
+        row[f"turn_{k}"].append(
+            float(np.degrees(2 * np.arccos(np.clip(np.abs(q[..., 0]), 0, 1))).max())
+        )
+        row[f"worst_{k}"].append(float(d.max()))
 
 
 def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> None:
@@ -535,12 +557,17 @@ def main() -> int:
             out["raw"].append({"set": s, "class": cls, **r})
     if slides:
         print("\nFoot slide of planted feet (clean take's contacts) within 0.5 s of the errors,")
-        print("m/s, mean over takes x kinds (local context): clean / injected / repaired / +lock")
+        print("m/s, mean over takes x kinds (local context): clean / injected / repaired / +lock;")
+        print("feet off the clean take's (cm near the errors, mean; worst): repaired / +lock;")
+        print("largest turn of a leg joint off the clean take's (deg): repaired / +lock")
         for (s, cls), r in slides.items():
             vals = {k: float(np.mean(v)) if v else float("nan") for k, v in r.items()}
             print(
                 f"  {s:13s} {cls:14s} n={len(r['clean']):3d}  {vals['clean']:.3f} / "
-                f"{vals['injected']:.3f} / {vals['repaired']:.3f} / {vals['locked']:.3f}"
+                f"{vals['injected']:.3f} / {vals['repaired']:.3f} / {vals['locked']:.3f};  "
+                f"{vals['off_repaired']:.2f} / {vals['off_locked']:.2f} cm; "
+                f"{vals['worst_repaired']:.1f} / {vals['worst_locked']:.1f} cm; leg turn "
+                f"{vals['turn_repaired']:.1f} / {vals['turn_locked']:.1f} deg"
             )
             out["foot_slide"].append({"set": s, "class": cls, "n": len(r["clean"]), **vals})
     print(f"\n{time.time() - T0:.0f} s")

@@ -244,6 +244,15 @@ def lock_repaired_feet(
     untouched frame stays bit for bit (a whole run held at one point moved good frames by
     centimetres and made the foot jump where the run ended).
 
+    Around a held run the correction fades as an offset on the foot's own path
+    (:class:`~mocapkit.ik.FootLockConfig` ``ramp="offset"``, unless ``config`` says otherwise),
+    not as a pull toward the held point: pulled, a swinging foot was dragged to where it would
+    land and its ankle turned 42-61 deg off the clean take (newcomer report). Largest turn of a
+    leg joint off the clean take near the errors, Bandai-1 (bench/eval_clean.py --repair;
+    chosen on the tuning half, validation half reported): 24.4 / 37.2 / 6.4 deg pulled, 16.6 /
+    33.0 / 5.9 as an offset (locomotion / dance-fight / gestures; 6.5 / 24.9 / 4.0 unlocked),
+    for a little more foot slide (0.122 / 0.125 / 0.014 m/s against 0.115 / 0.120 / 0.013).
+
     Relies on: a repaired leg is rebuilt from other steps of the take, whose foot lands a few
     centimetres elsewhere; the performer's foot did not slide while planted, and the frames the
     repair did not write show where it was."""
@@ -279,7 +288,7 @@ def lock_repaired_feet(
     held_contacts = dataclasses.replace(contacts, contacts=held)
     if not flags.any():
         return FootLockResult(repaired, written, held_contacts)
-    cfg = config if config is not None else FootLockConfig()
+    cfg = config if config is not None else FootLockConfig(ramp="offset")
     body = body_of(repaired)
     pos, _ = forward_kinematics(repaired)
     blend = repaired.seconds_to_frames(cfg.blend)
