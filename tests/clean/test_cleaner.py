@@ -337,3 +337,17 @@ def test_the_cleaner_api_refuses_what_it_cannot_analyse_and_survives_a_failed_fi
         with pytest.raises(ValueError, match=next(iter(bad_setting))):
             DetectConfig(**bad_setting)
     del bad
+
+
+def test_inject_takes_a_joint_name_and_a_seed_and_refuses_what_is_off_the_take(takes) -> None:
+    walk, _ = takes
+    by_name = inject(walk, "spike", "LeftForeArm", 3, start=40)
+    by_index = inject(
+        walk, "spike", walk.skeleton.index("LeftForeArm"), np.random.default_rng(3), start=40
+    )
+    assert by_name.joint == by_index.joint
+    np.testing.assert_array_equal(by_name.motion.rotations, by_index.motion.rotations)
+    with pytest.raises(ValueError, match="out of range"):
+        inject(walk, "spike", -1, 0)
+    with pytest.raises(ValueError, match="start 1000 out of range"):
+        inject(walk, "spike", 3, 0, start=1000)

@@ -47,8 +47,8 @@ def _dur(rng: np.random.Generator, lo: int, hi: int, fps: float) -> int:
 def inject(
     motion: Motion,
     kind: str,
-    joint: int,
-    rng: np.random.Generator,
+    joint: int | str,
+    rng: np.random.Generator | int,
     start: int | None = None,
 ) -> Injected:
     """Corrupt ``joint`` of a copy of ``motion`` with an error of ``kind`` (see ERROR_KINDS).
@@ -61,9 +61,19 @@ def inject(
     - flip: 3-15 frames rotated by 180 deg about a random axis.
     - frozen: a window of 15-40 frames holding the value of its first frame (that frame keeps
       its own value, so ``frames`` marks the 14-39 after it).
+
+    ``joint``: an index or a name; ``rng``: a Generator or a seed; ``start``: the first frame
+    (ValueError past the take), random when None.
     """
     if kind not in ERROR_KINDS:
         raise ValueError(f"unknown error kind {kind!r}; choose from {', '.join(ERROR_KINDS)}")
+    joint = motion.skeleton.index(joint) if isinstance(joint, str) else int(joint)
+    if not 0 <= joint < motion.num_joints:
+        raise ValueError(f"joint {joint} out of range for {motion.num_joints} joints")
+    if not isinstance(rng, np.random.Generator):
+        rng = np.random.default_rng(rng)
+    if start is not None and not 0 <= int(start) < motion.num_frames:
+        raise ValueError(f"start {start} out of range for {motion.num_frames} frames")
     F = motion.num_frames
     fps = motion.fps
     lengths = {
