@@ -174,10 +174,10 @@ def _cmds_bvh(take: str, other: str) -> list[tuple[str, tuple[str, ...], tuple[s
         ("info", ("info", take), ()),
         ("info-json", ("info", "--json", take), ()),
         ("convert", ("convert", take, "out.bvh"), ("out.bvh",)),
-        (
+        (  # a 1 s take finds like motion words only in a context
             "clean",
-            ("clean", take, "--report", "report.json", "--out", "fixed.bvh", "--quiet"),
-            ("report.json", "fixed.bvh"),
+            ("clean", take, "--context", other, "--quiet", "--report", "r.json", "--out", "f.bvh"),
+            ("r.json", "f.bvh"),
         ),
         (
             "stitch",

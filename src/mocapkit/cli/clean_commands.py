@@ -245,8 +245,8 @@ def clean_command(
     by the neighbours' median, blended at the edges, and where a repaired joint moves a planted
     foot (a hip, knee or ankle, or the pelvis, under a foot on the ground) IK on that leg holds
     the foot where it was planted. All other joints and frames keep their rotations bit for bit
-    (the written file's angles are derived from them again and written to 12 significant
-    digits).
+    (the written file's angles are derived from them again, to 1e-12 deg and 12 significant
+    digits, so an unchanged angle reads as the input file had it).
 
     \b
     Examples:
