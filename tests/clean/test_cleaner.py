@@ -302,7 +302,7 @@ def test_the_foot_lock_changes_only_frames_the_repair_touched(takes) -> None:
 
 
 def test_the_cleaner_api_refuses_what_it_cannot_analyse_and_survives_a_failed_fit(
-    takes, corrupted
+    takes,
 ) -> None:
     """Newcomer report (API): one take given as the context hung (iterating a Motion), a fit
     that failed left the cleaner broken, a take too short to find like words came back clean,
@@ -311,7 +311,6 @@ def test_the_cleaner_api_refuses_what_it_cannot_analyse_and_survives_a_failed_fi
     from mocapkit.clean import DetectConfig
 
     walk, other = takes
-    bad = corrupted[0] if isinstance(corrupted, tuple) else corrupted
     single = SelfSimilarityCleaner().fit(walk, other)
     listed = SelfSimilarityCleaner().fit(walk, [other])
     np.testing.assert_array_equal(single.mdm_, listed.mdm_)
@@ -336,7 +335,6 @@ def test_the_cleaner_api_refuses_what_it_cannot_analyse_and_survives_a_failed_fi
                         {"stage1_threshold": 2.0}):  # fmt: skip
         with pytest.raises(ValueError, match=next(iter(bad_setting))):
             DetectConfig(**bad_setting)
-    del bad
 
 
 def test_inject_takes_a_joint_name_and_a_seed_and_refuses_what_is_off_the_take(takes) -> None:
@@ -351,3 +349,22 @@ def test_inject_takes_a_joint_name_and_a_seed_and_refuses_what_is_off_the_take(t
         inject(walk, "spike", -1, 0)
     with pytest.raises(ValueError, match="start 1000 out of range"):
         inject(walk, "spike", 3, 0, start=1000)
+
+
+def test_explain_and_repair_refuse_fractional_frames_and_take_a_contact_by_name(
+    corrupted,
+) -> None:
+    from mocapkit.clean.repair import ContactConstraint
+
+    bad, _ = corrupted
+    c = SelfSimilarityCleaner().fit(bad)
+    with pytest.raises(ValueError, match="whole frame number"):
+        c.explain("LeftForeArm", 40.5)
+    with pytest.raises(ValueError, match="whole number of frames"):
+        c.repair(margin=2.7)
+    hand = bad.skeleton.names.index("LeftHand")
+    by_name = c.repair(contacts=[ContactConstraint("LeftHand", 38, 44)])
+    by_index = c.repair(contacts=[ContactConstraint(hand, 38, 44)])
+    np.testing.assert_array_equal(by_name.motion.rotations, by_index.motion.rotations)
+    with pytest.raises(ValueError, match="no joint named 'Nope'"):
+        c.repair(contacts=[ContactConstraint("Nope", 38, 44)])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -428,6 +429,8 @@ class SelfSimilarityCleaner:
         """Why cell (``frame``, ``joint``) was or was not flagged: every rule's verdict and
         measurement there (:class:`~mocapkit.clean.detect.Explanation`, ``str()`` for text)."""
         self._check()
+        if isinstance(frame, bool) or not float(frame).is_integer():
+            raise ValueError(f"frame is a whole frame number, got {frame!r}")
         names = list(self.motion_.skeleton.names)
         if isinstance(joint, str):
             if joint not in names:
@@ -483,7 +486,12 @@ class SelfSimilarityCleaner:
         cells it changes join ``written``)."""
         self._check()
         tex = self.texture_
-        margin = default_margin(self.motion_.fps) if margin is None else margin
+        if margin is not None and (
+            isinstance(margin, bool) or not float(margin).is_integer() or margin < 0
+        ):
+            raise ValueError(f"margin is a whole number of frames >= 0, got {margin!r}")
+        margin = default_margin(self.motion_.fps) if margin is None else int(margin)
+        contacts = [_by_index(c, self.motion_.skeleton) for c in contacts]
         flagged = self.mask(threshold) if mask is None else np.asarray(mask, dtype=bool)
         replacement = self.replacement()
         for c in contacts:
@@ -573,3 +581,13 @@ def clean(
         motion, context
     )
     return c, c.repair()
+
+
+def _by_index(contact: ContactConstraint, skeleton) -> ContactConstraint:
+    """``contact`` with its joint as an index (it may be given by name)."""
+    if isinstance(contact.joint, str):
+        try:
+            return dataclasses.replace(contact, joint=skeleton.index(contact.joint))
+        except KeyError as e:
+            raise ValueError(f"contact: {e.args[0]}") from None
+    return contact

@@ -131,13 +131,14 @@ class ContactConstraint:
     """An end effector that must touch a point over a range of the take's frames.
 
     Attributes:
-        joint: the end-effector joint index.
+        joint: the end-effector joint index (or its name, for
+            :meth:`SelfSimilarityCleaner.repair <mocapkit.clean.SelfSimilarityCleaner.repair>`).
         start, end: first and last frame (inclusive, the take's frames).
         position: (3,) world position (file units); ``None``: where the input has the effector
             at ``start`` (a planted hand or foot).
     """
 
-    joint: int
+    joint: int | str
     start: int
     end: int
     position: tuple[float, float, float] | None = None
