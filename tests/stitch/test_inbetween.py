@@ -754,6 +754,9 @@ def test_the_foot_lock_leaves_a_fill_that_is_the_capture_itself(humanoid, shared
     walk, _ = humanoid
     res = inbetween(walk, (40, 70), [walk[20:90].copy()], up="Y", method="library")
     assert res.difference_to(walk) < 1e-6
+    no_pad = InbetweenConfig(lock_context_seconds=0.0)  # the lock still sees frames A-1 and B
+    res = inbetween(walk, (40, 70), [walk[20:90].copy()], up="Y", method="library", config=no_pad)
+    assert res.difference_to(walk) < 1e-6
     clip = read_motion(shared_path("bandai1/data") / "dataset-1_walk_normal_001.bvh")
     one = InbetweenConfig(neighbours=1)  # six would average in the take's other, alike cycles
     for gap in ((60, 90), (3, 193)):

@@ -923,7 +923,7 @@ def _lock_feet(
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.features import foot_contacts, ground_frame
 
-    pad = motion.seconds_to_frames(config.lock_context_seconds)
+    pad = max(motion.seconds_to_frames(config.lock_context_seconds), 1)  # frames a-1 and b
     lo, hi = max(0, a - pad), min(motion.num_frames, b + pad)
     ex = motion[lo:hi]
     body = body_of(ex)
