@@ -368,3 +368,17 @@ def test_explain_and_repair_refuse_fractional_frames_and_take_a_contact_by_name(
     np.testing.assert_array_equal(by_name.motion.rotations, by_index.motion.rotations)
     with pytest.raises(ValueError, match="no joint named 'Nope'"):
         c.repair(contacts=[ContactConstraint("Nope", 38, 44)])
+
+
+def test_a_contact_constraint_refuses_what_is_not_a_contact(corrupted) -> None:
+    from mocapkit.clean.repair import ContactConstraint
+
+    for args in (("LeftHand", 38.5, 44), ("LeftHand", 38, 44, (0.0, np.nan, 0.0)),
+                 ("LeftHand", 38, 44, (0.0, 0.0)), (None, 38, 44)):  # fmt: skip
+        with pytest.raises(ValueError, match="contact"):
+            ContactConstraint(*args)
+    bad, _ = corrupted
+    with pytest.raises(ValueError, match="out of range"):
+        SelfSimilarityCleaner().fit(bad).repair(contacts=[ContactConstraint(99, 38, 44)])
+    with pytest.raises(ValueError, match="whole frame number"):
+        inject(bad, "spike", 3, 0, start=40.5)

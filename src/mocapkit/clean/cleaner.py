@@ -590,4 +590,6 @@ def _by_index(contact: ContactConstraint, skeleton) -> ContactConstraint:
             return dataclasses.replace(contact, joint=skeleton.index(contact.joint))
         except KeyError as e:
             raise ValueError(f"contact: {e.args[0]}") from None
+    if not 0 <= int(contact.joint) < skeleton.num_joints:
+        raise ValueError(f"contact: joint {contact.joint} out of range ({skeleton.num_joints})")
     return contact

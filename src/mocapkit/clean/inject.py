@@ -72,6 +72,8 @@ def inject(
         raise ValueError(f"joint {joint} out of range for {motion.num_joints} joints")
     if not isinstance(rng, np.random.Generator):
         rng = np.random.default_rng(rng)
+    if start is not None and (isinstance(start, bool) or not float(start).is_integer()):
+        raise ValueError(f"start is a whole frame number, got {start!r}")
     if start is not None and not 0 <= int(start) < motion.num_frames:
         raise ValueError(f"start {start} out of range for {motion.num_frames} frames")
     F = motion.num_frames

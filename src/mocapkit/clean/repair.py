@@ -143,6 +143,20 @@ class ContactConstraint:
     end: int
     position: tuple[float, float, float] | None = None
 
+    def __post_init__(self) -> None:
+        if isinstance(self.joint, bool) or not isinstance(self.joint, int | np.integer | str):
+            raise ValueError(f"contact: joint is an index or a name, got {self.joint!r}")
+        for name in ("start", "end"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise ValueError(f"contact: {name} is a whole frame number, got {v!r}")
+        if self.position is not None:
+            p = np.asarray(self.position, dtype=np.float64)
+            if p.shape != (3,) or not np.all(np.isfinite(p)):
+                raise ValueError(
+                    f"contact: position is three finite numbers, got {self.position!r}"
+                )
+
     def frames(self, num_frames: int) -> np.ndarray:
         if self.start > self.end:
             raise ValueError(f"contact: start {self.start} after end {self.end}")

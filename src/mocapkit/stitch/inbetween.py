@@ -638,6 +638,8 @@ def gap_context(
     path (:func:`mocapkit.features.ground_root_on_path`), as :func:`inbetween` does."""
     from mocapkit import features
 
+    a, b = check_gap((a, b), clip.num_frames)
+
     wp = min(w, a)
     wf = min(w, clip.num_frames - b)
     if future_frames is not None:
