@@ -358,9 +358,9 @@ def test_explain_and_repair_refuse_fractional_frames_and_take_a_contact_by_name(
 
     bad, _ = corrupted
     c = SelfSimilarityCleaner().fit(bad)
-    with pytest.raises(ValueError, match="whole frame number"):
+    with pytest.raises(ValueError, match="frame must be a whole number"):
         c.explain("LeftForeArm", 40.5)
-    with pytest.raises(ValueError, match="whole number of frames"):
+    with pytest.raises(ValueError, match=r"margin \(frames\) must be a whole number"):
         c.repair(margin=2.7)
     hand = bad.skeleton.names.index("LeftHand")
     by_name = c.repair(contacts=[ContactConstraint("LeftHand", 38, 44)])
@@ -380,5 +380,5 @@ def test_a_contact_constraint_refuses_what_is_not_a_contact(corrupted) -> None:
     bad, _ = corrupted
     with pytest.raises(ValueError, match="out of range"):
         SelfSimilarityCleaner().fit(bad).repair(contacts=[ContactConstraint(99, 38, 44)])
-    with pytest.raises(ValueError, match="whole frame number"):
+    with pytest.raises(ValueError, match="start must be a whole number"):
         inject(bad, "spike", 3, 0, start=40.5)

@@ -41,6 +41,7 @@ from mocapkit.clean.texture import (
 )
 from mocapkit.clean.words import JointGroup, source_word_starts, word_lengths
 from mocapkit.core import rotations as rot
+from mocapkit.core.checks import whole_number
 from mocapkit.core.motion import Motion
 from mocapkit.core.runs import true_runs
 from mocapkit.core.skeleton import skeleton_difference
@@ -429,8 +430,7 @@ class SelfSimilarityCleaner:
         """Why cell (``frame``, ``joint``) was or was not flagged: every rule's verdict and
         measurement there (:class:`~mocapkit.clean.detect.Explanation`, ``str()`` for text)."""
         self._check()
-        if isinstance(frame, bool) or not float(frame).is_integer():
-            raise ValueError(f"frame is a whole frame number, got {frame!r}")
+        frame = whole_number(frame, "frame")
         names = list(self.motion_.skeleton.names)
         if isinstance(joint, str):
             if joint not in names:
@@ -486,10 +486,8 @@ class SelfSimilarityCleaner:
         cells it changes join ``written``)."""
         self._check()
         tex = self.texture_
-        if margin is not None and (
-            isinstance(margin, bool) or not float(margin).is_integer() or margin < 0
-        ):
-            raise ValueError(f"margin is a whole number of frames >= 0, got {margin!r}")
+        if margin is not None and whole_number(margin, "margin (frames)") < 0:
+            raise ValueError(f"margin (frames) must be >= 0, got {margin!r}")
         margin = default_margin(self.motion_.fps) if margin is None else int(margin)
         contacts = [_by_index(c, self.motion_.skeleton) for c in contacts]
         flagged = self.mask(threshold) if mask is None else np.asarray(mask, dtype=bool)

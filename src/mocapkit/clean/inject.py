@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocapkit.core import rotations as rot
+from mocapkit.core.checks import whole_number
 from mocapkit.core.motion import Motion
 from mocapkit.features import limb_hinges
 
@@ -72,8 +73,8 @@ def inject(
         raise ValueError(f"joint {joint} out of range for {motion.num_joints} joints")
     if not isinstance(rng, np.random.Generator):
         rng = np.random.default_rng(rng)
-    if start is not None and (isinstance(start, bool) or not float(start).is_integer()):
-        raise ValueError(f"start is a whole frame number, got {start!r}")
+    if start is not None:
+        start = whole_number(start, "start")
     if start is not None and not 0 <= int(start) < motion.num_frames:
         raise ValueError(f"start {start} out of range for {motion.num_frames} frames")
     F = motion.num_frames

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from mocapkit.core import rotations as rot
+from mocapkit.core.checks import whole_number
 from mocapkit.core.motion import Motion
 
 
@@ -147,9 +148,7 @@ class ContactConstraint:
         if isinstance(self.joint, bool) or not isinstance(self.joint, int | np.integer | str):
             raise ValueError(f"contact: joint is an index or a name, got {self.joint!r}")
         for name in ("start", "end"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer):
-                raise ValueError(f"contact: {name} is a whole frame number, got {v!r}")
+            whole_number(getattr(self, name), f"contact {name}")
         if self.position is not None:
             p = np.asarray(self.position, dtype=np.float64)
             if p.shape != (3,) or not np.all(np.isfinite(p)):

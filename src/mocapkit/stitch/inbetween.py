@@ -106,12 +106,13 @@ import functools
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from mocapkit.core import rotations as rot
+from mocapkit.core.checks import check_field_types, whole_number
 from mocapkit.core.motion import Motion
 from mocapkit.provenance import Provenance, Segment, TransitionTaken
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
@@ -256,18 +257,7 @@ class InbetweenConfig:
     every length; what it is for, backward walks, the tuning split does not hold."""
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if f.type == "bool" and not isinstance(v, (bool, np.bool_)):
-                raise ValueError(f"{f.name} must be True or False, got {v!r}")
-            if f.type == "float" and not (
-                isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v)
-            ):
-                raise ValueError(f"{f.name} must be a finite number, got {v!r}")
-        if isinstance(self.neighbours, (bool, np.bool_)) or not isinstance(
-            self.neighbours, (int, np.integer)
-        ):
-            raise ValueError(f"neighbours must be an int >= 1, got {self.neighbours!r}")
+        check_field_types(self)
         object.__setattr__(self, "neighbours", int(self.neighbours))
         if not (self.lock_context_seconds >= 0 and self.lock_ramp_seconds >= 0):
             raise ValueError("lock_context_seconds and lock_ramp_seconds must be >= 0")
@@ -316,7 +306,7 @@ def check_gap(
         a, b = spec.frames(1.0 if fps is None else fps, None)
     else:
         try:
-            a, b = (_whole_frame(x) for x in gap)
+            a, b = (whole_number(x, "a gap end") for x in gap)
         except (TypeError, ValueError):
             raise ValueError(f"gap must be (A, B) in whole frames or 'A:B', got {gap!r}") from None
     if not 3 <= a < b < num_frames:
@@ -325,17 +315,6 @@ def check_gap(
             "frames; at least 3 context frames are needed before the gap and 1 after it)"
         )
     return a, b
-
-
-def _whole_frame(x) -> int:
-    """``x`` as a frame number; ValueError unless it is a whole number (60.5 is not a frame)."""
-    if isinstance(x, (bool, np.bool_)):
-        raise ValueError(x)
-    if isinstance(x, (int, np.integer)):
-        return int(x)
-    if isinstance(x, (float, np.floating)) and float(x).is_integer():
-        return int(x)
-    raise ValueError(x)
 
 
 # --------------------------------------------------------------------------------- library

@@ -15,10 +15,9 @@ of retired rules matter only when a pipeline puts those rules back.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
-import numpy as np
+from mocapkit.core.checks import check_field_types
 
 DETECT_MODES = ("hysteresis", "threshold")
 SCALES = ("spread", "mean", "median")
@@ -255,20 +254,9 @@ class DetectConfig:
     extend_seconds: float = 2.0 / 15.0
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):  # types first: NaN or "no" must not pass as a setting
+        check_field_types(self)  # types first: NaN or "no" must not pass as a setting
+        for f in dataclasses.fields(self):
             v = getattr(self, f.name)
-            if f.type == "bool" and not isinstance(v, bool | np.bool_):
-                raise ValueError(f"{f.name} must be True or False, got {v!r}")
-            if f.type == "int" and (
-                isinstance(v, bool | np.bool_) or not isinstance(v, int | np.integer)
-            ):
-                raise ValueError(f"{f.name} must be a whole number, got {v!r}")
-            number = isinstance(v, int | float | np.integer | np.floating) and not isinstance(
-                v, bool | np.bool_
-            )
-            maybe_none = v is None and "None" in f.type
-            if f.type.startswith("float") and not maybe_none and not (number and math.isfinite(v)):
-                raise ValueError(f"{f.name} must be a finite number, got {v!r}")
             if f.name.endswith("_quantile") and not 0.0 <= v <= 100.0:
                 raise ValueError(f"{f.name} is a percentile in [0, 100], got {v!r}")
         if self.max_run < 1:
