@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from testsupport import load_sibling
 
 from mocapkit import datasets
 from mocapkit.clean import (
@@ -18,6 +19,8 @@ from mocapkit.clean.repair import dilate
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.runs import true_runs
+
+with_ground_root = load_sibling(__file__.replace("clean", "stitch"), "motions").with_ground_root
 
 
 @pytest.fixture(scope="module")
@@ -174,12 +177,18 @@ def test_injectors_change_only_their_joint_and_window(takes) -> None:
         inject(walk, "nope", 1, rng)
 
 
-def test_contact_constraint_pins_the_effector(takes) -> None:
+@pytest.mark.parametrize("ground_root", [False, True])
+def test_contact_constraint_pins_the_effector(takes, ground_root) -> None:
+    """Also on a rig whose pelvis translation is animated under a static ground root (as
+    Bandai's under joint_Root): the IK once aimed from the rest pose's pelvis there, and the
+    pinned hand of a Bandai bow ended 6 cm from its target (0.4 cm unpinned)."""
     from mocapkit.clean import ContactConstraint
     from mocapkit.core.kinematics import forward_kinematics
 
     synth = datasets.procedural_motion("walk", seconds=6.0, seed=5)
     walk, (_, ctx) = synth.motion, takes
+    if ground_root:
+        walk, ctx = with_ground_root(walk), with_ground_root(ctx)
     names = list(walk.skeleton.names)
     toe = names.index("LeftToe")
     stance = np.flatnonzero(synth.contacts[:, 0])
@@ -362,6 +371,12 @@ def test_explain_and_repair_refuse_fractional_frames_and_take_a_contact_by_name(
         c.explain("LeftForeArm", 40.5)
     with pytest.raises(ValueError, match=r"margin \(frames\) must be a whole number"):
         c.repair(margin=2.7)
+    # a threshold or joint given as a string or fraction is refused, not compared or truncated
+    for call in (lambda: c.mask(threshold="0.5"), lambda: c.explain("LeftForeArm", 40, "0.85"),
+                 lambda: c.segments(threshold=1.5), lambda: c.explain(2.5, 40)):  # fmt: skip
+        with pytest.raises(ValueError, match=r"threshold|joint must be a whole number"):
+            call()
+    assert c.mask(threshold=0.5).shape == bad.rotations.shape[:2]
     hand = bad.skeleton.names.index("LeftHand")
     by_name = c.repair(contacts=[ContactConstraint("LeftHand", 38, 44)])
     by_index = c.repair(contacts=[ContactConstraint(hand, 38, 44)])

@@ -24,6 +24,7 @@ from mocapkit.stitch.inbetween import (
     InbetweenLibrary,
     _Warped,
     check_gap,
+    gap_context,
     inbetween,
     prepare_library,
     search_inbetween,
@@ -726,6 +727,10 @@ def test_the_api_refuses_what_it_cannot_fill_in_one_line():
     prepared = prepare_library(lib, walk)
     with pytest.raises(ValueError, match="prepared for clips at 30 fps, the clip is at 60 fps"):
         inbetween(resample(walk, 60), (60, 90), prepared)
+    # the search itself checks the context's rate (the clip's, from gap_context)
+    with pytest.raises(ValueError, match="prepared for clips at 30 fps, the clip is at 60 fps"):
+        search_inbetween(gap_context(resample(walk, 60), 60, 90), 30, prepared)
+    assert gap_context(walk, 60, 90).frame_time == walk.frame_time
     bad = walk.copy()
     bad.rotations[40, 2] = np.nan
     with pytest.raises(ValueError, match="non-finite rotation at frame 40"):

@@ -409,10 +409,17 @@ class SelfSimilarityCleaner:
         flagged or cleared each cell); ``threshold`` replaces the MDM threshold. Kept per
         threshold; call :meth:`forget_flags` after changing ``mdm_`` by hand."""
         self._check()
-        thr = self.threshold if threshold is None else float(threshold)
+        thr = self._threshold(threshold)
         if thr not in self._flags:
             self._flags[thr] = run_pipeline(self.evidence_, thr, self.pipeline)
         return self._flags[thr]
+
+    def _threshold(self, threshold: float | None) -> float:
+        """The MDM threshold to use: the config's, or ``threshold`` checked as the config
+        checks it (a number in [0, 1]; a string such as "0.5" is refused, not compared)."""
+        if threshold is None:
+            return self.threshold
+        return self.config.replace(threshold=threshold).threshold
 
     def forget_flags(self) -> None:
         """Drop the kept pipeline results (the evidence's maps stay)."""
@@ -437,11 +444,11 @@ class SelfSimilarityCleaner:
                 raise ValueError(f"no joint named {joint!r}")
             j = names.index(joint)
         else:
-            j = int(joint)
+            j = whole_number(joint, "joint")  # the pipeline's explain checks the ranges
         ev = self.evidence_
         if threshold is not None:
             ev = copy.copy(ev)
-            ev.config = ev.config.replace(threshold=float(threshold))
+            ev.config = ev.config.replace(threshold=self._threshold(threshold))
         return explain(ev, self.flags(threshold), j, int(frame), self.pipeline)
 
     def segments(self, threshold: float | None = None) -> list[Segment]:
@@ -556,7 +563,10 @@ class SelfSimilarityCleaner:
                     if c == tex.pelvis and tex.pelvis_align is not None:
                         v = rot.quat_mul(rot.quat_inv(tex.pelvis_align[fidx]), v)
                     trial[fidx, c] = v
-                m = Motion(motion.skeleton, trial, motion.root_positions, motion.frame_time)
+                # translations too: a rig that animates them (Bandai's pelvis under its ground
+                # root) has its effector elsewhere without them
+                m = Motion(motion.skeleton, trial, motion.root_positions, motion.frame_time,
+                           motion.translations)  # fmt: skip
                 sub = ContactConstraint(contact.joint, int(fidx[0]), int(fidx[-1]), None)
                 err = float(effector_error(m, sub, target).mean())
                 if err < best_err:

@@ -201,12 +201,15 @@ def pin_with_ik(
     chain = chain_of(motion, contact.joint)
     q = motion.rotations.copy()
     sub = slice(int(fr[0]), int(fr[-1]) + 1)
+    # with the animated translations (Bandai's pelvis moves under its ground root): without
+    # them the effector was aimed from the rest pose's pelvis, 6 cm off on a Bandai bow
+    tr = None if motion.translations is None else motion.translations[sub]
     for _ in range(iterations):
         for c in chain:
             ok = writable[sub, c]
             if not ok.any():
                 continue
-            m = Motion(motion.skeleton, q[sub], motion.root_positions[sub], motion.frame_time)
+            m = Motion(motion.skeleton, q[sub], motion.root_positions[sub], motion.frame_time, tr)
             pos, grot = forward_kinematics(m)
             e = pos[:, contact.joint] - pos[:, c]
             t = target[None, :] - pos[:, c]

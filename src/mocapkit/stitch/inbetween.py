@@ -597,6 +597,9 @@ class GapContext:
     travel: np.ndarray  # (2,) pelvis ground displacement A-1 -> B in the body frame at A-1
     turn: float  # heading change A-1 -> B (rad)
     velocity: np.ndarray  # (2,) pelvis ground step A-2 -> A-1 in the body frame at A-1
+    frame_time: float | None = None
+    """The clip's seconds per frame: the search refuses a library prepared at another rate
+    (its segments would be read at the wrong speed). None: not checked (hand-made contexts)."""
 
 
 def _rotate2(v: np.ndarray, angle) -> np.ndarray:
@@ -636,6 +639,7 @@ def gap_context(
         _rotate2(gp[i1] - gp[i0], hd[i0]),
         float(hd[i1] - hd[i0]),
         _rotate2(gp[i0] - gp[i0 - 1], hd[i0]),
+        clip.frame_time,
     )
 
 
@@ -730,6 +734,8 @@ def search_inbetween_top(
     one's in the same clip is passed over), and the number scored."""
     g = int(gap)
     k = max(1, int(k))
+    if ctx.frame_time is not None and library.motions:
+        _check_rate(library, ctx.frame_time)
     pool, count = [], 0
     wl = min(w, g)  # the gap frames seen by each junction's window
     if wl < 3:
@@ -1296,6 +1302,16 @@ class Inbetween:
         }
 
 
+def _check_rate(library: InbetweenLibrary, frame_time: float) -> None:
+    """Refuse a library prepared for clips at another frame rate than ``frame_time``'s."""
+    lib_fps, fps = 1.0 / library.motions[0].frame_time, 1.0 / frame_time
+    if not math.isclose(lib_fps, fps, rel_tol=1e-6):
+        raise ValueError(
+            f"the library was prepared for clips at {lib_fps:.6g} fps, the clip is at "
+            f"{fps:.6g} fps: prepare it with this clip as the reference"
+        )
+
+
 def _as_library(library, clip: Motion, names, up: str, config: InbetweenConfig) -> InbetweenLibrary:
     if isinstance(library, InbetweenLibrary):
         if library.up != up:
@@ -1309,12 +1325,7 @@ def _as_library(library, clip: Motion, names, up: str, config: InbetweenConfig) 
             raise ValueError("the library was prepared with other warps than the config's")
         if any(library.backwards) != config.backwards:
             raise ValueError("the library was prepared with another 'backwards' than the config's")
-        lib_fps = 1.0 / library.motions[0].frame_time
-        if not math.isclose(lib_fps, clip.fps, rel_tol=1e-6):
-            raise ValueError(
-                f"the library was prepared for clips at {lib_fps:.6g} fps, the clip is at "
-                f"{clip.fps:.6g} fps: prepare it with this clip as the reference"
-            )
+        _check_rate(library, clip.frame_time)
         if names is not None:
             raise ValueError("library_names names the motions of a list; a prepared library "
                              "has its names (prepare_library's names)")  # fmt: skip
