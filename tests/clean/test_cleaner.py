@@ -341,7 +341,7 @@ def test_the_cleaner_api_refuses_what_it_cannot_analyse_and_survives_a_failed_fi
         SelfSimilarityCleaner(pipeline=["noise"])
     for bad_setting in ({"gain": np.nan}, {"floor_deg": np.inf}, {"k": 2.5}, {"k": True},
                         {"two_stage": "no"}, {"step_quantile": 150.0}, {"max_run": -1},
-                        {"stage1_threshold": 2.0}):  # fmt: skip
+                        {"stage1_threshold": 2.0}, {"analysis_fps": 1000.0}):  # fmt: skip
         with pytest.raises(ValueError, match=next(iter(bad_setting))):
             DetectConfig(**bad_setting)
 

@@ -21,6 +21,9 @@ from mocapkit.core.checks import check_field_types
 
 DETECT_MODES = ("hysteresis", "threshold")
 SCALES = ("spread", "mean", "median")
+MAX_ANALYSIS_FPS = 240.0
+"""Highest analysis rate: ten times the paper's 24 fps, twice CMU's capture rate (the words' DTW
+cost grows with the square of the rate)."""
 
 
 def seconds_to_frames(seconds: float, fps: float, minimum: int = 1) -> int:
@@ -43,7 +46,7 @@ class DetectConfig:
     #: neighbour's quirks, more reach words that no longer resemble the source.
     k: int = 5
     #: Analysis rate (frames per second) the words are defined at: the paper's 24 fps; takes at
-    #: other rates are resampled to it for the search only.
+    #: other rates are resampled to it for the search only (at most :data:`MAX_ANALYSIS_FPS`).
     analysis_fps: float = 24.0
     #: DTW slope constraint (consecutive non-diagonal steps, a count, not a duration): the
     #: paper's 2 lets a neighbour run at 1/3 to 3 times the source's speed.
@@ -271,8 +274,12 @@ class DetectConfig:
             raise ValueError(f"scale must be 'spread', 'mean' or 'median', got {self.scale!r}")
         if self.k < 1:
             raise ValueError("k must be >= 1")
-        if not self.analysis_fps > 0:
-            raise ValueError("analysis_fps must be positive")
+        if not 0 < self.analysis_fps <= MAX_ANALYSIS_FPS:
+            # a word's DTW grows with the square of the rate: 1000 fps ran for many minutes
+            raise ValueError(
+                f"analysis_fps must lie in (0, {MAX_ANALYSIS_FPS:g}] (the paper's is 24), "
+                f"got {self.analysis_fps!r}"
+            )
         for name in ("threshold", "seed_threshold", "jump_min_mdm", "jump_min_mdm_2",
                      "step_min_mdm"):  # fmt: skip
             if not 0.0 <= getattr(self, name) <= 1.0:
