@@ -206,6 +206,14 @@ def test_contact_constraint_pins_the_effector(takes, ground_root) -> None:
     e_plain = effector_error(plain.motion, contact, target)
     e_pin = effector_error(pinned.motion, contact, target)
     assert e_pin.mean() < e_plain.mean()
+    # the result says how each contact held, and that one where nothing was repaired was not
+    # pinned (it used to be ignored silently)
+    (held,) = pinned.contacts
+    assert held.pinned and held.max_error == pytest.approx(e_pin.max())
+    assert held.joint == "LeftToe" and (held.start, held.end) == (a + 2, b - 2)
+    far = ContactConstraint("LeftHand", 5, 8)
+    (untouched,) = cl.repair(contacts=[far]).contacts
+    assert not untouched.pinned and "not pinned" in str(untouched)
     w = pinned.written
     assert np.array_equal(pinned.motion.rotations[~w], inj.motion.rotations[~w])
     assert len(stance) > 0

@@ -44,7 +44,7 @@ from mocapkit.clean.mdm import (
     movement_digression_map,
     neighbour_spread,
 )
-from mocapkit.clean.repair import ContactConstraint, RepairResult, repair_cells
+from mocapkit.clean.repair import ContactConstraint, ContactHeld, RepairResult, repair_cells
 from mocapkit.clean.run import CleanReport, run
 from mocapkit.clean.sparse import reconstruct
 from mocapkit.clean.texture import Texture, default_groups, make_texture
@@ -63,6 +63,7 @@ __all__ = [
     "THRESHOLD",
     "CleanReport",
     "ContactConstraint",
+    "ContactHeld",
     "Context",
     "DetectConfig",
     "Explanation",

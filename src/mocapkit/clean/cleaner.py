@@ -27,6 +27,7 @@ from mocapkit.clean.repair import (
     ContactConstraint,
     RepairResult,
     chain_of,
+    contact_held,
     default_margin,
     effector_error,
     lock_repaired_feet,
@@ -510,14 +511,19 @@ class SelfSimilarityCleaner:
             pelvis=tex.pelvis,
         )
         motion = result.motion
-        for c in contacts:
-            motion = pin_with_ik(motion, c, result.written, c.target(self.motion_))
+        targets = [c.target(self.motion_) for c in contacts]
+        for c, t in zip(contacts, targets, strict=True):
+            motion = pin_with_ik(motion, c, result.written, t)
         result.motion = motion
         if foot_lock and flagged.any():
             locked = lock_repaired_feet(motion, result.written)
             result.motion = locked.motion
             result.written = locked.written
             result.held_contacts = locked.contacts
+        result.contacts = tuple(
+            contact_held(result.motion, c, t, result.written)
+            for c, t in zip(contacts, targets, strict=True)
+        )
         return result
 
     def _contact_replacement(

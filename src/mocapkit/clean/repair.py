@@ -54,6 +54,8 @@ class RepairResult:
         margin: the blend margin in frames.
         held_contacts: the foot contacts held by :func:`lock_repaired_feet` (a
             :class:`~mocapkit.features.FootContacts`), None when feet were not locked.
+        contacts: how each :class:`ContactConstraint` given to the repair held
+            (:class:`ContactHeld`), in the order given.
     """
 
     motion: Motion
@@ -61,6 +63,51 @@ class RepairResult:
     written: np.ndarray
     margin: int
     held_contacts: object | None = None
+    contacts: tuple[ContactHeld, ...] = ()
+
+
+@dataclass(frozen=True)
+class ContactHeld:
+    """Where a contact's effector ended up in the repaired take.
+
+    Attributes:
+        joint: the effector's name; start, end: the contact's frames (inclusive).
+        target: the contact point (the take's units and axes).
+        max_error, mean_error: the effector's distance from it over those frames (take units).
+        pinned: whether the repair wrote any joint of the effector's chain there; the pin
+            changes only written cells, so a contact where nothing was repaired keeps the
+            effector where the take has it (``max_error`` says how far that is).
+    """
+
+    joint: str
+    start: int
+    end: int
+    target: tuple[float, float, float]
+    max_error: float
+    mean_error: float
+    pinned: bool
+
+    def as_dict(self) -> dict:
+        return {
+            "joint": self.joint,
+            "frames": [self.start, self.end],
+            "target": list(self.target),
+            "max_error": self.max_error,
+            "mean_error": self.mean_error,
+            "pinned": self.pinned,
+        }
+
+    def __str__(self) -> str:
+        where = f"contact {self.joint} frames {self.start}:{self.end + 1}"
+        if not self.pinned:
+            return (
+                f"{where}: not pinned (the repair wrote no joint of its chain there); the "
+                f"effector is {self.max_error:.3g} (take units) from the point at most"
+            )
+        return (
+            f"{where}: held to {self.max_error:.3g} (take units) of the point at most "
+            f"({self.mean_error:.3g} mean)"
+        )
 
 
 def repair_cells(
@@ -184,6 +231,25 @@ def effector_error(motion: Motion, contact: ContactConstraint, target: np.ndarra
     fr = contact.frames(motion.num_frames)
     pos, _ = forward_kinematics(motion[int(fr[0]) : int(fr[-1]) + 1])
     return np.linalg.norm(pos[:, contact.joint] - target, axis=-1)
+
+
+def contact_held(
+    motion: Motion, contact: ContactConstraint, target: np.ndarray, written: np.ndarray
+) -> ContactHeld:
+    """How ``contact`` (joint as an index) held in the repaired ``motion``: see
+    :class:`ContactHeld`."""
+    err = effector_error(motion, contact, target)
+    fr = contact.frames(motion.num_frames)
+    chain = chain_of(motion, contact.joint)
+    return ContactHeld(
+        motion.skeleton.names[contact.joint],
+        int(fr[0]),
+        int(fr[-1]),
+        (float(target[0]), float(target[1]), float(target[2])),
+        float(err.max()),
+        float(err.mean()),
+        bool(written[fr][:, chain].any()),
+    )
 
 
 def pin_with_ik(

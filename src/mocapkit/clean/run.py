@@ -128,6 +128,8 @@ class CleanReport:
                 "foot lock turned where the repair moved a planted foot"
             ),
             "blend_margin_frames": self.repair.margin,
+            "contacts": [c.as_dict() for c in self.repair.contacts],
+            "contact_errors_are": "distances in the take's length unit",
             "analysis_seconds": round(self.analysis_seconds, 3),
             "output": self.output,
             "explain": [e.to_json() for e in self.explanations],

@@ -359,6 +359,8 @@ def clean_command(
         )
     if len(segments) > 50:
         say(f"  ... {len(segments) - 50} more (see --report)")
+    for c in report.repair.contacts:
+        say(f"  {c}")
     for e in report.explanations:
         say(str(e))
     for label, path in (
