@@ -133,6 +133,7 @@ def scheduler_address(tmp_path_factory: pytest.TempPathFactory):
                     stdout=log,
                     stderr=subprocess.STDOUT,
                     env=env,
+                    cwd=tmp,  # not the tests' folder: relative paths must still mean the same
                 )
             )
         with Client(address, timeout=30) as c:

@@ -19,7 +19,7 @@ from mocapkit.cli import main
 from mocapkit.convert import convert_many
 from mocapkit.graph.distance import tile_runner, tiled_local_minima
 from mocapkit.graph.graph import build_graph
-from mocapkit.io import read_motion
+from mocapkit.io import read_motion, write_motion
 
 CFG = LibraryCleanConfig(context_by="all", context_max=3)
 
@@ -162,6 +162,65 @@ def test_scheduler_processes_same_bytes(reference, scheduler_address, library, c
     assert (
         _stitch(library, tmp_path / "st", "--scheduler", scheduler_address) == (reference["stitch"])
     )
+
+
+def test_relative_paths_mean_the_clients_files_on_workers_started_elsewhere(
+    scheduler_address, library, tmp_path, monkeypatch
+):
+    """Newcomer report: with `dask worker` started from another folder, `clean lib/ --out-dir
+    fixed/ --scheduler ...` failed every take ("cannot read file") and, with the library given
+    absolute, wrote the repaired takes to the workers' folder."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for p in _takes(library)[1:4]:
+        (lib / p.name).write_bytes(p.read_bytes())
+    monkeypatch.chdir(tmp_path)
+    cli = CliRunner()
+    r = cli.invoke(main, ["clean", "lib", "--out-dir", "fixed", "--report-dir", "rep",
+                          "--scheduler", scheduler_address])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "fixed").glob("*.bvh")) == sorted(
+        p.name for p in lib.glob("*.bvh")
+    )
+    assert len(list((tmp_path / "rep" / "takes").glob("*.json"))) == 3
+    r = cli.invoke(main, ["info", "--json", "lib", "--scheduler", scheduler_address])
+    assert r.exit_code == 0 and len(json.loads(r.stdout)) == 3, r.output
+
+
+def test_a_failed_take_is_tried_again_and_colliding_outputs_are_refused(
+    library, tmp_path, monkeypatch
+):
+    """Newcomer report: a take that failed for a reason outside its file (its ASF not beside
+    it yet) stayed failed on every rerun, as its manifest entry vouched for the failure; and
+    03_02.amc and 03_02.bvh wrote the same repaired take and report, each over the other."""
+    import mocapkit.clean
+
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    takes = _takes(library)[1:3]
+    for p in takes:
+        (lib / p.name).write_bytes(p.read_bytes())
+    real = mocapkit.clean.run
+    calls = {"n": 0}
+
+    def fails_once(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 1:
+            raise ValueError("not yet")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mocapkit.clean, "run", fails_once)
+    first = clean_library(lib, tmp_path / "fixed", tmp_path / "rep", CFG)
+    assert (first.cleaned, len(first.failed)) == (1, 1)
+    again = clean_library(lib, tmp_path / "fixed", tmp_path / "rep", CFG)
+    assert (again.resumed, again.cleaned, len(again.failed)) == (1, 1, 0)
+    # the same name with another extension: the first in name order is cleaned, the other
+    # refused in one line, and nothing is overwritten
+    write_motion(read_motion(takes[0]), lib / (takes[0].stem + ".npz"))
+    both = clean_library(lib, tmp_path / "fixed", tmp_path / "rep", CFG)
+    (bad,) = both.failed
+    assert bad["take"].endswith(".npz") and "rename one of them" in bad["error"]
+    assert both.cleaned + both.resumed == 2  # (the .npz joined the others' context)
 
 
 def test_info_folder_same_json_on_cluster(scheduler_address, library):

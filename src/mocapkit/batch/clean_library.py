@@ -225,8 +225,9 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
             record["context_skipped"] = skipped
         outputs = [p for p in (task.output, task.report) if p]
     except errors as e:
-        record = {"take": task.name, "error": _error_line(task.name, e)}
-        outputs = []
+        # no manifest entry: a failed take is tried again by the next run (its cause may lie
+        # outside its file: an ASF put beside it, a worker that could not see the folder)
+        return {"take": task.name, "error": _error_line(task.name, e)}
     if task.manifest_root:
         Manifest(Path(task.manifest_root)).record(task.name, task.key, outputs, record)
     return record
@@ -236,7 +237,7 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
 class LibraryClean:
     """A library clean's outcome: every take's record (name order), the summary files, and
     how many takes were cleaned now and how many skipped as complete (``resumed``); the takes
-    that failed (now or, unchanged, before) are neither."""
+    that failed are neither (a failed take is tried again by every run)."""
 
     records: tuple[dict[str, Any], ...]
     summary_path: Path
@@ -313,11 +314,23 @@ def clean_library(
     manifest = Manifest(rep)
     records: dict[str, dict[str, Any]] = {}
     tasks: list[TakeTask] = []
+    owner: dict[str, str] = {}  # output name (no suffix) -> the take that writes it
     for t in takes:
+        stem = _with_suffix(t, "")
+        if stem in owner:  # 03_02.amc and 03_02.bvh: one would overwrite the other's outputs
+            records[t] = {
+                "take": t,
+                "error": f"{t}: its repaired take and report would be those of {owner[stem]} "
+                f"({_with_suffix(t, '.bvh')}, takes/{_with_suffix(t, '.json')}); rename one "
+                "of them",
+            }
+            continue
+        owner[stem] = t
         key = input_key(t, hashes[t], [(c, hashes[c]) for c in ctx[t]], cfg)
         entry = manifest.is_complete(t, key)
-        if entry is not None and entry.get("result") is not None:
-            records[t] = entry["result"]
+        result = None if entry is None else entry.get("result")
+        if result is not None and "error" not in result:  # an older run recorded failures
+            records[t] = result
             continue
         tasks.append(
             TakeTask(

@@ -31,7 +31,8 @@ Progress = Callable[[int, int], None]
 RUNNER_HELP = (
     "--workers N starts a local Dask cluster of N worker processes (1 thread each) for the job "
     "and stops it after; --scheduler ADDRESS uses a running Dask cluster (its workers must see "
-    "the same files); without either the job runs in this process. The results are the same."
+    "the same files; they run the tasks in this command's folder, so relative paths mean the "
+    "same files); without either the job runs in this process. The results are the same."
 )
 
 
@@ -74,12 +75,64 @@ def keep_freed_memory() -> bool:
         return False
 
 
-def _call(fn: Callable[..., Any], item: Any, shared: Any = None, has_shared: bool = False) -> Any:
-    """Run ``fn`` on a worker: its result, the warnings it raised (re-raised on the client),
-    this worker's pid and peak memory, and the seconds it took."""
+class _ClientFolder:
+    """Run tasks in the folder the client ran in, so that the paths a user typed relative to
+    it mean the same files on a worker started elsewhere (``dask worker`` run from ``/`` read
+    and wrote ``/fixed/...``). The working folder belongs to the whole worker process: tasks
+    wanting one folder run together, a task wanting another waits until they are done, and
+    the worker's own folder comes back after. A worker that has no such folder (another
+    machine) runs the task where it is."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self._cond = threading.Condition()
+        self._folder: str | None = None
+        self._users = 0
+        self._home = ""
+
+    @contextlib.contextmanager
+    def inside(self, folder: str | None) -> Iterator[None]:
+        if not folder or not os.path.isdir(folder):
+            yield
+            return
+        with self._cond:
+            while self._users and self._folder != folder:
+                self._cond.wait()
+            if not self._users:
+                self._home = os.getcwd()
+                if os.path.realpath(self._home) != os.path.realpath(folder):
+                    os.chdir(folder)
+                self._folder = folder
+            self._users += 1
+        try:
+            yield
+        finally:
+            with self._cond:
+                self._users -= 1
+                if not self._users:
+                    if os.getcwd() != self._home:
+                        os.chdir(self._home)
+                    self._folder = None
+                    self._cond.notify_all()
+
+
+_CLIENT_FOLDER = _ClientFolder()
+
+
+def _call(
+    fn: Callable[..., Any],
+    item: Any,
+    shared: Any = None,
+    has_shared: bool = False,
+    folder: str | None = None,
+) -> Any:
+    """Run ``fn`` on a worker, in the client's ``folder`` (:class:`_ClientFolder`): its
+    result, the warnings it raised (re-raised on the client), this worker's pid and peak
+    memory, and the seconds it took."""
     keep_freed_memory()
     t0 = time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught:
+    with _CLIENT_FOLDER.inside(folder), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         out = fn(shared, item) if has_shared else fn(item)
     ws = [(w.category, str(w.message)) for w in caught]
@@ -312,7 +365,7 @@ class Runner:
         prefix = name or getattr(fn, "__name__", "task")
         tag = uuid.uuid4().hex[:8]
         futures = client.map(
-            _call, [fn] * total, items, shared=sh, has_shared=has_shared,
+            _call, [fn] * total, items, shared=sh, has_shared=has_shared, folder=os.getcwd(),
             key=[f"{prefix}-{tag}-{i}" for i in range(total)], pure=False,
         )  # fmt: skip
         index = {f.key: i for i, f in enumerate(futures)}
