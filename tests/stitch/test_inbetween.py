@@ -434,6 +434,14 @@ def test_cli_writes_motion_and_sidecar(files):
     )  # fmt: skip
     assert code == 0, se
     assert "filled frames 60:75" in so
+    # as many segments listed as the summary says were averaged (newcomer report: "from 3
+    # library segments averaged", then five "averaged with" lines, three of weight 0.00)
+    import re
+
+    said = re.search(r"from (\d+) library segments averaged", so)
+    listed = 1 + so.count("averaged with:")
+    assert (int(said.group(1)) if said else 1) == listed, so
+    assert "weight 0.00" not in so
     side = json.loads((files / "filled.bvh.provenance.json").read_text())
     assert side["tool"] == "inbetween" and side["parameters"]["gap"] == [60, 75]
     seg = side["segments"][1]

@@ -176,12 +176,20 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; {res.candidates} candidates in "
             f"{res.search_seconds:.2f} s"
         )
-    for x in res.blended_from[1:]:
+    # the segments that count in the mean: the others (weight < 0.005) are only named by number,
+    # so that the list and the "N library segments averaged" line agree
+    counted = [x for x in res.blended_from if x["weight"] >= 0.005]
+    for x in counted[1:]:
         f0, f1 = x["source_frames"]
         say(
             f"  averaged with: {x['source']} frames {f0}:{f1}"
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
             f"score {x['score']:.4g}, weight {x['weight']:.2f}"
+        )
+    if len(res.blended_from) > len(counted) and counted:
+        say(
+            f"  ({len(res.blended_from) - len(counted)} more candidate(s) weighed under 0.005 "
+            "against the best: see --json)"
         )
     if res.warning:
         hint = " (--method kalman fills it with the smoother's transition instead)"
@@ -200,7 +208,7 @@ def inbetween_cmd(
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         say(f"filled frames {a}:{b} with the Kalman transition ({why})")
     else:
-        n = sum(1 for x in res.blended_from if x["weight"] >= 0.005)
+        n = len(counted)
         what = res.source if n == 1 else f"{n} library segments averaged (weighted by score)"
         within = (
             f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
