@@ -214,3 +214,26 @@ def test_the_plots_comparison_graph_never_warns(clip_dir: Path) -> None:
         warnings.simplefilter("always")
         compare_metrics(motions, g, db)
     assert not any(issubclass(w.category, CoverageWarning) for w in compared)
+
+
+def test_build_leaves_out_clips_of_another_skeleton_or_rate(clip_dir: Path, tmp_path: Path) -> None:
+    """Newcomer report: one clip of another skeleton (sorting first) made `graph build` of a
+    folder write no graph, naming neither the other clips nor which skeleton it expected; an
+    unreadable file was already left out with the others going on."""
+    from mocapkit.edit.joints import drop_joints
+    from mocapkit.features import resample
+
+    d = tmp_path / "mixed"
+    d.mkdir()
+    for p in sorted(clip_dir.glob("*.bvh")):
+        (d / p.name).write_bytes(p.read_bytes())
+    walk = read_motion(d / "c0_walk.bvh")
+    write_motion(drop_joints(walk, [walk.num_joints - 1]), d / "a_other.bvh")
+    write_motion(resample(walk, 60), d / "b_60fps.bvh")
+    out = tmp_path / "g.json"
+    code, so, err = run("graph", "build", str(d), "--out", str(out), "--transitions", "3")
+    assert code == 2, err
+    assert out.exists() and "3 clips" in so and "left out" in so
+    assert "b_60fps.bvh: 60 fps, but" in err
+    assert "a_other.bvh: a different skeleton from" in err
+    assert "Traceback" not in err

@@ -42,26 +42,49 @@ def graph() -> None:
     """
 
 
-def check_clips(files: list[Path], motions: list) -> None:
-    """What a motion graph needs of its clips, as one-line errors naming the file: frames,
-    finite values, one skeleton and one frame rate."""
+def usable_clips(files: list[Path], motions: list) -> tuple[list[Path], list, list[str]]:
+    """The clips a motion graph can be built of, as a library job takes them: those with
+    frames and finite values, of the skeleton and frame rate most of the clips share (the
+    first such clip in order names them). Returns the files and motions kept and one error
+    line, naming the file, per clip left out."""
     import math
+    from collections import Counter
 
-    first = motions[0]
-    for f, m in zip(files, motions, strict=True):
+    errors: list[str] = []
+    ok: list[int] = []
+    for i, (f, m) in enumerate(zip(files, motions, strict=True)):
         if m.num_frames == 0:
-            raise CLIError(f"{f}: the motion has no frames (a motion graph needs frames)")
-        m.check_finite(str(f))
+            errors.append(f"{f}: the motion has no frames (a motion graph needs frames)")
+            continue
+        try:
+            m.check_finite(str(f))
+        except ValueError as e:
+            errors.append(str(e))
+            continue
+        ok.append(i)
+    if not ok:
+        return [], [], errors
+    kinds = Counter((tuple(motions[i].skeleton.names), round(motions[i].fps, 6)) for i in ok)
+    best = max(kinds.values())
+    ref = next(i for i in ok if kinds[(tuple(motions[i].skeleton.names),
+                                       round(motions[i].fps, 6))] == best)  # fmt: skip
+    first, kept = motions[ref], []
+    for i in ok:
+        f, m = files[i], motions[i]
         if m.skeleton.names != first.skeleton.names:
-            raise CLIError(
-                f"{f}: a different skeleton from {files[0]} (all clips of a motion graph must "
-                "have the same joints)"
+            errors.append(
+                f"{f}: a different skeleton from {files[ref]} and the other "
+                f"{best - 1} clip(s) of its joints (all clips of a motion graph must have the "
+                "same joints)"
             )
-        if not math.isclose(m.frame_time, first.frame_time, rel_tol=1e-6):
-            raise CLIError(
-                f"{f}: {m.fps:g} fps, but {files[0]} is {first.fps:g} fps (all clips must share "
-                "one frame rate; resample them first: mocapkit convert --fps)"
+        elif not math.isclose(m.frame_time, first.frame_time, rel_tol=1e-6):
+            errors.append(
+                f"{f}: {m.fps:g} fps, but {files[ref]} is {first.fps:g} fps (all clips must "
+                "share one frame rate; resample them first: mocapkit convert --fps)"
             )
+        else:
+            kept.append(i)
+    return [files[i] for i in kept], [motions[i] for i in kept], errors
 
 
 def _rel(path: Path, base: Path) -> str:
@@ -166,12 +189,13 @@ def build(
                plot_output(plot)]  # fmt: skip
     check_outputs(outputs, [*files, *([masses] if masses else [])])
     files, motions, unreadable = load_readable(files, False, show=not quiet)
+    files, motions, unusable = usable_clips(files, motions)
+    unreadable += unusable
     if not motions:
         raise CLIError(unreadable[0] + (f" (and {len(unreadable) - 1} more)" if unreadable[1:]
                                         else ""))  # fmt: skip
     for line in unreadable:  # as every library job: the others go on
         click.echo(f"mocapkit: error: {line}", err=True)
-    check_clips(files, motions)
     overrides = load_masses(masses) if masses else None
     outp = Path(out)
     with (
@@ -227,7 +251,7 @@ def build(
     for p in wrote:
         click.echo(f"wrote {p}")
     if unreadable:  # built from the others; the status says not all
-        click.echo(f"left out {len(unreadable)} file(s) that could not be read")
+        click.echo(f"left out {len(unreadable)} file(s) that could not be read or used")
         raise click.exceptions.Exit(2)
 
 
