@@ -65,3 +65,36 @@ def test_shards_are_fixed_runs_of_files():
                                                                   (2, 64, 6)]  # fmt: skip
     with pytest.raises(ValueError, match="shard_files must be >= 1"):
         plan_shards(["a"], 0)
+
+
+def test_a_library_at_another_rate_is_named_in_its_own_frames(lib, tmp_path):
+    """Newcomer report: with library files at 60 fps and a 30 fps query, the landing and the
+    provenance's source frames were frames of the file resampled to 30 fps (96 for the file's
+    192), and --landing 192 was taken as 6.4 s into the clip."""
+    from mocapkit.features import resample
+    from mocapkit.io import read_motion
+
+    paths, _ = lib
+    fast = []
+    for p in paths[:3]:
+        f = tmp_path / f"{p.stem}_60.bvh"
+        write_motion(resample(read_motion(p), 60), f)
+        fast.append(f)
+    q = datasets.procedural_motion("walk", seconds=2.0, seed=7).motion
+    same = stitch_library(q, "30", paths[:3])  # the same clips at the query's rate
+    got = stitch_library(q, "30", fast)
+    assert got.data_fps == 60 and same.data_fps is None
+    assert got.transition.clip == same.transition.clip
+    js = got.to_json()
+    assert js["landing"] == 2 * same.to_json()["landing"] and js["data_fps"] == 60
+    prov = got.provenance("out.bvh")
+    tail = prov.segments[-1]
+    assert tail.source_start == 2 * same.provenance("out.bvh").segments[-1].source_start
+    assert prov.transitions[0].target_frame == js["landing"]
+    # the reported landing frame, given back, lands on the same pose
+    again = stitch_library(q, "30", fast, js["landing"])
+    assert again.to_json()["landing"] == js["landing"]
+    assert again.transition.landing == got.transition.landing
+    # a time lands at that time in every file
+    at = stitch_library(q, "30", fast, "0.4s")
+    assert at.to_json()["landing"] == 24 and at.transition.landing == 12

@@ -48,8 +48,8 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
 @click.option(
     "--landing",
     default=None,
-    help="Landing frame (0-based; or a time such as 0.5s) in the DATA files; default: search "
-    "every frame of every file.",
+    help="Landing frame (0-based, a frame of each DATA file, whatever its frame rate; or a time "
+    "such as 0.5s) in the DATA files; default: search every frame of every file.",
 )
 @click.option(
     "--window", type=int, default=DEFAULT_W, show_default=True, help="Half window w (frames)."
@@ -185,10 +185,6 @@ def stitch_cmd(
     warn_if_up_disagrees(q, up, query)
     with naming(query):
         a, b = takeoff_spec.frames(q.fps, q.num_frames)
-    landing_frame = None
-    if landing_spec is not None:
-        # a time is converted at the query's rate: clips at another rate are resampled to it
-        landing_frame = landing_spec.frames(q.fps)[0]
     with (
         naming(query, *data_paths),
         job_runner(workers, scheduler) as runner,
@@ -198,7 +194,7 @@ def stitch_cmd(
             q,
             str(a) if takeoff_spec.single else f"{a}:{b}",  # in frames, as the result records
             data_paths,
-            landing_frame,
+            landing_spec,  # a frame of each data file, or a time
             method=method,
             window=window,
             k_max=max_inject,
@@ -217,8 +213,15 @@ def stitch_cmd(
     for _path, why in res.skipped:
         click.echo(f"mocapkit: error: left out of the library: {one_line(why)}", err=True)
     tr = res.transition
+    resampled = (
+        f" (frames of the file, at {res.data_fps:g} fps; resampled to the query's "
+        f"{q.fps:g} fps for the search)"
+        if res.data_fps is not None
+        else ""
+    )
     say(
-        f"best: {data_paths[tr.clip]} landing {tr.landing}, take-off {tr.takeoff}, k = {tr.k} "
+        f"best: {data_paths[tr.clip]} landing {res.data_frame(tr.landing)}{resampled}, "
+        f"take-off {tr.takeoff}, k = {tr.k} "
         f"(L* = {tr.lscore:.6g}, windowed Euclidean = {tr.euclidean:.6g}; "
         f"{tr.candidates} candidates in {res.search_seconds:.2f} s, {where})"
     )

@@ -12,6 +12,7 @@ workers there are, since the shards and the merge order depend on the file list 
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from mocapkit.core.motion import Motion
+from mocapkit.core.ranges import RangeSpec
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel
 from mocapkit.stitch.lscore import DEFAULT_W
 from mocapkit.stitch.search import (
@@ -71,7 +73,7 @@ class _Search:
     query: Motion
     features: np.ndarray
     takeoffs: tuple[int, ...]
-    landing: int | None
+    landing: RangeSpec | None  # a frame of each data file, or a time
     window: int
     k_max: int
     inject: int | None
@@ -82,11 +84,24 @@ class _Search:
     lenient: bool
 
 
-def _clip_features(path: str, s: _Search) -> np.ndarray:
+def file_to_query_frame(frame: int, file_fps: float, query_fps: float) -> int:
+    """A data file's frame as a frame of the file resampled to the query's rate (the frames
+    the search works on)."""
+    if math.isclose(file_fps, query_fps, rel_tol=1e-6):
+        return int(frame)
+    return round(frame * query_fps / file_fps)
+
+
+def _clip_features(path: str, s: _Search) -> tuple[np.ndarray, int | None]:
+    """The clip's features at the query's rate, and the landing frame asked for (a frame of
+    the file, or a time) as a frame of them."""
     from mocapkit.io import read_motion
 
     motion = read_motion(path, lenient=s.lenient)
-    return motion_features(conform(motion, s.query, path), s.up, list(s.joints))
+    landing = None
+    if s.landing is not None:
+        landing = file_to_query_frame(s.landing.frames(motion.fps)[0], motion.fps, s.query.fps)
+    return motion_features(conform(motion, s.query, path), s.up, list(s.joints)), landing
 
 
 def search_shard(search: _Search, shard: LibraryShard) -> ShardBest:
@@ -95,22 +110,35 @@ def search_shard(search: _Search, shard: LibraryShard) -> ShardBest:
 
     clips: list[np.ndarray] = []
     where: list[int] = []
+    lands: list[int | None] = []
     skipped: list[tuple[int, str]] = []
     for k, path in enumerate(shard.paths):
         try:
-            clips.append(_clip_features(path, search))
+            feats, landing = _clip_features(path, search)
+            clips.append(feats)
+            lands.append(landing)
             where.append(shard.first + k)
         except (MocapFileError, ValueError, KeyError, OSError, IndexError) as e:
             msg = " ".join(str(e).split()) or type(e).__name__
             skipped.append((shard.first + k, msg if path in msg else f"{path}: {msg}"))
     per: list[tuple[float, int, int] | None] = [None] * len(search.takeoffs)
     candidates = 0
-    if clips:
-        best, candidates = best_per_takeoff(
-            search.features, list(search.takeoffs), clips, search.landing, search.window,
-            search.k_max, search.model, search.score, np.float32, search.inject,
+    # one search per landing frame: a frame of files at other rates is another frame here
+    groups: dict[int | None, list[int]] = {}
+    for i, landing in enumerate(lands):
+        groups.setdefault(landing, []).append(i)
+    for landing, idx in groups.items():
+        best, n = best_per_takeoff(
+            search.features, list(search.takeoffs), [clips[i] for i in idx], landing,
+            search.window, search.k_max, search.model, search.score, np.float32, search.inject,
         )  # fmt: skip
-        per = [None if b is None else (b[0], where[b[1]], b[2]) for b in best]
+        candidates += n
+        for t, b in enumerate(best):
+            if b is None or not np.isfinite(b[0]):
+                continue
+            cand = (b[0], where[idx[b[1]]], b[2])
+            if per[t] is None or cand[:2] < per[t][:2]:  # ties: the first clip
+                per[t] = cand
     return ShardBest(shard.index, tuple(per), candidates, tuple(skipped))
 
 
@@ -129,7 +157,7 @@ def stitch_library(
     query: Motion,
     takeoff,
     paths: Sequence[str | Path],
-    landing: int | None = None,
+    landing: int | str | RangeSpec | None = None,
     *,
     method: str = "kalman",
     window: int = DEFAULT_W,
@@ -155,6 +183,11 @@ def stitch_library(
     default: one after the other in this process). Only the chosen file is read here. A file
     that cannot be read or does not fit the query's skeleton is left out and listed in the
     result's ``skipped`` (``(path, reason)``); no usable file at all is a ValueError.
+
+    ``landing``: a frame of each data file (an int, or ``"12"``) or a time (``"0.4s"``); None
+    searches every landing frame. Frame numbers in the result (landing, the provenance's source
+    frames) are the data file's own, also where it is at another rate than the query and was
+    resampled to it for the search (``data_fps`` says so).
     Returns the :class:`~mocapkit.stitch.Stitched` with ``data_names`` = ``paths``."""
     from mocapkit.features import detect_up_axis
     from mocapkit.io import read_motion
@@ -162,6 +195,10 @@ def stitch_library(
     paths = [str(p) for p in paths]
     if not paths:
         raise ValueError("no data clip given")
+    if landing is not None and not isinstance(landing, RangeSpec):
+        if isinstance(landing, bool) or not isinstance(landing, int | np.integer | str):
+            raise ValueError(f"landing: a frame (12) or a time ('0.4s'), got {landing!r}")
+        landing = RangeSpec.parse(str(landing), "landing", single=True)
     if k_max is not None:
         if int(k_max) != k_max or k_max < 0:
             raise ValueError(f"k_max (--max-inject) must be an integer >= 0, got {k_max}")
@@ -193,9 +230,15 @@ def stitch_library(
     if best is None:
         if len(skipped) == len(paths):
             raise ValueError(f"no data clip could be used: {skipped[0][1]}")
-        raise no_candidate(landing, w)
+        if landing is not None and not landing.text.strip().lstrip("-").isdigit():
+            raise ValueError(
+                f"landing {landing.text.strip()!r} has no full landing window ({w} frames from "
+                "it) in any data clip"
+            )
+        raise no_candidate(None if landing is None else landing.frames(query.fps)[0], w)
     (_, ci, b), t = best
-    chosen = conform(read_motion(paths[ci], lenient=lenient), query, paths[ci])
+    data = read_motion(paths[ci], lenient=lenient)
+    chosen = conform(data, query, paths[ci])
     clip = motion_features(chosen, up, list(names))
     tr = transition_at(qf, takeoffs[t], clip, ci, b, w, model, k_show, inject, score,
                        sum(p.candidates for p in parts))  # fmt: skip
@@ -214,4 +257,5 @@ def stitch_library(
         search_seconds=search_seconds,
         output=None if output is None else str(output),
         skipped=tuple(skipped),
+        data_fps=None if math.isclose(data.fps, query.fps, rel_tol=1e-6) else float(data.fps),
     )

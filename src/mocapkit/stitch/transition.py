@@ -122,6 +122,14 @@ class Stitched:
     search_seconds: float | None = None
     output: str | None = None
     skipped: tuple[tuple[str, str], ...] = ()
+    data_fps: float | None = None
+
+    def data_frame(self, frame: int) -> int:
+        """A frame of the data clip as the search saw it (at the query's rate) as a frame of
+        its file (:attr:`data_fps`: the file's rate where it differs and was resampled)."""
+        if self.data_fps is None:
+            return int(frame)
+        return round(frame * self.data_fps / self.motion.fps)
 
     def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
         """The stitch as a provenance sidecar (:mod:`mocapkit.provenance`): the query's frames,
@@ -135,7 +143,7 @@ class Stitched:
         segs = [
             Segment(0, g0, "clip", self.query_name, 0, g0),
             Segment(g0, g1, "generated", None, None, None),
-            Segment(g1, F, "clip", data, tail, tail + F - g1),
+            Segment(g1, F, "clip", data, self.data_frame(tail), self.data_frame(tail + F - g1)),
         ]
         lscore = self.transition.lscore if self.transition is not None else None
         return Provenance(
@@ -146,7 +154,11 @@ class Stitched:
             [self.query_name, *self.data_names],
             {"method": self.method, "k": self.k, **(parameters or {})},
             [sg for sg in segs if sg.output_stop > sg.output_start],
-            [TransitionTaken(g0, self.query_name, self.takeoff, data, self.landing, lscore)],
+            [
+                TransitionTaken(
+                    g0, self.query_name, self.takeoff, data, self.data_frame(self.landing), lscore
+                )
+            ],
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -159,8 +171,11 @@ class Stitched:
             clip = d.pop("clip")
             name = self.data_names[clip] if clip < len(self.data_names) else f"data{clip}"
             out.update(takeoff=d.pop("takeoff"), data=name, data_index=clip, **d)
+            out["landing"] = self.data_frame(tr.landing)
         else:
-            out.update(takeoff=self.takeoff, landing=self.landing, k=self.k)
+            out.update(takeoff=self.takeoff, landing=self.data_frame(self.landing), k=self.k)
+        if self.data_fps is not None:  # frames of the data file, which was resampled
+            out["data_fps"] = self.data_fps
         out.update(
             method=self.method,
             frames=self.motion.num_frames,
