@@ -395,3 +395,22 @@ def test_info_warns_when_up_is_not_the_bodys(walk_bvh: Path) -> None:
     assert code == 0 and "up axis Z given, but its body stands along Y" in err
     code, _out, err = run("info", "--up", "Y", str(walk_bvh))
     assert code == 0 and "stands along" not in err
+
+
+def test_a_reader_that_goes_away_is_no_error(monkeypatch):
+    """`mocapkit graph report g.json | head -5` ended with "mocapkit: error: Broken pipe"."""
+    import click
+
+    from mocapkit.cli import common
+    from mocapkit.cli.common import friendly_errors
+
+    quieted = []
+    monkeypatch.setattr(common, "_quiet_stdout", lambda: quieted.append(True))  # keep pytest's fd
+
+    @friendly_errors
+    def writes_to_a_closed_pipe() -> None:
+        raise BrokenPipeError(32, "Broken pipe")
+
+    with pytest.raises(click.exceptions.Exit) as e:
+        writes_to_a_closed_pipe()
+    assert e.value.exit_code == 1 and quieted

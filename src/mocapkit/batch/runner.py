@@ -238,6 +238,9 @@ class Runner:
                 scheduler_port=0,
                 dashboard_address=None,
                 worker_dashboard_address=None,
+                # the scheduler's HTTP routes (/health) start even without a dashboard, on 8787
+                # by default: another program there made Dask warn "Port 8787 is already in use"
+                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
                 silence_logs=logging.ERROR,
                 env=env,
                 timeout=self.timeout,

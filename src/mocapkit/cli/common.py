@@ -4,7 +4,9 @@ bars, finding and loading input files, strict JSON output."""
 from __future__ import annotations
 
 import functools
+import os
 import re
+import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -106,6 +108,9 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
                 raise
             except MocapFileError as e:
                 raise CLIError(one_line(e)) from None
+            except BrokenPipeError:  # `mocapkit ... | head`: the reader has gone; say nothing
+                _quiet_stdout()
+                raise click.exceptions.Exit(1) from None
             except OSError as e:
                 raise CLIError(one_line(os_error_line(e))) from None
             except (ValueError, KeyError, ImportError) as e:
@@ -114,6 +119,16 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             return result
 
     return wrapper
+
+
+def _quiet_stdout() -> None:
+    """Point standard output at /dev/null, so that flushing it at exit after its reader has
+    gone raises no second BrokenPipeError (the recipe of Python's signal documentation)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # no real file descriptor (a test runner)
+        pass
 
 
 def _flush_warnings(caught: Sequence[warnings.WarningMessage]) -> None:
