@@ -106,3 +106,25 @@ def test_unpaired_side_is_refused_with_one_line() -> None:
     with pytest.raises(ValueError, match="no counterpart") as e:
         mirror_pairs(sk)
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("turn_deg", [0.0, 90.0, 180.0, -90.0])
+def test_the_mirror_keeps_the_characters_facing_and_travel(turn_deg: float) -> None:
+    """Newcomer report: Z-up takes facing -Y came out facing +Y with their travel reversed (the
+    mirror plane was fixed to the ground frame's forward axis, whichever way the character
+    faced). The plane now holds the axis the character faces."""
+    from mocapkit.features import GroundTransform, apply_ground_transform, facing_directions
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion
+    m = apply_ground_transform(walk, GroundTransform(np.radians(turn_deg), np.zeros(3), "Y"))
+    res = mirror(m)
+    assert_fk_mirrored(m, res)
+    f0 = facing_directions(m, "Y").mean(axis=0)
+    f1 = facing_directions(res.motion, "Y").mean(axis=0)
+    assert f0 @ f1 > 0.99  # same way
+    travel0 = m.root_positions[-1] - m.root_positions[0]
+    travel1 = res.motion.root_positions[-1] - res.motion.root_positions[0]
+    axis = np.eye(3)[int(np.argmax(np.abs(f0)))]  # the ground axis it faces along
+    assert travel1 @ axis == pytest.approx(travel0 @ axis, rel=1e-9)
+    assert np.abs(res.world_normal) @ axis == 0.0
+    assert mirror(res.motion).motion.allclose(m, 1e-6, 1e-6)

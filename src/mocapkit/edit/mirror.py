@@ -1,10 +1,13 @@
 """Mirror a take left/right.
 
 The world is reflected across the **world mirror** ``M_w``: the vertical plane through the
-origin spanned by the up axis (the body model's, measured on the poses) and the ground frame's
-forward axis (:func:`mocapkit.features.ground_frame`): X -> -X for a Y-up take, Y -> -Y for a
-Z-up one. Each joint ``j`` and its counterpart ``s(j)`` (:func:`mirror_pairs`) trade places, so
-that, exactly, ``P'[s(j)] = M_w P[j]`` for every joint position and End Site.
+origin spanned by the up axis (the body model's, measured on the poses) and the ground axis
+nearer the character's mean facing (:func:`mocapkit.features.facing_directions`), so that the
+character keeps facing and travelling the way it did: X -> -X for a character facing Z, Y -> -Y
+for one facing X. (A fixed plane turned Z-up characters that face Y round, their travel
+reversed.) The mirrored take faces the same axis, so mirroring twice uses the same plane.
+Each joint ``j`` and its counterpart ``s(j)`` (:func:`mirror_pairs`) trade places, so that,
+exactly, ``P'[s(j)] = M_w P[j]`` for every joint position and End Site.
 
 Rigs do not agree on how a right joint's local axes relate to its left twin's (CMU and Mixamo
 mirror them across one plane; Bandai's bones run along +X on the left and -X on the right), so
@@ -34,7 +37,12 @@ from mocapkit.body import Body, body_of, split_name
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
-from mocapkit.features import ground_frame
+from mocapkit.features import (
+    GroundTransform,
+    apply_ground_transform,
+    facing_directions,
+    ground_frame,
+)
 
 __all__ = ["Mirrored", "joint_mirrors", "mirror", "mirror_pairs"]
 
@@ -248,7 +256,8 @@ def mirror(motion: Motion, up: str | None = None) -> Mirrored:
     sk = motion.skeleton
     body = body_of(motion)
     twin = mirror_pairs(sk, body)
-    side, _, _ = ground_frame(up or body.up)
+    up = up or body.up
+    side, _, fwd = ground_frame(up)
     n_w = np.abs(side)  # the sign of a normal does not matter
     M_w = np.eye(3) - 2.0 * np.outer(n_w, n_w)
     B = joint_mirrors(sk, twin, M_w)
@@ -294,4 +303,12 @@ def mirror(motion: Motion, up: str | None = None) -> Mirrored:
     if len(es_off):
         diffs.append(np.abs(es_off - sk.end_site_offsets).max(initial=0.0))
     out = Motion(new_sk, rots, root, motion.frame_time, translations)
+    if motion.num_frames:
+        facing = facing_directions(motion, up).mean(axis=0)
+        if abs(facing @ side) > abs(facing @ fwd):
+            # a character facing the side axis: the plane holding it is the other one, whose
+            # mirror is this one's followed by a half turn about up (they commute: twice is
+            # still the identity, and the rig's joint mirrors B are the same)
+            out = apply_ground_transform(out, GroundTransform(np.pi, np.zeros(3), up))
+            n_w = np.abs(fwd)
     return Mirrored(out, twin, n_w, B, float(max(diffs)))
