@@ -151,6 +151,15 @@ def test_map_overrides_and_errors(pair):
     cmu, ban = pair
     res = retarget(cmu[:60], ban, joint_map={"Toes_L": None})
     assert "Toes_L" not in res.mapping
+    # a joint mapped to null keeps its reference pose: the reach matching, the goals and the
+    # foot lock moved a nulled thigh back onto the source's (newcomer report: no difference)
+    from mocapkit.core import rotations as rot
+
+    thigh = ban.skeleton.names.index("UpperLeg_L")
+    auto = retarget(cmu[:60], ban).motion.rotations[:, thigh]
+    kept = retarget(cmu[:60], ban, joint_map={"UpperLeg_L": None}).motion.rotations[:, thigh]
+    assert np.degrees(rot.quat_angle(auto, auto[:1])).max() > 10.0
+    assert np.degrees(rot.quat_angle(kept, kept[:1])).max() < 1e-6
     with pytest.raises(ValueError, match="'Nope' is not in the target"):
         retarget(cmu[:30], ban, joint_map={"Nope": "root"})
 

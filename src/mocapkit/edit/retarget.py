@@ -464,6 +464,11 @@ def _transfer(
     refS_p, refS_g, _ = _reference(source, bS)
     refT_p, refT_g, refT_l = _reference(target, bT)
     entries, chains = _auto_map(bS, bT, refS_p, refT_p)
+    # joints the map removes keep their reference pose: no later stage may move them again
+    # (the reach matching and the goals re-aimed a limb whose thigh was mapped to null)
+    unmapped = frozenset(
+        skT.names.index(t) for t, v in (user_map or {}).items() if v is None and t in skT.names
+    )
     if user_map:
         chains = _apply_map(entries, chains, user_map, skT, skS, map_name)
     if not entries:
@@ -544,13 +549,15 @@ def _transfer(
         c = (hT - hS).mean(axis=0)
         return rot.quat_apply(rot.quat_inv(face), (hS + c) * LT)
 
-    if "head" in goals_on and bT.joint("head") is not None:
+    head = bT.joint("head")
+    spine = set(_between(bT, "pelvis", "head")) if head is not None else set()
+    if "head" in goals_on and head is not None and not spine & unmapped:
         want = goal(G, "head")
         if want is not None:
             G = _aim_spine(G, skT, bT, want, free, refT_l, clamped)
     L = _local(G, skT)
     if match_reach:
-        G1 = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf)
+        G1 = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf, keep=unmapped)
         limb_goals = {}
         for key in ("left_wrist", "right_wrist", "left_ankle", "right_ankle"):
             if key.split("_")[1] in goals_on:
@@ -558,7 +565,8 @@ def _transfer(
                 if w is not None:
                     limb_goals[key] = w
         if limb_goals:
-            G1 = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf, limb_goals, clamped)
+            G1 = _match_reach(G, L, skT, bT, source, posS, grotS, bS, Uf, limb_goals, clamped,
+                              keep=unmapped)  # fmt: skip
         G = G1
         L = _local(G, skT)
 
@@ -590,6 +598,7 @@ def _transfer(
         "B_S": dict(zip(order, B_S, strict=True)),
         "B_T": dict(zip(order, B_T, strict=True)),
         "clamped": clamped,
+        "unmapped": unmapped,
     }
     return out, info
 
@@ -672,6 +681,7 @@ def _match_reach(
     Uf: np.ndarray,
     goals: Mapping[str, np.ndarray] | None = None,
     clamped: dict[str, Any] | None = None,
+    keep: frozenset[int] = frozenset(),
 ) -> np.ndarray:
     """Global rotations (F, J, 4) with each two-bone limb (hip-knee-ankle, shoulder-elbow-
     wrist) re-aimed so that its end effector sits where the source's does relative to the
@@ -689,7 +699,8 @@ def _match_reach(
     ``goals``: end effector key (``"left_wrist"``) -> where the limb's end should be relative
     to the target's pelvis (F, 3); that limb then aims its end there instead (reach clamped to
     the limb's, ``clamped`` receives per key the frames clamped and the largest shortfall in
-    target units), the hinge still in the source's bending plane."""
+    target units), the hinge still in the source's bending plane. A limb holding a joint of
+    ``keep`` (unmapped by the user) is left as it is."""
     F = G.shape[0]
     ltrans = np.broadcast_to(skT.offsets, (F, skT.num_joints, 3))
     posT, _ = fk_arrays(skT.parents, L, ltrans)
@@ -701,7 +712,7 @@ def _match_reach(
             if None in s or None in t or len(set(t)) < 3 or len(set(s)) < 3:
                 continue
             up_seg, lo_seg = _path_down(skT, t[0], t[1]), _path_down(skT, t[1], t[2])
-            if up_seg is None or lo_seg is None:
+            if up_seg is None or lo_seg is None or keep & {*t, *up_seg, *lo_seg}:
                 continue
             # the source limb in the target's world axes (directions only; lengths relative)
             eS = rot.quat_apply(Uf, posS[:, s[1]] - posS[:, s[0]])
@@ -978,11 +989,12 @@ def retarget(
     cols: list[np.ndarray] = []
     names: list[str] = []
     sides: list[str] = []
+    held = info["unmapped"]
     for k, js in enumerate(contacts.joints):
         key = keyS.get(js)
         jt = bT.joint(key) if key else None
-        if jt is None or jt in featT:
-            continue
+        if jt is None or jt in featT or held & {jt, *target.skeleton.ancestors(jt)}:
+            continue  # (a leg the map left unmapped is not locked either)
         featT.append(jt)
         cols.append(contacts.contacts[:, k])
         names.append(target.skeleton.names[jt])
