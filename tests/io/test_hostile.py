@@ -93,3 +93,18 @@ def test_quote_keeps_short_text_and_closes_long_text() -> None:
     assert quote("abc") == "'abc'"
     q = quote("x" * 500)
     assert len(q) <= 80 and q.startswith("'") and q.endswith("'")
+
+
+def test_a_file_named_npz_that_is_not_one_says_so(tmp_path) -> None:
+    """Newcomer report: a BVH renamed .npz gave numpy's message about pickled data and
+    allow_pickle (no help, and unsafe advice)."""
+    from mocapkit.io import MocapFileError, read_motion
+
+    fake = tmp_path / "walk.npz"
+    fake.write_text("HIERARCHY\nROOT Hips\n{\n")
+    with pytest.raises(MocapFileError, match=r"walk\.npz: not an \.npz archive .*name it \.bvh"):
+        read_motion(fake)
+    (tmp_path / "junk.npz").write_bytes(b"\x00\x01junk")
+    with pytest.raises(MocapFileError, match=r"not an \.npz archive") as e:
+        read_motion(tmp_path / "junk.npz")
+    assert "pickle" not in str(e.value)

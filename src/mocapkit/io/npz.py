@@ -53,6 +53,15 @@ def read_npz(path: str | Path) -> Motion:
     """Read a motion written by :func:`write_npz` (MocapFileError on anything else)."""
     path = Path(path)
     try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+    except OSError as e:
+        raise MocapFileError(path, None, f"cannot read file: {e.strerror or e}") from None
+    if head != b"PK\x03\x04":  # an .npz is a zip archive; numpy's own message then spoke of
+        # pickled data and allow_pickle, which is no help (and unsafe advice)
+        what = " (it starts like a BVH file: name it .bvh)" if head == b"HIER" else ""
+        raise MocapFileError(path, None, f"not an .npz archive{what}")
+    try:
         with np.load(path, allow_pickle=False) as z:
             if "format" not in z or str(z["format"]) != FORMAT:
                 raise MocapFileError(path, None, f"not a mocapkit motion file (expected {FORMAT})")
