@@ -202,6 +202,13 @@ def test_convert_asf_amc_to_bvh(tmp_path: Path) -> None:
     out2 = tmp_path / "auto.bvh"
     assert run("convert", str(tmp_path / "07_01.amc"), str(out2))[0] == 0
     assert read_motion(out2).num_frames == 2
+    # the two inputs swapped, or an ASF with a take that is no AMC (it was ignored)
+    asf, amc = str(tmp_path / "07.asf"), str(tmp_path / "07_01.amc")
+    code, _, err = run("convert", amc, asf, str(tmp_path / "swapped.bvh"))
+    assert code == 2 and "the ASF skeleton comes first" in err
+    (tmp_path / "w.bvh").write_bytes(out.read_bytes())
+    code, _, err = run("convert", asf, str(tmp_path / "w.bvh"), str(tmp_path / "x.bvh"))
+    assert code == 2 and "goes with an .amc take" in err and not (tmp_path / "x.bvh").exists()
     bad = tmp_path / "bad.amc"
     bad.write_text(AMC.replace("lfemur 10 0 0", "lfemur 10 0"))
     code, _, err = run("convert", str(tmp_path / "07.asf"), str(bad), str(tmp_path / "x.bvh"))

@@ -347,8 +347,12 @@ def convert(
         asf, src = srcs
     elif len(srcs) == 1:
         src = srcs[0]
+    elif len(srcs) == 2 and srcs[1].lower().endswith(".asf"):
+        raise CLIError(f"{srcs[1]}: the ASF skeleton comes first: convert ASF AMC OUT")
     else:
         raise CLIError("convert takes IN OUT, or ASF AMC OUT, or IN... --out-dir DIR --to FORMAT")
+    if asf is not None and not src.lower().endswith(".amc"):
+        raise CLIError(f"{asf}: an ASF skeleton goes with an .amc take, not {src}")
     for p in (asf, src):
         if p is not None:
             check_input_file(p, "ASF file" if p is asf else "motion file")

@@ -106,7 +106,7 @@ def read_motion(
     if ext == ".asf":  # a skeleton alone: its motions are the .amc files beside it
         raise MocapFileError(
             path, None, "an .asf file holds the skeleton only; give an .amc take (its .asf is "
-            "found beside it, or named with --asf where a command takes it)"
+            "found beside it; mocapkit convert SUBJECT.asf TAKE.amc OUT names another)"
         )  # fmt: skip
     raise MocapFileError(path, None, f"unknown file type {ext!r}; expected one of {READABLE}")
 
