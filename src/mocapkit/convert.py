@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from mocapkit.core.motion import Motion
+from mocapkit.summary import nominal_fps
 
 __all__ = [
     "FOLDER_FORMATS",
@@ -202,7 +203,7 @@ def convert_one(task: tuple[str | Path, str | Path, dict[str, Any]]) -> ItemResu
         res = convert_file(src, out, **options)
     except (MocapFileError, ValueError, KeyError, OSError) as e:
         return ItemResult(src, None, error=_error_line(src, e))
-    return ItemResult(src, res.output, res.motion.num_frames, res.motion.fps)
+    return ItemResult(src, res.output, res.motion.num_frames, nominal_fps(res.motion.frame_time))
 
 
 def _resume_key(src: Path, to: str, options: dict[str, Any]) -> str:

@@ -17,6 +17,7 @@ from mocapkit.cli.common import (
     warn_if_up_disagrees,
 )
 from mocapkit.core.ranges import RangeError, RangeSpec
+from mocapkit.summary import nominal_fps
 
 RANGE_HELP = (
     "0-based frames A:B (B excluded; A: and :B leave an end open) or seconds 1.5s:4.0s "
@@ -175,6 +176,7 @@ def edit_cmd(
         return
     done = ", ".join(s["edit"] for s in res.steps) or "no edit (a copy)"
     click.echo(
-        f"wrote {out} ({m.num_frames} frames at {m.fps:.6g} fps, {m.num_joints} joints; "
+        f"wrote {out} ({m.num_frames} frames at {nominal_fps(m.frame_time):.6g} fps, "
+        f"{m.num_joints} joints; "
         f"{done}) and {side}"
     )

@@ -33,7 +33,7 @@ from mocapkit.convert import FOLDER_FORMATS, ConvertedMany, ItemResult, convert_
 from mocapkit.io import MocapFileError
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 from mocapkit.jsonio import NonFiniteWarning
-from mocapkit.summary import summarize_file
+from mocapkit.summary import nominal_fps, summarize_file
 
 
 # --------------------------------------------------------------------------------------- info
@@ -359,7 +359,8 @@ def convert(
     check_outputs([(out, WRITABLE)], [p for p in (src, asf) if p is not None])
     with naming(src, asf), all_or_nothing():
         res = convert_file(src, out, asf=asf, **options)
-    click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {res.motion.fps:.6g} fps)")
+    fps = nominal_fps(res.motion.frame_time)  # as info shows it (30, not 30.0003)
+    click.echo(f"wrote {res.output} ({res.motion.num_frames} frames at {fps:.6g} fps)")
 
 
 def _subfolder(source: Path, inputs: Sequence[str]) -> str:
