@@ -36,6 +36,12 @@ def test_single_positions_are_one_frame_ranges() -> None:
     assert parse_frame("7", 30.0, None) == 7
     # a time that should sit on a frame at a non-integer rate still lands on it
     assert parse_frame("1.001s", 1 / 0.0333667, None) == 30
+    # a time within the last frame's span (the take lasts 10 s) is the last frame, not past it
+    # (newcomer report: --trim 6.49s: on a 6.5 s take said "frames 195:195 past the end")
+    assert parse_range("9.99s:", 30.0, 300) == (299, 300)
+    assert parse_frame("9.99s", 30.0, 300) == 299
+    with pytest.raises(RangeError, match="past the end"):
+        parse_frame("10s", 30.0, 300)
 
 
 @pytest.mark.parametrize(

@@ -107,6 +107,14 @@ class RangeSpec:
 
         Refused: a reversed or empty range, and ends past the take."""
         lo = 0 if self.start is None else self.start.frame(fps)
+        if (
+            num_frames is not None
+            and self.start is not None
+            and self.start.seconds
+            and lo == num_frames
+            and self.start.value * fps < num_frames
+        ):  # a time in the last frame's span (6.49 s of a 6.5 s take) rounds past it
+            lo = num_frames - 1
         if self.single:
             hi = lo + 1
         elif self.stop is None:
