@@ -620,3 +620,29 @@ def test_overflow_is_an_asfamc_error() -> None:
     text = "\n".join(fixed)
     with pytest.raises(ASFAMCError, match="overflow"):
         parse_amc(text, asf, scale=10.0)
+
+
+def test_a_truncated_last_frame_is_dropped_only_when_lenient() -> None:
+    """Newcomer report: --lenient did not read an AMC cut short in its last frame, and the
+    error did not say that it would."""
+    import warnings
+
+    from mocapkit.io import RepairWarning
+
+    asf = parse_asf(BASE_ASF, "t.asf")
+    cut = GOOD_AMC.rstrip("\n")
+    cut = cut[: cut.rindex(" ")]  # the last value of the last line gone
+    with pytest.raises(ASFAMCError, match="cut short: --lenient drops it"):
+        parse_amc(cut, asf, "cut.amc")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = parse_amc(cut, asf, "cut.amc", lenient=True)
+    full = parse_amc(GOOD_AMC, asf, "good.amc")
+    assert m.num_frames == full.num_frames - 1
+    np.testing.assert_array_equal(m.rotations, full.rotations[:-1])
+    assert any(issubclass(w.category, RepairWarning) and "incomplete last frame 3" in
+               str(w.message) for w in caught)  # fmt: skip
+    # an error before the last frame is no truncation: still an error
+    bad = GOOD_AMC.replace(LTIBIA, "ltibia abc", 1)
+    with pytest.raises(ASFAMCError, match="expected a number"):
+        parse_amc(bad, asf, "bad.amc", lenient=True)

@@ -100,7 +100,7 @@ def read_motion(
     if ext == ".amc":
         from mocapkit.io.asfamc import read_asfamc
 
-        return read_asfamc(Path(asf) if asf else find_asf(path), path, fps=fps)
+        return read_asfamc(Path(asf) if asf else find_asf(path), path, fps=fps, lenient=lenient)
     if ext in GLTF:
         return read_gltf(path)
     if ext == ".asf":  # a skeleton alone: its motions are the .amc files beside it

@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -62,7 +63,7 @@ import numpy as np
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import POSITION_CHANNELS, Skeleton
-from mocapkit.io.errors import ASFAMCError, decode_text, quote
+from mocapkit.io.errors import ASFAMCError, RepairWarning, decode_text, quote
 
 __all__ = [
     "AsfBone",
@@ -853,17 +854,48 @@ def _parse_amc_values(
     return values, nframes, unit
 
 
+def _amc_values(
+    data: bytes | str, asf: AsfSkeleton, source: str, lenient: bool
+) -> tuple[dict[str, np.ndarray], int, str | None]:
+    """:func:`_parse_amc_values`, and with ``lenient`` the file less its last frame where the
+    error lies in that frame (from its number line on): a truncated file."""
+    try:
+        return _parse_amc_values(data, asf, source)
+    except ASFAMCError as e:
+        if e.line is None:
+            raise
+        lines = _decode(data, source)
+        heads = [i for i, t in enumerate(lines, 1) if t.split("#", 1)[0].strip().isdecimal()]
+        if len(heads) < 2 or e.line < heads[-1]:
+            raise
+        if not lenient:  # the last frame is cut short: say what would read it
+            raise ASFAMCError(
+                e.source, e.line, f"{e.message} (the last frame is cut short: --lenient drops it)"
+            ) from None
+        values = _parse_amc_values("\n".join(lines[: heads[-1] - 1]), asf, source)
+        warnings.warn(
+            f"{source}:{e.line}: dropped the incomplete last frame "
+            f"{lines[heads[-1] - 1].strip()} ({e.message})",
+            RepairWarning,
+            stacklevel=3,
+        )
+        return values
+
+
 def parse_amc(
     data: bytes | str,
     asf: AsfSkeleton,
     source: str = "<string>",
     fps: float = 120.0,
     scale: float = 1.0,
+    lenient: bool = False,
 ) -> Motion:
     """Parse AMC text against a parsed ASF into a Motion (``frame_time = 1 / fps``).
 
     ``scale`` multiplies every length (offsets, translations): ``asf.metres_per_unit`` gives
-    metres by the CMU convention.
+    metres by the CMU convention. ``lenient``: a last frame cut short (a file truncated in
+    the middle of its last frame) is dropped with a :class:`~mocapkit.io.RepairWarning`;
+    anything else wrong is still an error.
     """
     fps = float(fps)
     if not math.isfinite(fps) or fps <= 0:
@@ -871,7 +903,7 @@ def parse_amc(
     scale = float(scale)
     if not math.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be a positive number, got {quote(scale)}")
-    values, F, unit = _parse_amc_values(data, asf, source)
+    values, F, unit = _amc_values(data, asf, source, lenient)
     to_rad = math.pi / 180.0 if (unit or asf.angle) == "deg" else 1.0
     skeleton = asf.to_skeleton(scale)
     names = skeleton.names
@@ -923,18 +955,28 @@ def parse_amc(
     return Motion(skeleton, rotations, root_positions, 1.0 / fps, translations)
 
 
-def read_amc(path: str | Path, asf: AsfSkeleton, fps: float = 120.0, scale: float = 1.0) -> Motion:
+def read_amc(
+    path: str | Path,
+    asf: AsfSkeleton,
+    fps: float = 120.0,
+    scale: float = 1.0,
+    lenient: bool = False,
+) -> Motion:
     """Read an AMC file for a parsed ASF (see :func:`parse_amc`)."""
     path = Path(path)
     try:
         data = path.read_bytes()
     except OSError as e:
         raise ASFAMCError(path, None, f"cannot read file: {e.strerror or e}") from None
-    return parse_amc(data, asf, str(path), fps=fps, scale=scale)
+    return parse_amc(data, asf, str(path), fps=fps, scale=scale, lenient=lenient)
 
 
 def read_asfamc(
-    asf_path: str | Path, amc_path: str | Path, fps: float = 120.0, scale: float = 1.0
+    asf_path: str | Path,
+    amc_path: str | Path,
+    fps: float = 120.0,
+    scale: float = 1.0,
+    lenient: bool = False,
 ) -> Motion:
     """Read an ASF skeleton and an AMC motion in one call (file units unless ``scale``)."""
-    return read_amc(amc_path, read_asf(asf_path), fps=fps, scale=scale)
+    return read_amc(amc_path, read_asf(asf_path), fps=fps, scale=scale, lenient=lenient)
