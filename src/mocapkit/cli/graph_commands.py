@@ -365,6 +365,16 @@ def report(graph_file, as_json):
                 f"{s['median']:.2f}, max {s['max']:.2f}); arc length mean "
                 f"{a['mean']:.2f} cm (median {a['median']:.2f}, max {a['max']:.2f})"
             )
+            # the few a walk should avoid (over 1 cm: a visible slide)
+            worst = [w for w in r.get("worst_skate") or [] if w["start_to_end_cm"] > 1.0][:5]
+            if worst:
+                click.echo("  transitions that skate over 1 cm, most first (start-to-end, cm):")
+            for w in worst:
+                click.echo(
+                    f"    {w['start_to_end_cm']:6.2f}  {w['src']} frame {w['src_frame']} -> "
+                    f"{w['dst']} frame {w['dst_frame']}"
+                    f"{'' if w['in_scc'] else '  (outside the component)'}"
+                )
     elif "foot_skate_error" in r:
         click.echo(f"  foot skate: clips not readable ({r['foot_skate_error']})")
     if rep.coverage:

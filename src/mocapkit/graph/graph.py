@@ -288,7 +288,7 @@ class MotionGraph:
         from mocapkit.graph.synth import load_clips
 
         nodes, _edges = self.scc()
-        skate = skate_scc = error = None
+        skate = skate_scc = error = worst = None
         try:
             clips = list(motions) if motions is not None else load_clips(self, base)
         except (OSError, ValueError) as e:
@@ -298,6 +298,7 @@ class MotionGraph:
                 sk = transition_skate(self, clips)
                 skate = sk.summary()
                 skate_scc = sk.subset(self.in_scc).summary()
+                worst = self._worst_skate(sk)
         return GraphReport(
             clips=len(self.clips),
             frames=int(sum(c.frames for c in self.clips)),
@@ -312,7 +313,29 @@ class MotionGraph:
             coverage=self.coverage().to_json(),
             foot_skate_scc=skate_scc,
             selection=self.stats.get("selection"),
+            worst_skate=worst,
         )
+
+    def _worst_skate(self, sk: Any, most: int = 10) -> list[dict[str, Any]]:
+        """The ``most`` supported transitions that skate most (start-to-end, cm), worst first:
+        a mean or median over hundreds hides the few a walk should avoid."""
+        v = np.where(sk.supported, sk.start_to_end, -np.inf)
+        out = []
+        for t in np.argsort(-v, kind="stable")[:most]:
+            if not np.isfinite(v[t]):
+                break
+            out.append(
+                {
+                    "src": self.clips[int(self.src_clip[t])].path,
+                    "src_frame": int(self.src_frame[t]),
+                    "dst": self.clips[int(self.dst_clip[t])].path,
+                    "dst_frame": int(self.dst_frame[t]),
+                    "in_scc": bool(self.in_scc[t]),
+                    "start_to_end_cm": float(sk.start_to_end[t]),
+                    "arc_length_cm": float(sk.arc_length[t]),
+                }
+            )
+        return out
 
     def save_graphml(self, path: str | Path) -> Path:
         """Write the (unpruned) graph as GraphML: nodes ``clip:frame`` with ``clip``, ``frame``,
@@ -524,6 +547,8 @@ class GraphReport:
     coverage: dict | None = None
     foot_skate_scc: dict | None = None
     selection: dict | None = None
+    worst_skate: list[dict] | None = None
+    """The transitions that skate most (:meth:`MotionGraph._worst_skate`), worst first."""
 
     @property
     def warning(self) -> str | None:
@@ -552,6 +577,7 @@ class GraphReport:
             "foot_skate_scc": self.foot_skate_scc,
             "coverage": self.coverage,
             "selection": self.selection,
+            "worst_skate": self.worst_skate,
         }
         if self.foot_skate_error is not None:
             out["foot_skate_error"] = self.foot_skate_error
