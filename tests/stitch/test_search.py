@@ -83,6 +83,13 @@ def test_search_with_landing_given_and_single_clip() -> None:
         search_features(Q, 8, clips, landing=29)
     with pytest.raises(ValueError, match="take-off frame 2"):
         search_features(Q, 2, clips)
+    # a range reaching before the first full take-off window searches the part that has one
+    # (newcomer report: --takeoff 0:10 was refused instead of searching 4..9)
+    with pytest.warns(UserWarning, match=r"searched 4\.\.9"):
+        part = search_features(Q, list(range(10)), clips, k_max=6)
+    assert part.takeoff == search_features(Q, list(range(4, 10)), clips, k_max=6).takeoff
+    with pytest.raises(ValueError, match="take-off frame 0"):
+        search_features(Q, [0, 1, 2], clips)
     with pytest.raises(ValueError, match="score"):
         search_features(Q, 8, clips, score="dtw")
 

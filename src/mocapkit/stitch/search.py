@@ -341,6 +341,17 @@ def check_takeoffs(takeoffs, n_query: int, w: int) -> list[int]:
     """The take-off frames of ``takeoffs`` (:func:`parse_takeoffs`), each with its full
     take-off window in a query of ``n_query`` frames."""
     takeoffs = parse_takeoffs(takeoffs)
+    ok = [a for a in takeoffs if w - 1 <= a < n_query]
+    if len(takeoffs) > 1 and ok and len(ok) < len(takeoffs):
+        # a range reaching past the frames with a full window: search the part that has one
+        import warnings
+
+        warnings.warn(
+            f"take-off frames {takeoffs[0]}..{takeoffs[-1]}: searched {ok[0]}..{ok[-1]}, the "
+            f"ones with a full take-off window (w = {w}) in the query's {n_query} frames",
+            stacklevel=2,
+        )
+        return ok
     for a in takeoffs:
         if not w - 1 <= a < n_query:
             raise ValueError(
