@@ -74,12 +74,12 @@ def extract_root_motion(motion: Motion, up: str | None = None, name: str = ROOT_
 
     On a ground-root rig that root is joint 0, moved onto the path
     (:func:`mocapkit.features.ground_root_on_path`). On any other rig a new joint 0 called
-    ``name`` (``Root``, or ``Root_1``... where a name taken in any case, CMU's ``root``) is
-    added above the old root, with position and rotation channels: in every frame it stands at
-    the pelvis' ground projection, at the floor's height (the 5th percentile of the lowest foot
-    joint's height over the take; 0 without feet), turned to the body's heading; the old root
-    hangs below it with the remaining (body-relative) motion. This is the layout game engines
-    read root motion from. FK of every original joint is unchanged.
+    ``name`` (``Root``, or ``Root_1``... where taken) is added above the old root, with position
+    and rotation channels: in every frame it stands at the pelvis' ground projection, at the
+    floor's height (the 5th percentile of the lowest foot joint's height over the take; 0 without
+    feet), turned to the body's heading; the old root hangs below it with the remaining
+    (body-relative) motion. This is the layout game engines read root motion from. FK of every
+    original joint is unchanged.
     """
     body = body_of(motion)
     up = up or body.up
@@ -98,10 +98,9 @@ def extract_root_motion(motion: Motion, up: str | None = None, name: str = ROOT_
     root_rot[:, 1:] = np.sin(0.5 * theta)[:, None] * u
     inv = rot.quat_conj(root_rot)
 
-    # case-blind: CMU's "root" beside a new "Root" reads as one joint in tools that ignore case
-    taken = {n.lower() for n in sk.names}
+    taken = set(sk.names)
     new_name, k = name, 0
-    while new_name.lower() in taken:
+    while new_name in taken:
         k += 1
         new_name = f"{name}_{k}"
     old_ch = list(sk.channels[0])
