@@ -191,10 +191,8 @@ def resample(motion: Motion, fps: float) -> Motion:
     """The motion at another frame rate.
 
     The new ``frame_time`` is exactly ``1 / fps``. New frame ``i`` samples the source at time
-    ``t_i = i / fps`` (source frame ``k`` lies at ``k * frame_time``); a time past the last
-    source frame (within its frame's duration, when the rate goes up) continues the last
-    frame-to-frame step (it was clamped to the last frame, whose held copies made a loop hitch
-    at its end). The frame count is the whole number of new frames nearest to
+    ``t_i = i / fps`` (source frame ``k`` lies at ``k * frame_time``); times past the last
+    source frame are clamped to it. The frame count is the whole number of new frames nearest to
     the source duration ``num_frames * frame_time`` (so the duration is preserved within half a
     new frame, and an up-then-down round trip gives back the original count):
     ``n = max(1, floor(duration * fps + 0.5))``.
@@ -226,10 +224,10 @@ def resample(motion: Motion, fps: float) -> Motion:
     s = (np.arange(n) * new_ft) / motion.frame_time
     snap = np.rint(s)
     s = np.where(np.abs(s - snap) < 1e-9, snap, s)
-    s = np.clip(s, 0.0, F)  # the count keeps s under F: within the last frame's duration
-    i0 = np.minimum(np.floor(s).astype(np.int64), max(F - 2, 0))
+    s = np.clip(s, 0.0, F - 1)
+    i0 = np.floor(s).astype(np.int64)
     i1 = np.minimum(i0 + 1, F - 1)
-    a = np.where(i1 > i0, s - i0, 0.0)  # > 1 past the last frame: its step continued
+    a = s - i0
     exact = a == 0.0
     q = rot.quat_unroll(motion.rotations, axis=0)
     rots = rot.quat_slerp(q[i0], q[i1], np.broadcast_to(a[:, None], (n, sk.num_joints)))
