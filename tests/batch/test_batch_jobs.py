@@ -412,3 +412,47 @@ def test_workers_reuse_freed_memory(local_runner, scheduler_address):
                 "65536"
             }  # what the nanny set
             assert max(runner.map(_page_faults, [0, 1, 2, 3])) < 5_000
+
+
+def test_tasks_run_in_the_clients_folder_one_folder_at_a_time(tmp_path, monkeypatch):
+    """The worker-side guard of the folder: a task wanting a folder the worker lacks waits for
+    tasks in another folder and runs in the worker's own; a worker whose own folder vanished
+    does not hang (review of the first version)."""
+    import threading
+    import time
+
+    from mocapkit.batch.runner import _ClientFolder
+
+    cf = _ClientFolder()
+    a, home = tmp_path / "a", tmp_path / "home"
+    a.mkdir()
+    home.mkdir()
+    monkeypatch.chdir(home)
+    seen: dict[str, str] = {}
+
+    def task(name: str, folder: str, hold: float) -> None:
+        with cf.inside(folder):
+            seen[name] = os.getcwd()
+            time.sleep(hold)
+
+    t1 = threading.Thread(target=task, args=("a", str(a), 0.3))
+    t1.start()
+    time.sleep(0.05)
+    t2 = threading.Thread(target=task, args=("missing", str(tmp_path / "nope"), 0.0))
+    t2.start()
+    t1.join(5)
+    t2.join(5)
+    assert seen == {"a": str(a), "missing": str(home)} and os.getcwd() == str(home)
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    t3 = threading.Thread(target=task, args=("b", str(a), 0.2))
+    t3.start()
+    time.sleep(0.05)
+    gone.rmdir()
+    t4 = threading.Thread(target=task, args=("c", str(home), 0.0))
+    t4.start()
+    t3.join(5)
+    t4.join(5)
+    assert not t3.is_alive() and not t4.is_alive() and seen["c"] == str(home)
+    os.chdir(home)

@@ -81,29 +81,32 @@ class _ClientFolder:
     and wrote ``/fixed/...``). The working folder belongs to the whole worker process: tasks
     wanting one folder run together, a task wanting another waits until they are done, and
     the worker's own folder comes back after. A worker that has no such folder (another
-    machine) runs the task where it is."""
+    machine) runs the task in its own folder, also waiting for tasks in another one."""
 
     def __init__(self) -> None:
         import threading
 
         self._cond = threading.Condition()
-        self._folder: str | None = None
+        self._folder: str | None = None  # the folder the running tasks want (None: own)
         self._users = 0
-        self._home = ""
+        self._home: str | None = None
 
     @contextlib.contextmanager
     def inside(self, folder: str | None) -> Iterator[None]:
-        if not folder or not os.path.isdir(folder):
-            yield
-            return
+        want = folder if folder and os.path.isdir(folder) else None
         with self._cond:
-            while self._users and self._folder != folder:
+            while self._users and self._folder != want:
                 self._cond.wait()
             if not self._users:
-                self._home = os.getcwd()
-                if os.path.realpath(self._home) != os.path.realpath(folder):
-                    os.chdir(folder)
-                self._folder = folder
+                try:
+                    self._home = os.getcwd()
+                except OSError:  # the worker's own folder is gone: nothing to come back to
+                    self._home = None
+                if want is not None and (
+                    self._home is None or os.path.realpath(self._home) != os.path.realpath(want)
+                ):
+                    os.chdir(want)
+                self._folder = want
             self._users += 1
         try:
             yield
@@ -111,8 +114,11 @@ class _ClientFolder:
             with self._cond:
                 self._users -= 1
                 if not self._users:
-                    if os.getcwd() != self._home:
-                        os.chdir(self._home)
+                    try:
+                        if self._home is not None and os.getcwd() != self._home:
+                            os.chdir(self._home)
+                    except OSError:  # gone meanwhile: stay; the next task sets its own
+                        pass
                     self._folder = None
                     self._cond.notify_all()
 
