@@ -160,6 +160,10 @@ def test_map_overrides_and_errors(pair):
     kept = retarget(cmu[:60], ban, joint_map={"UpperLeg_L": None}).motion.rotations[:, thigh]
     assert np.degrees(rot.quat_angle(auto, auto[:1])).max() > 10.0
     assert np.degrees(rot.quat_angle(kept, kept[:1])).max() < 1e-6
+    # nulling a joint the map leaves out anyway (the ground root) changes nothing, foot lock
+    # included (review: the lock was dropped for any nulled ancestor of a foot)
+    same = retarget(cmu[:60], ban, joint_map={"joint_Root": None}).motion
+    np.testing.assert_array_equal(same.rotations, retarget(cmu[:60], ban).motion.rotations)
     with pytest.raises(ValueError, match="'Nope' is not in the target"):
         retarget(cmu[:30], ban, joint_map={"Nope": "root"})
 

@@ -658,6 +658,14 @@ def _aim_spine(
     return G
 
 
+def _leg_of(body: Body, key: str, foot: int) -> set[int]:
+    """The joints of the leg above ``foot`` (body part ``key``, e.g. ``left_toe``), hip to
+    foot: those a foot lock turns (not the pelvis or a ground root above it)."""
+    hip = body.joint(f"{key.split('_')[0]}_hip")
+    path = None if hip is None else _path_down(body.skeleton, hip, foot)
+    return {foot, *(path or [])}
+
+
 def _path_down(sk: Any, top: int, bottom: int) -> list[int] | None:
     """Joints from ``top`` down to ``bottom``'s parent (``top`` included), or None when
     ``top`` is not an ancestor of ``bottom``."""
@@ -993,7 +1001,7 @@ def retarget(
     for k, js in enumerate(contacts.joints):
         key = keyS.get(js)
         jt = bT.joint(key) if key else None
-        if jt is None or jt in featT or held & {jt, *target.skeleton.ancestors(jt)}:
+        if jt is None or jt in featT or held & _leg_of(bT, key, jt):
             continue  # (a leg the map left unmapped is not locked either)
         featT.append(jt)
         cols.append(contacts.contacts[:, k])
