@@ -646,3 +646,20 @@ def test_a_truncated_last_frame_is_dropped_only_when_lenient() -> None:
     bad = GOOD_AMC.replace(LTIBIA, "ltibia abc", 1)
     with pytest.raises(ASFAMCError, match="expected a number"):
         parse_amc(bad, asf, "bad.amc", lenient=True)
+
+
+def test_an_error_in_the_last_frame_that_is_no_truncation_stays_an_error() -> None:
+    """Review: a NaN or a misnumbered last frame was dropped as 'incomplete' with --lenient."""
+    asf = parse_asf(BASE_ASF, "t.asf")
+    last = GOOD_AMC.rstrip("\n").split("\n")
+    nan = "\n".join([*last[:-1], last[-1].split()[0] + " nan" * (len(last[-1].split()) - 1)])
+    with pytest.raises(ASFAMCError, match="only finite") as e:
+        parse_amc(nan, asf, "nan.amc", lenient=True)
+    assert "cut short" not in str(e.value)
+    renumbered = GOOD_AMC.replace("\n3\n", "\n5\n")
+    with pytest.raises(ASFAMCError, match="numbered consecutively"):
+        parse_amc(renumbered, asf, "n.amc", lenient=True)
+    # the last frame's bone lines missing altogether is a truncation
+    i = GOOD_AMC.index("\n3\n")
+    cut = GOOD_AMC[: i + 3] + GOOD_AMC[i + 3 :].split("\n", 2)[0]
+    assert parse_amc(cut, asf, "cut.amc", lenient=True).num_frames == 2
