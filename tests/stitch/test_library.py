@@ -98,3 +98,17 @@ def test_a_library_at_another_rate_is_named_in_its_own_frames(lib, tmp_path):
     # a time lands at that time in every file
     at = stitch_library(q, "30", fast, "0.4s")
     assert at.to_json()["landing"] == 24 and at.transition.landing == 12
+    # a rate that is no multiple: a frame of the file between frames of the search is moved to
+    # the nearest one, with a warning; no reported frame lies past the file (review)
+    odd = []
+    for p in paths[:3]:
+        f = tmp_path / f"{p.stem}_45.bvh"
+        write_motion(resample(read_motion(p), 45), f)
+        odd.append(f)
+    with pytest.warns(UserWarning, match="landing frame 10 of .* landed on its frame 11"):
+        moved = stitch_library(q, "30", odd, 10)
+    assert moved.to_json()["landing"] == 11
+    for res, files in ((got, fast), (moved, odd)):
+        seg = res.provenance("out.bvh").segments[-1]
+        n = read_motion(files[res.transition.clip]).num_frames
+        assert 0 <= seg.source_start < seg.source_stop <= n

@@ -89,7 +89,7 @@ def file_to_query_frame(frame: int, file_fps: float, query_fps: float) -> int:
     the search works on)."""
     if math.isclose(file_fps, query_fps, rel_tol=1e-6):
         return int(frame)
-    return round(frame * query_fps / file_fps)
+    return math.floor(frame * query_fps / file_fps + 0.5)
 
 
 def _clip_features(path: str, s: _Search) -> tuple[np.ndarray, int | None]:
@@ -247,7 +247,7 @@ def stitch_library(
         query, tr, chosen, method=method, window=window, model=model, align=align, up=up,
         joints=joints, blend_seconds=blend_seconds,
     )  # fmt: skip
-    return replace(
+    out = replace(
         res,
         transition=tr,
         up=up,
@@ -258,4 +258,16 @@ def stitch_library(
         output=None if output is None else str(output),
         skipped=tuple(skipped),
         data_fps=None if math.isclose(data.fps, query.fps, rel_tol=1e-6) else float(data.fps),
+        data_frames=data.num_frames,
     )
+    asked = None if landing is None or not landing.text.strip().isdigit() else int(landing.text)
+    if asked is not None and out.data_frame(out.landing) != asked:
+        import warnings
+
+        warnings.warn(
+            f"landing frame {asked} of {paths[ci]} ({data.fps:g} fps) is no frame of it at the "
+            f"query's {query.fps:g} fps, at which the search runs: landed on its frame "
+            f"{out.data_frame(out.landing)}, the nearest",
+            stacklevel=2,
+        )
+    return out

@@ -38,6 +38,7 @@ position and translations are interpolated linearly in both).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -123,13 +124,16 @@ class Stitched:
     output: str | None = None
     skipped: tuple[tuple[str, str], ...] = ()
     data_fps: float | None = None
+    data_frames: int | None = None
 
     def data_frame(self, frame: int) -> int:
         """A frame of the data clip as the search saw it (at the query's rate) as a frame of
-        its file (:attr:`data_fps`: the file's rate where it differs and was resampled)."""
+        its file (:attr:`data_fps`: the file's rate where it differs and was resampled; its
+        :attr:`data_frames` bound the result)."""
         if self.data_fps is None:
             return int(frame)
-        return round(frame * self.data_fps / self.motion.fps)
+        f = math.floor(frame * self.data_fps / self.motion.fps + 0.5)
+        return min(f, self.data_frames) if self.data_frames is not None else f
 
     def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
         """The stitch as a provenance sidecar (:mod:`mocapkit.provenance`): the query's frames,
@@ -415,7 +419,10 @@ def stitch(
     (:func:`interpolate_gap` over k frames). k is searched up to ``max_inject_seconds``, or up
     to ``k_max`` frames when given; ``inject`` forces k (that many generated frames, for a user
     who knows how long the transition should be). ``query_name``, ``data_names`` (default
-    "data0", ...) and ``output`` label the result's :meth:`Stitched.to_json`.
+    "data0", ...) and ``output`` label the result's :meth:`Stitched.to_json`. Data motions at
+    another rate are resampled to the query's, and ``landing`` and the frames reported are of
+    those resampled motions (:func:`mocapkit.stitch.library.stitch_library`, which reads files,
+    takes and reports the files' own frames).
     """
     from mocapkit.features import detect_up_axis
 
