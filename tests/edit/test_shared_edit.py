@@ -113,6 +113,14 @@ def test_corpus_edits(path, shared_path, tmp_path) -> None:
         assert "no counterpart" in str(e) and "\n" not in str(e)
     else:
         assert err < 1e-9 and back < 1e-9
+        # the character faces the way it did (Z-up takes facing Y were turned round)
+        from mocapkit.features import facing_directions
+
+        up = body_of(m).up
+        f0 = facing_directions(m, up).mean(axis=0)
+        f1 = facing_directions(mirror(m).motion, up).mean(axis=0)
+        tie = abs(abs(f0[0]) - abs(f0[1] if up[-1] == "Z" else f0[2])) < 0.2
+        assert tie or f0 @ f1 >= 0.0
     body = body_of(m)
     _, u, _ = ground_frame(body.up)
     ip = read_motion(write_motion(in_place(m), tmp_path / "ip.bvh"))

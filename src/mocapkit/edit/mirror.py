@@ -5,7 +5,8 @@ origin spanned by the up axis (the body model's, measured on the poses) and the 
 nearer the character's mean facing (:func:`mocapkit.features.facing_directions`), so that the
 character keeps facing and travelling the way it did: X -> -X for a character facing Z, Y -> -Y
 for one facing X. (A fixed plane turned Z-up characters that face Y round, their travel
-reversed.) The mirrored take faces the same axis, so mirroring twice uses the same plane.
+reversed.) The mirrored take faces the same axis, so mirroring twice uses the same plane. (A
+take facing about 45 deg between the axes gets one plane or the other.)
 Each joint ``j`` and its counterpart ``s(j)`` (:func:`mirror_pairs`) trade places, so that,
 exactly, ``P'[s(j)] = M_w P[j]`` for every joint position and End Site.
 
@@ -305,7 +306,9 @@ def mirror(motion: Motion, up: str | None = None) -> Mirrored:
     out = Motion(new_sk, rots, root, motion.frame_time, translations)
     if motion.num_frames:
         facing = facing_directions(motion, up).mean(axis=0)
-        if abs(facing @ side) > abs(facing @ fwd):
+        # a margin: at a tie (facing 45 deg) the mirrored take, whose facing is reflected,
+        # must choose the same plane, or mirroring twice is not the identity
+        if abs(facing @ side) > abs(facing @ fwd) + 1e-9:
             # a character facing the side axis: the plane holding it is the other one, whose
             # mirror is this one's followed by a half turn about up (they commute: twice is
             # still the identity, and the rig's joint mirrors B are the same)
