@@ -113,6 +113,7 @@ class RangeSpec:
             and self.start.seconds
             and lo == num_frames
             and self.start.value * fps < num_frames
+            and (self.single or self.stop is None or self.stop.frame(fps) > lo)
         ):  # a time in the last frame's span (6.49 s of a 6.5 s take) rounds past it
             lo = num_frames - 1
         if self.single:
