@@ -42,7 +42,7 @@ def test_single_positions_are_one_frame_ranges() -> None:
     assert parse_frame("9.99s", 30.0, 300) == 299
     with pytest.raises(RangeError, match="past the end"):
         parse_frame("10s", 30.0, 300)
-    with pytest.raises(RangeError, match="past the end|empty"):  # stays empty (review)
+    with pytest.raises(RangeError, match=r"past the end|empty"):  # stays empty (review)
         parse_range("9.99s:9.99s", 30.0, 300)
 
 

@@ -445,7 +445,8 @@ def test_cli_lists_as_many_averaged_segments_as_it_says(files, monkeypatch):
 
     monkeypatch.setattr(mod, "inbetween", light_tail)  # the command imports it when run
     code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
-                       files / "lib", "--method", "library", "--out", files / "avg.bvh")  # fmt: skip
+                       files / "lib", "--method", "library", "--out",
+                       files / "avg.bvh")  # fmt: skip
     assert code == 0, se
     import re
 

@@ -871,8 +871,10 @@ def _amc_values(
         # else wrong there (a NaN, a misnumbered frame) is an error like any other
         missing = e.line == heads[-1] if heads else False
         short = e.line == filled[-1] and bool(re.search(r"has \d+ values; expected", e.message))
-        if len(heads) < 2 or e.line < heads[-1] or not (
-            (missing and "has no line for" in e.message) or short
+        if (
+            len(heads) < 2
+            or e.line < heads[-1]
+            or not ((missing and "has no line for" in e.message) or short)
         ):
             raise
         if not lenient:  # the last frame is cut short: say what would read it
