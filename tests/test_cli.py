@@ -413,6 +413,7 @@ def test_a_reader_that_goes_away_is_no_error(monkeypatch):
 
     quieted = []
     monkeypatch.setattr(common, "_quiet_stdout", lambda: quieted.append(True))  # keep pytest's fd
+    monkeypatch.setattr(common, "_stdout_broken", lambda: True)
 
     @friendly_errors
     def writes_to_a_closed_pipe() -> None:
@@ -421,3 +422,7 @@ def test_a_reader_that_goes_away_is_no_error(monkeypatch):
     with pytest.raises(click.exceptions.Exit) as e:
         writes_to_a_closed_pipe()
     assert e.value.exit_code == 1 and quieted
+    # a broken pipe that is not standard output's (a socket) is an error line
+    monkeypatch.setattr(common, "_stdout_broken", lambda: False)
+    with pytest.raises(click.ClickException, match="Broken pipe"):
+        writes_to_a_closed_pipe()

@@ -108,7 +108,9 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
                 raise
             except MocapFileError as e:
                 raise CLIError(one_line(e)) from None
-            except BrokenPipeError:  # `mocapkit ... | head`: the reader has gone; say nothing
+            except BrokenPipeError as e:  # `mocapkit ... | head`: the reader has gone
+                if not _stdout_broken():  # another pipe (a socket): an error like any other
+                    raise CLIError(one_line(os_error_line(e))) from None
                 _quiet_stdout()
                 raise click.exceptions.Exit(1) from None
             except OSError as e:
@@ -119,6 +121,18 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             return result
 
     return wrapper
+
+
+def _stdout_broken() -> bool:
+    """Whether standard output is a pipe whose reader has gone (poll reports an error on it)."""
+    import select
+
+    try:
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poll.poll(0))
+    except (OSError, ValueError, AttributeError):  # no poll, or no real descriptor
+        return False
 
 
 def _quiet_stdout() -> None:
