@@ -119,6 +119,26 @@ def test_graph_overlay_reads_the_synth_plan(tmp_path):
     assert d["graph"]["transitions"][0]["frame"] == 50
 
 
+def test_view_marks_a_stitch_from_its_sidecar(tmp_path):
+    """`mocapkit view OUT.bvh` of a stitch marked nothing unless the stitch JSON was given too;
+    the sidecar holds the take-off, the generated frames and the data file's landing."""
+    from mocapkit.stitch.library import stitch_library
+
+    paths = []
+    for n, kind in enumerate(("walk", "run")):
+        m = datasets.procedural_motion(kind, seconds=2.0, seed=40 + n).motion
+        paths.append(write_motion(m, tmp_path / f"{kind}.bvh"))
+    q = datasets.procedural_motion("walk", seconds=2.0, seed=7).motion
+    res = stitch_library(q, "30", paths)
+    out = write_motion(res.motion, tmp_path / "st.bvh")
+    res.provenance(str(out)).write(out)
+    d = page_json(view_files([out], tmp_path / "v.html").read_text())
+    st = d["stitch"]
+    assert st["generated"] == [res.generated.start, res.generated.stop]
+    assert st["landing"] == res.landing_index and st["takeoff"] == res.takeoff
+    assert st["landingData"] == res.to_json()["landing"] and st["k"] == res.k
+
+
 def test_view_cli_writes_a_page_and_reports_bad_input(tmp_path):
     walk = datasets.procedural_motion("walk", seconds=1.0, seed=0).motion
     bvh = write_motion(walk, tmp_path / "walk.bvh")

@@ -329,6 +329,39 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
     }
 
 
+def sidecar_stitch_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
+    """The stitch overlay of a motion ``mocapkit stitch`` wrote, read from its provenance
+    sidecar when no stitch result is given: the take-off, the generated frames and the landing
+    (output frames), and the data clip's landing frame (its file's own)."""
+    idx = next(
+        (i for i, vm in enumerate(motions) if vm.provenance and vm.provenance.tool == "stitch"),
+        None,
+    )
+    if idx is None:
+        return None
+    plan = motions[idx].provenance
+    assert plan is not None
+    if not plan.transitions:
+        return None
+    tr = plan.transitions[0]
+    a = tr.output_frame  # the first generated (or blended) frame
+    tail = [s for s in plan.segments if s.kind == "clip" and s.output_start >= a]
+    b = tail[0].output_start if tail else a
+    return {
+        "motion": idx,
+        "takeoff": a - 1,
+        "generated": [a, b],
+        "landing": b,
+        "landingData": tr.target_frame,
+        "k": int(plan.parameters.get("k", b - a)),
+        "lscore": tr.cost,
+        "lscoreByK": [],
+        "query": tr.source,
+        "data": tr.target,
+        "method": plan.parameters.get("method"),
+    }
+
+
 def _junction_sum(transitions) -> float | None:
     """The sum of the transitions' costs, None unless every one has a finite cost."""
     costs = [t.cost for t in transitions]
@@ -430,7 +463,9 @@ def page_data(
         **{k: _shared(recs, k) for k in ("up", "units", "unitsSource", "metresPerUnit")},
         "motions": recs,
         "clean": clean_overlay(motions, clean_report, mdm),
-        "stitch": stitch_overlay(motions, stitch) or inbetween_overlay(motions),
+        "stitch": stitch_overlay(motions, stitch)
+        or inbetween_overlay(motions)
+        or sidecar_stitch_overlay(motions),
         "graph": graph_overlay(motions, graph),
     }
 
