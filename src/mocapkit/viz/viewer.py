@@ -254,6 +254,14 @@ def clean_overlay(
     return rec
 
 
+def _first_made_by(motions: Sequence[ViewMotion], tool: str) -> tuple[int, Provenance] | None:
+    """The index and provenance sidecar of the first motion ``tool`` wrote, or None."""
+    for i, vm in enumerate(motions):
+        if vm.provenance is not None and vm.provenance.tool == tool:
+            return i, vm.provenance
+    return None
+
+
 def stitch_overlay(motions: Sequence[ViewMotion], result: dict[str, Any] | None):
     """The stitch overlay: take-off, generated (injected) and landing output frames, L_k(k)."""
     if result is None:
@@ -286,14 +294,10 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
     """The in-betweening overlay, read from the provenance sidecar ``mocapkit inbetween`` writes
     (:mod:`mocapkit.provenance`): drawn like a stitch (the filled frames yellow, the last context
     frame and the first frame after the gap marked), with the library clip and frames used."""
-    idx = next(
-        (i for i, vm in enumerate(motions) if vm.provenance and vm.provenance.tool == "inbetween"),
-        None,
-    )
-    if idx is None:
+    found = _first_made_by(motions, "inbetween")
+    if found is None:
         return None
-    plan = motions[idx].provenance
-    assert plan is not None
+    idx, plan = found
     mid = next((s for s in plan.segments if s.kind in ("inbetween", "generated")), None)
     if mid is None:
         return None
@@ -333,14 +337,10 @@ def sidecar_stitch_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | No
     """The stitch overlay of a motion ``mocapkit stitch`` wrote, read from its provenance
     sidecar when no stitch result is given: the take-off, the generated frames and the landing
     (output frames), and the data clip's landing frame (its file's own)."""
-    idx = next(
-        (i for i, vm in enumerate(motions) if vm.provenance and vm.provenance.tool == "stitch"),
-        None,
-    )
-    if idx is None:
+    found = _first_made_by(motions, "stitch")
+    if found is None:
         return None
-    plan = motions[idx].provenance
-    assert plan is not None
+    idx, plan = found
     if not plan.transitions:
         return None
     tr = plan.transitions[0]
@@ -377,18 +377,10 @@ def graph_overlay(
     (the provenance sidecar ``graph synth`` writes, :mod:`mocapkit.provenance`): the output frame
     where each blend starts and ends, the source and target clips and frames, and the cost.
     ``graph`` (the graph JSON, optional) only adds how many transitions the graph has."""
-    idx = next(
-        (
-            i
-            for i, vm in enumerate(motions)
-            if vm.provenance and vm.provenance.tool == "graph synth"
-        ),
-        None,
-    )
-    if idx is None:
+    found = _first_made_by(motions, "graph synth")
+    if found is None:
         return None
-    plan = motions[idx].provenance
-    assert plan is not None
+    idx, plan = found
     names = [Path(p).name for p in plan.inputs]
     ends = {s.output_start: s.output_stop for s in plan.segments if s.kind == "transition"}
     trans = []
