@@ -112,3 +112,12 @@ def test_a_library_at_another_rate_is_named_in_its_own_frames(lib, tmp_path):
         seg = res.provenance("out.bvh").segments[-1]
         n = read_motion(files[res.transition.clip]).num_frames
         assert 0 <= seg.source_start < seg.source_stop <= n
+    # stitch() on motions in memory names their own frames too, as stitch_library does with
+    # files (review: the two entry points disagreed)
+    mem = [read_motion(f) for f in fast]
+    direct = stitch(q, "30", mem, js["landing"], data_names=[str(f) for f in fast])
+    assert direct.to_json()["landing"] == js["landing"] and direct.data_fps == 60
+    assert direct.transition.landing == got.transition.landing
+    assert direct.provenance("o.bvh").segments[-1].source_stop <= mem[0].num_frames
+    with pytest.raises(ValueError, match="several frame rates"):
+        stitch(q, "30", [mem[0], read_motion(paths[0])], 24)

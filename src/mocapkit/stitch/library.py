@@ -261,13 +261,5 @@ def stitch_library(
         data_frames=data.num_frames,
     )
     asked = None if landing is None or not landing.text.strip().isdigit() else int(landing.text)
-    if asked is not None and out.data_frame(out.landing) != asked:
-        import warnings
-
-        warnings.warn(
-            f"landing frame {asked} of {paths[ci]} ({data.fps:g} fps) is no frame of it at the "
-            f"query's {query.fps:g} fps, at which the search runs: landed on its frame "
-            f"{out.data_frame(out.landing)}, the nearest",
-            stacklevel=2,
-        )
+    out.warn_if_landing_moved(asked)
     return out

@@ -135,6 +135,21 @@ class Stitched:
         f = math.floor(frame * self.data_fps / self.motion.fps + 0.5)
         return min(f, self.data_frames) if self.data_frames is not None else f
 
+    def warn_if_landing_moved(self, asked: int | None) -> None:
+        """Warn when the landing frame ``asked`` (of the data file) is no frame at the query's
+        rate, so that the search landed on the nearest one instead."""
+        if asked is None or self.data_frame(self.landing) == asked:
+            return
+        import warnings
+
+        name = self.data_names[self.transition.clip] if self.transition else "the data clip"
+        warnings.warn(
+            f"landing frame {asked} of {name} ({self.data_fps:g} fps) is no frame of it at the "
+            f"query's {self.motion.fps:g} fps, at which the search runs: landed on its frame "
+            f"{self.data_frame(self.landing)}, the nearest",
+            stacklevel=3,
+        )
+
     def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
         """The stitch as a provenance sidecar (:mod:`mocapkit.provenance`): the query's frames,
         the generated (or blended) frames, the data clip's frames from its landing frame, and
@@ -420,9 +435,9 @@ def stitch(
     to ``k_max`` frames when given; ``inject`` forces k (that many generated frames, for a user
     who knows how long the transition should be). ``query_name``, ``data_names`` (default
     "data0", ...) and ``output`` label the result's :meth:`Stitched.to_json`. Data motions at
-    another rate are resampled to the query's, and ``landing`` and the frames reported are of
-    those resampled motions (:func:`mocapkit.stitch.library.stitch_library`, which reads files,
-    takes and reports the files' own frames).
+    another rate are resampled to the query's for the search; ``landing`` and the frames the
+    result reports are the data motions' own (as :func:`mocapkit.stitch.library.stitch_library`
+    does with files), which with a ``landing`` must then share one rate.
     """
     from mocapkit.features import detect_up_axis
 
@@ -439,6 +454,17 @@ def stitch(
     for clip, name in zip(clips, names, strict=True):  # skeleton checks naming the clip's file
         conform(replace(clip[:1], frame_time=query.frame_time), query[:1], name)
     up = up or detect_up_axis(query)
+    asked = landing
+    if landing is not None and any(not _same_rate(c, query) for c in clips):
+        from mocapkit.stitch.library import file_to_query_frame
+
+        if len({round(c.fps, 6) for c in clips}) > 1:
+            raise ValueError(
+                f"landing {landing}: the data motions are at several frame rates "
+                f"({', '.join(sorted({f'{c.fps:g}' for c in clips}))} fps), so a frame number "
+                "names no one time; give them at one rate"
+            )
+        landing = file_to_query_frame(int(landing), clips[0].fps, query.fps)
     t0 = time.perf_counter()
     tr = find_transition(
         query,
@@ -464,7 +490,8 @@ def stitch(
         spec = int(takeoff)
     else:
         spec = parse_takeoffs(takeoff)
-    return replace(
+    chosen = clips[tr.clip]
+    out = replace(
         res,
         transition=tr,
         up=up,
@@ -473,7 +500,15 @@ def stitch(
         takeoff_spec=spec,
         search_seconds=search_seconds,
         output=None if output is None else str(output),
+        data_fps=None if _same_rate(chosen, query) else float(chosen.fps),
+        data_frames=chosen.num_frames,
     )
+    out.warn_if_landing_moved(asked)
+    return out
+
+
+def _same_rate(a: Motion, b: Motion) -> bool:
+    return math.isclose(a.fps, b.fps, rel_tol=1e-6)
 
 
 # --------------------------------------------------------------------------------- baselines
