@@ -74,6 +74,19 @@ def test_convert_resample_order_scale_npz(walk_bvh: Path, tmp_path: Path) -> Non
     assert read_motion(back).allclose(m)
 
 
+def test_convert_and_edit_name_the_rate_as_info_does(walk_bvh: Path, tmp_path: Path) -> None:
+    """A frame time written as 0.033333 (6 digits, as many tools write it) is 30 fps in `info`;
+    convert and edit said "30.0003 fps" (newcomer report)."""
+    from dataclasses import replace
+
+    m = replace(read_motion(walk_bvh), frame_time=0.033333)
+    src = write_motion(m, tmp_path / "b.bvh")
+    code, so, _ = run("convert", str(src), str(tmp_path / "b.npz"))
+    assert code == 0 and "at 30 fps" in so, so
+    code, so, _ = run("edit", str(src), str(tmp_path / "e.bvh"), "--trim", "0:30")
+    assert code == 0 and "at 30 fps" in so, so
+
+
 def test_convert_refuses_to_overwrite_input(walk_bvh: Path) -> None:
     before = walk_bvh.read_bytes()
     code, _, err = run("convert", str(walk_bvh), str(walk_bvh))
