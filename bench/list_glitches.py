@@ -1,4 +1,4 @@
-"""The second and third signals of the blind glitch list of the raw CMU takes
+"""The second, third and fourth signals of the blind glitch list of the raw CMU takes
 (tests/clean/fixtures).
 
 Runs ``find_excursions`` (bench/eval_clean.py: short out-and-back excursions of a joint off its
@@ -6,15 +6,18 @@ own running-median trajectory) on every raw CMU take and lists its events that d
 step-signal entry (same take and joint, overlapping frames) as ``"signal": "excursion"``
 entries; and ``find_holds`` (dropouts: a joint's rotation repeated exactly for 50 ms or more)
 as ``"signal": "hold"`` entries, all of them (a hold names the held frames, which the step
-signal's entry for the jump out of a dropout does not). The motion data and those signals
-only: nothing of mocapkit.clean is run, and no evaluation output is read. An event already
-listed by an earlier run of this script keeps its eye verdict (``inspected``, ``glitch``,
-``seen``); a new one is listed as not inspected, and events starting in the first 20 s of
-their take must then be judged by eye before the list is committed
-(tests/clean/test_glitch_list.py checks it).
+signal's entry for the jump out of a dropout does not); and ``find_jitter`` (a joint rough
+off its own 10 Hz path, 2 deg RMS or more) as ``"signal": "jitter"`` entries, all of them (a
+jitter entry names the whole rough stretch around the pops the other signals list). The
+motion data and those signals only: nothing of mocapkit.clean is run, and no evaluation
+output is read. An event already listed by an earlier run of this script keeps its eye
+verdict (``inspected``, ``glitch``, ``seen``); a new one is listed as not inspected, and
+events starting in the first 20 s of their take (for the jitter signal, of the takes
+bench/eval_clean.py analyses: ``EVAL_TAKES``) must then be judged by eye before the list is
+committed (tests/clean/test_glitch_list.py checks it).
 
     PYTHONPATH=src .venv/bin/python bench/list_glitches.py           # counts only
-    PYTHONPATH=src .venv/bin/python bench/list_glitches.py --write   # rewrite the excursion entries
+    PYTHONPATH=src .venv/bin/python bench/list_glitches.py --write   # rewrite their entries
 """
 
 from __future__ import annotations
@@ -33,6 +36,10 @@ SHARED = Path(os.environ.get("MOCAPKIT_SHARED", ROOT.parent / "shared")) / "data
 FIXTURE = ROOT / "tests" / "clean" / "fixtures" / "cmu_glitches.json"
 EARLY_FRAMES = 2400  # the first 20 s at 120 fps: the part bench/eval_clean.py analyses
 NOT_INSPECTED = "not inspected: listed by the signal alone"
+# the CMU takes bench/eval_clean.py analyses (four per class, spread over those of 5 s or more):
+# the jitter signal lists ~2,000 events in the first 20 s of all takes; these six were judged
+EVAL_TAKES = ("01_01", "01_05", "01_10", "01_14", "03_03", "03_04")
+SIGNALS = {"excursion": "find_excursions", "hold": "find_holds", "jitter": "find_jitter"}
 
 
 def _eval_clean():
@@ -52,9 +59,10 @@ def overlaps(e: dict, g: dict) -> bool:
 
 def signal_entries(doc: dict, takes: list[str], signal: str) -> list[dict]:
     """The entries of ``signal`` ("excursion": ``find_excursions``, not overlapping a
-    step-signal entry; "hold": ``find_holds``, all) for the CMU takes at ``takes`` (paths),
-    with the measure the signal reports, eye verdicts carried over from ``doc``."""
-    find = getattr(_eval_clean(), {"excursion": "find_excursions", "hold": "find_holds"}[signal])
+    step-signal entry; "hold": ``find_holds`` and "jitter": ``find_jitter``, all) for the CMU
+    takes at ``takes`` (paths), with the measure the signal reports, eye verdicts carried over
+    from ``doc``."""
+    find = getattr(_eval_clean(), SIGNALS[signal])
     step = [g for g in doc["glitches"] if "signal" not in g]
     known = {
         (g["take"], g["joint"], tuple(g["frames"])): g
@@ -79,31 +87,36 @@ def signal_entries(doc: dict, takes: list[str], signal: str) -> list[dict]:
     return out
 
 
+def must_judge(g: dict) -> bool:
+    """Whether an entry must carry an eye verdict: it starts in the first 20 s of its take
+    (of a take bench/eval_clean.py analyses, for the jitter signal)."""
+    early = g["frames"][0] < EARLY_FRAMES
+    return early and (g.get("signal") != "jitter" or g["take"] in EVAL_TAKES)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument(
-        "--write", action="store_true", help="rewrite the excursion and hold entries of the list"
-    )
+    ap.add_argument("--write", action="store_true", help="rewrite the entries of the later signals")
     args = ap.parse_args()
     doc = json.loads(FIXTURE.read_text())
     d = SHARED / "cmu-asfamc"
     takes = sorted(glob.glob(str(d / "01" / "*.amc"))) + sorted(glob.glob(str(d / "03" / "*.amc")))
-    new = signal_entries(doc, takes, "excursion")
-    holds = signal_entries(doc, takes, "hold")
-    for name, entries in (("excursion", new), ("hold", holds)):
+    found = {name: signal_entries(doc, takes, name) for name in SIGNALS}
+    for name, entries in found.items():
         for take in sorted({g["take"] for g in entries}):
             ev = [g for g in entries if g["take"] == take]
-            early = [g for g in ev if g["frames"][0] < EARLY_FRAMES]
+            early = [g for g in ev if must_judge(g)]
             print(
                 f"{name} {take}: {len(ev)} events, {len(early)} in the first 20 s, "
                 f"{sum(g['inspected'] for g in early)} inspected, "
                 f"{sum(g['inspected'] and not g['glitch'] for g in ev)} rejected"
             )
-        todo = [g for g in entries if g["frames"][0] < EARLY_FRAMES and not g["inspected"]]
+        todo = [g for g in entries if must_judge(g) and not g["inspected"]]
         print(f"{len(entries)} {name} events; {len(todo)} early ones still to judge by eye")
-    new += holds
     if args.write:
-        doc["glitches"] = [g for g in doc["glitches"] if "signal" not in g] + new
+        doc["glitches"] = [g for g in doc["glitches"] if "signal" not in g] + [
+            g for name in SIGNALS for g in found[name]
+        ]
         FIXTURE.write_text(json.dumps(doc, indent=1))
         print(f"wrote {FIXTURE}")
     return 0

@@ -301,7 +301,9 @@ def frozen_cells(
                 max_recur, margin, tell,
             )  # fmt: skip
             if verdict[0] == "frozen":
-                out[a : b + 2, j] = True  # the run's frames, f ... f+1
+                # frames f+1 ... of the run's steps f ...: its first frame is the last value
+                # captured (the one held after it), genuine
+                out[a + 1 : b + 2, j] = True
     return out
 
 
