@@ -796,3 +796,48 @@ def test_the_foot_lock_leaves_a_fill_that_is_the_capture_itself(humanoid, shared
     for gap in ((60, 90), (3, 193)):
         res = inbetween(clip, gap, [clip], method="library", config=one)
         assert res.difference_to(clip) < 1e-6
+
+
+def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humanoid):
+    """A library person whose pelvis sits lower (knees bent more, feet on the same ground):
+    the fill's pelvis stays at the clip's level through the middle of the gap, and the feet
+    stay on the ground (the legs take up the change); with ``level_seconds=0`` the middle of
+    the gap sinks to the library's level."""
+    from dataclasses import replace
+
+    from mocapkit import ik
+    from mocapkit.features import character_height, pelvis_index
+
+    walk, _ = humanoid
+    drop = 0.025 * character_height(walk)
+    low = walk.copy()  # the same walk, pelvis lower and knees bent so the feet do not move
+    tr = low.local_translations()
+    pel = pelvis_index(walk.skeleton)
+    tr[:, pel, 1] -= drop
+    low.translations = tr
+    chains = list(ik.leg_chains(low))
+    effs = [e for c in chains for e in c.effectors]
+    low = ik.solve(low, chains, forward_kinematics(walk)[0][:, effs]).motion
+    P_low = forward_kinematics(low)[0]
+    T = forward_kinematics(walk)[0]
+    assert np.allclose(P_low[:, pel, 1], T[:, pel, 1] - drop)
+    assert np.abs(P_low[:, effs] - T[:, effs]).max() < 0.05 * drop  # feet where they were
+    a, b = 40, 70
+    mid = slice(a + 8, b - 8)  # past the end offsets' blend (0.25 s)
+    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1)
+    out = {}
+    for level in (0.5, 0.0):
+        res = inbetween(walk, (a, b), [low], up="Y", method="library",
+                        config=replace(config, level_seconds=level))  # fmt: skip
+        out[level] = forward_kinematics(res.motion)[0]
+    pelvis_err = {k: np.abs(P[mid, pel, 1] - T[mid, pel, 1]).max() for k, P in out.items()}
+    assert pelvis_err[0.5] < 0.1 * drop and pelvis_err[0.0] > 0.8 * drop
+    # the feet stay where the fill without the level puts them (moved with the pelvis, they
+    # would be ``drop`` off in the middle); there, on the segment's own frames, on the clip's
+    kept = np.abs(out[0.5][a:b][:, effs] - out[0.0][a:b][:, effs]).max(axis=(1, 2))
+    assert kept.max() < 0.5 * drop and kept[12:-12].max() < 0.05 * drop
+    assert np.abs(out[0.5][a + 12 : b - 12][:, effs] - T[a + 12 : b - 12][:, effs]).max() < (
+        0.05 * drop
+    )
+    with pytest.raises(ValueError, match="level_seconds"):
+        InbetweenConfig(level_seconds=-1.0)
