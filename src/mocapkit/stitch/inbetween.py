@@ -68,7 +68,10 @@ zero over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep we
 joint's larger rotation offset over more frames, so that the correction turns it no faster than
 :attr:`InbetweenConfig.blend_max_speed_deg`), so
 frames A-1 and B of the result are the context's exactly and the frames between are the
-library's motion. The fills of the :attr:`InbetweenConfig.neighbours` candidates are averaged
+library's motion. Between the two blends the pelvis is kept at the clip's own level (its mean
+height before the gap, :attr:`InbetweenConfig.level_seconds`, not the library person's), the
+legs turned so that the feet stay where the segment puts them (:func:`_keep_feet`). The fills
+of the :attr:`InbetweenConfig.neighbours` candidates are averaged
 (normalised quaternion sum, mean translation), each weighted by its score
 (:func:`neighbour_weights`): each meets the context exactly, so their mean does too, and it is
 the better estimate of the unknown motion where the candidates disagree.
