@@ -166,7 +166,14 @@ def test_frozen_joints() -> None:
     dig = rot.quat_angle(bad, q)
     fl = Flags((90, 2))
     FrozenJoints().apply(evidence(bad, dig=dig), fl)
-    assert fl.mask[32:50, 0].all() and not fl.mask[:, 1].any()
+    assert fl.mask[31:50, 0].all() and not fl.mask[:, 1].any()
+    # frame 30 is the last value captured: the frames after it repeat it
+    assert not fl.mask[30, 0] and not fl.mask[50:, 0].any()
+    held = q.copy()  # a take that opens with a hold: no capture before it, frame 0 too
+    held[:20, 0] = q[0, 0]
+    fl = Flags((90, 2))
+    FrozenJoints().apply(evidence(held, dig=rot.quat_angle(held, q)), fl)
+    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.arange(20))
     # the KNN words hold still too: a pause, not a freeze, if the joint still trembles
     paused = bad.copy()
     paused[30:50:2, 0] = rot.quat_mul(q[30, 0], rot.rotvec_to_quat(np.array([1e-5, 0.0, 0.0])))
@@ -189,6 +196,8 @@ def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
     ev = evidence(bad, dig=dig)
     rule = FrozenJoints()
     assert rule.describe(ev, 40, 0).startswith("held bit for bit (one value repeated) frames 3")
+    first = rule.describe(ev, 30, 0)  # not flagged: the value captured before the hold
+    assert "last value captured before it" in first and "parked" not in first
     assert "moving here" in rule.describe(ev, 70, 0)
     assert "shorter than 0.33 s" in rule.describe(ev, 102, 0)
     paused = bad.copy()

@@ -15,6 +15,7 @@ from testsupport import load_sibling
 
 from mocapkit import datasets
 from mocapkit.cli import main
+from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.io import read_motion, write_motion
 from mocapkit.stitch.inbetween import (
@@ -823,7 +824,7 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     assert np.allclose(P_low[:, pel, 1], T[:, pel, 1] - drop)
     assert np.abs(P_low[:, effs] - T[:, effs]).max() < 0.05 * drop  # feet where they were
     a, b = 40, 70
-    mid = slice(a + 8, b - 8)  # past the end offsets' blend (0.25 s)
+    mid = slice(a + 12, b - 12)  # past the end offsets' blend (of the rotations too)
     config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1)
     out = {}
     for level in (0.5, 0.0):
@@ -839,5 +840,53 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     assert np.abs(out[0.5][a + 12 : b - 12][:, effs] - T[a + 12 : b - 12][:, effs]).max() < (
         0.05 * drop
     )
-    with pytest.raises(ValueError, match="level_seconds"):
-        InbetweenConfig(level_seconds=-1.0)
+    for bad in (-1.0, float("inf")):
+        with pytest.raises(ValueError, match="level_seconds"):
+            InbetweenConfig(level_seconds=bad)
+
+
+def test_a_rise_the_legs_cannot_follow_is_capped_and_does_not_pop_the_legs(humanoid):
+    """The clip's pelvis higher than a library walk whose legs straighten (the feet of the clip
+    float): the rise is capped where a leg could not reach its foot, so the feet stay where
+    the fill without the level puts them on every frame, and the legs turn no more sharply
+    than there."""
+    from dataclasses import replace
+
+    from mocapkit import ik
+    from mocapkit.features import character_height, pelvis_index
+
+    walk, _ = humanoid
+    rise = 0.025 * character_height(walk)
+    high = walk.copy()
+    tr = high.local_translations()
+    tr[:, pelvis_index(walk.skeleton), 1] += rise
+    high.translations = tr
+    chains = list(ik.leg_chains(walk))
+    effs = [e for c in chains for e in c.effectors]
+    legs = sorted({j for c in chains for j in c.joints})
+    a, b = 40, 70
+    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1)
+    out = {
+        level: inbetween(
+            high,
+            (a, b),
+            [walk],
+            up="Y",
+            method="library",
+            config=replace(config, level_seconds=level),
+        ).motion
+        for level in (0.5, 0.0)
+    }
+    P = {k: forward_kinematics(m)[0] for k, m in out.items()}
+    pel = pelvis_index(walk.skeleton)
+    lifted = P[0.5][a:b, pel, 1] - P[0.0][a:b, pel, 1]
+    # it rises where a leg can take it (this walk's legs are straight for much of each step)
+    assert lifted.max() > 0.1 * rise and lifted.min() >= -1e-9 and lifted.max() <= rise + 1e-9
+    assert np.abs(P[0.5][a:b][:, effs] - P[0.0][a:b][:, effs]).max() < 0.05 * rise
+
+    def turn_accel(m):  # deg/frame^2 of the leg joints over the gap and its two ends
+        q = m.rotations[a - 2 : b + 2][:, legs]
+        w = rot.quat_to_rotvec(rot.quat_mul(q[1:], rot.quat_inv(q[:-1])))
+        return np.degrees(np.linalg.norm(np.diff(w, axis=0), axis=-1)).max()
+
+    assert turn_accel(out[0.5]) < turn_accel(out[0.0]) + 3.0

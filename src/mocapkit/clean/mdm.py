@@ -301,10 +301,15 @@ def frozen_cells(
                 max_recur, margin, tell,
             )  # fmt: skip
             if verdict[0] == "frozen":
-                # frames f+1 ... of the run's steps f ...: its first frame is the last value
-                # captured (the one held after it), genuine
-                out[a + 1 : b + 2, j] = True
+                out[held_from(a) : b + 2, j] = True
     return out
+
+
+def held_from(a: int) -> int:
+    """The first frame a frozen run of still steps ``a ..`` (step f: frame f -> f+1) flags: the
+    run's first frame holds the last value captured (the one repeated after it), genuine, unless
+    the take opens with the hold (frame 0: no capture before it)."""
+    return a + 1 if a > 0 else 0
 
 
 def exact_holds_tell(q: np.ndarray, min_frames: int, max_share: float) -> bool:

@@ -70,7 +70,7 @@ joint's larger rotation offset over more frames, so that the correction turns it
 frames A-1 and B of the result are the context's exactly and the frames between are the
 library's motion. Between the two blends the pelvis is kept at the clip's own level (its mean
 height before the gap, :attr:`InbetweenConfig.level_seconds`, not the library person's), the
-legs turned so that the feet stay where the segment puts them (:func:`_keep_feet`). The fills
+legs turned so that the feet stay where the segments put them (:func:`_to_level`). The fills
 of the :attr:`InbetweenConfig.neighbours` candidates are averaged
 (normalised quaternion sum, mean translation), each weighted by its score
 (:func:`neighbour_weights`): each meets the context exactly, so their mean does too, and it is
@@ -251,7 +251,7 @@ class InbetweenConfig:
 
     level_seconds: float = 0.5
     """The pelvis keeps the clip's own level across the gap (:func:`_level_offset`, the feet
-    kept on the ground by :func:`_keep_feet`): the level is the mean pelvis height over this
+    kept on the ground by :func:`_to_level`): the level is the mean pelvis height over this
     long before the gap (half a gait cycle at a walk: one whole bob), or over as much of it as
     the clip has before the gap (the benchmark's 10 past frames: 0.33 s). 0: off (the middle
     of the gap at the segment's level)."""
@@ -284,7 +284,7 @@ class InbetweenConfig:
             raise ValueError("pose_weight and lscore_weight must be >= 0, pose_tolerance_m > 0")
         if not self.poor_fit_path_m > 0:
             raise ValueError(f"poor_fit_path_m must be > 0, got {self.poor_fit_path_m}")
-        if not self.level_seconds >= 0:
+        if not (math.isfinite(self.level_seconds) and self.level_seconds >= 0):
             raise ValueError(f"level_seconds must be >= 0, got {self.level_seconds}")
         if not self.fallback_margin > 0:
             raise ValueError(f"fallback_margin must be > 0, got {self.fallback_margin}")
@@ -1093,46 +1093,38 @@ def library_fill(
     ct = clip.local_translations()
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
 
-    def blended(m: Motion) -> tuple[np.ndarray, np.ndarray]:
-        return _offset_blend(
-            m.rotations, m.local_translations(), clip.rotations[a - 1], clip.rotations[b],
-            ct[a - 1], ct[b], blend, math.radians(config.blend_max_speed_deg) * clip.frame_time,
-        )  # fmt: skip
-
-    r, tr = blended(seg)
-    shift = _level_offset(clip, a, source, candidate, up, config.level_seconds)
-    if shift is not None:  # the clip's pelvis level in the middle of the gap, feet kept
-        lifted = seg.copy()
-        lifted.root_positions = seg.root_positions + shift
-        if lifted.translations is not None:
-            lifted.translations[:, 0] = lifted.root_positions
-        r, tr = _keep_feet(clip, (r, tr), blended(lifted))
+    r, tr = _offset_blend(
+        seg.rotations, seg.local_translations(), clip.rotations[a - 1], clip.rotations[b],
+        ct[a - 1], ct[b], blend, math.radians(config.blend_max_speed_deg) * clip.frame_time,
+    )  # fmt: skip
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
 
 
 def _level_offset(
     clip: Motion, a: int, source: Motion, candidate: Candidate, up: str, seconds: float
-) -> np.ndarray | None:
-    """(3,) the shift along ``up`` from the segment's pelvis level to the clip's, each the mean
-    pelvis height over the ``seconds`` before the gap (at most the clip's frames before A,
-    and the segment's frames before its start), or None (off, or no shift to make).
+) -> float | None:
+    """How far (file units, along ``up``) the clip's pelvis level is above the segment's, each
+    the mean pelvis height over the ``seconds`` before the gap (the clip's frames before A, the
+    segment's before its start), or None: off, or less than half of ``seconds`` on either side.
 
     Relies on: a standing person's pelvis rises and falls twice per gait cycle, about 0.5 s
     apart at a walk, around a level that their build and style set, which a library segment
     of another person or style does not share; the end offsets meet the context at the gap's
     ends but fade out within :attr:`InbetweenConfig.blend_seconds`, leaving the middle at the
     segment's level. A mean over a whole bob is the level; over a fraction of one it carries
-    the bob's phase (tuning windows, 10 past frames: over 0.1 s L2P at 15 / 30 frames 2.235 /
-    2.615 against 2.125 / 2.554 without, over 0.2 s 2.106 / 2.549, over 0.33 s 2.022 /
-    2.477)."""
+    the bob's phase (tuning windows, 10 past frames, a first version shifting each segment on
+    its own: over 0.1 s L2P at 15 / 30 frames 2.235 / 2.615 against 2.125 / 2.554 without,
+    over 0.2 s 2.106 / 2.549, over 0.33 s 2.022 / 2.477)."""
     from mocapkit import features
     from mocapkit.core.kinematics import forward_kinematics
 
-    m = min(a, clip.seconds_to_frames(seconds)) if seconds > 0 else 0
+    if seconds <= 0:
+        return None
+    m = min(a, clip.seconds_to_frames(seconds))
     k = np.arange(m)
     ts = candidate.start - candidate.rate * k  # the segment's frames for A-1, A-2, ...
     k, ts = k[ts >= 0], ts[ts >= 0]
-    if len(k) == 0:
+    if len(k) == 0 or len(k) < clip.seconds_to_frames(seconds / 2):
         return None
     r, tr = _sample(source, ts)
     before = Motion(clip.skeleton, r, tr[:, 0], clip.frame_time, tr)
@@ -1140,36 +1132,75 @@ def _level_offset(
     _, upv, _ = features.ground_frame(up)
     seg_h = forward_kinematics(before)[0][:, pel] @ upv
     clip_h = forward_kinematics(clip[a - 1 - int(k[-1]) : a])[0][::-1, pel] @ upv
-    d = float(clip_h.mean() - seg_h.mean())
-    return d * upv if abs(d) > 1e-9 * max(features.character_height(clip), 1.0) else None
+    return float(clip_h.mean() - seg_h.mean())
 
 
-def _keep_feet(
-    clip: Motion, plain: tuple[np.ndarray, np.ndarray], lifted: tuple[np.ndarray, np.ndarray]
-) -> tuple[np.ndarray, np.ndarray]:
-    """The ``lifted`` fill (rotations, local translations: the pelvis moved to the clip's
-    level) with its legs turned (IK, :mod:`mocapkit.ik`) so that the feet are where the
-    ``plain`` fill puts them: the ground is at the same height for everyone, so a foot the
-    segment puts on it stays there and the legs take up the change of level (tuning windows:
-    the level alone, feet moved with the pelvis, L2P at 15 / 30 frames 2.062 / 2.537 and foot
-    skate 39.2 / 41.2 cm/s; with the feet kept 2.022 / 2.477 and 37.5 / 38.3, against 2.125 /
-    2.554 and 37.4 / 38.6 without either)."""
-    from mocapkit import ik
+LEVEL_MAX_HEIGHT_FRACTION = 0.03
+"""A level shift larger than this fraction of the character's height (about 5 cm for a person)
+is not made: people's pelvis levels differ by less (Bandai-2 walks: 0.6 cm standard deviation
+between takes), so a larger difference is something else (a crouch, a slope) that the legs
+could not take up."""
+
+
+def _to_level(
+    clip: Motion, a: int, b: int, fill: Motion, shift: float, up: str, config: InbetweenConfig
+) -> Motion:
+    """``fill`` (frames A..B-1 on ``clip``'s path) with the pelvis ``shift`` (file units, along
+    ``up``: :func:`_level_offset`, averaged over the candidates) up or down in the middle of the
+    gap, fading to none at its ends as the end offsets do (the context frames are met
+    exactly), and the legs turned by IK (:mod:`mocapkit.ik`) so that the feet stay where
+    ``fill`` puts them: the ground is at the same height for everyone, so a foot the segments
+    put on it stays there and the legs take up the change of level (tuning windows: the level
+    alone, feet moved with the pelvis, L2P at 15 / 30 frames 2.062 / 2.537 and foot skate
+    39.2 / 41.2 cm/s; with the feet kept 2.010 / 2.473 and 37.5 / 38.5, against 2.125 / 2.554
+    and 37.4 / 38.6 without either). A rise is capped on each frame where a leg could not
+    reach its foot (99.9% of the hip-to-ankle length: the knee 5 deg from straight), so every
+    foot is within reach and the per-frame IK follows the smooth level without popping.
+    Unchanged when the shift is under 1 mm, over :data:`LEVEL_MAX_HEIGHT_FRACTION` of the
+    character's height, or the rig has no legs to solve."""
+    from mocapkit import features, ik
     from mocapkit.core.kinematics import forward_kinematics
 
-    def motion(rt: tuple[np.ndarray, np.ndarray]) -> Motion:
-        return Motion(clip.skeleton, rt[0], rt[1][:, 0], clip.frame_time, rt[1])
-
-    up_m = motion(lifted)
+    mpu = features.metres_per_unit(clip, None)
+    if abs(shift) * mpu < 1e-3 or abs(shift) > LEVEL_MAX_HEIGHT_FRACTION * (
+        features.character_height(clip, up)
+    ):
+        return fill
     try:
-        chains = list(ik.leg_chains(up_m))
-    except ValueError:  # no legs: the whole body moves with the pelvis
-        return lifted
+        chains = list(ik.leg_chains(fill))
+    except ValueError:
+        return fill
     effs = [e for c in chains for e in c.effectors]
     if not effs:
-        return lifted
-    feet = forward_kinematics(motion(plain))[0][:, effs]
-    return ik.solve(up_m, chains, feet).motion.rotations, lifted[1]
+        return fill
+    g = fill.num_frames
+    blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
+    w0 = _decay(g + 2, blend)
+    profile = np.clip(1.0 - w0 - w0[::-1], 0.0, 1.0)[1:-1] * shift  # as the end offsets fade
+    _, upv, _ = features.ground_frame(up)
+    pos, _ = forward_kinematics(fill)
+    if shift > 0:  # a rise no leg can follow to its foot is capped there
+        tr = fill.local_translations()
+        reach = np.full(g, np.inf)
+        for c in chains:
+            hip, knee, ankle = c.joints
+            length = 0.999 * (
+                np.linalg.norm(tr[:, knee], axis=-1) + np.linalg.norm(tr[:, ankle], axis=-1)
+            )
+            d = pos[:, hip] - pos[:, ankle]
+            h = d @ upv
+            side = np.linalg.norm(d - h[:, None] * upv[None], axis=-1)
+            reach = np.minimum(reach, np.sqrt(np.maximum(length**2 - side**2, 0.0)) - h)
+        # min() of two smooth curves: continuous, so the cap does not pop the pelvis
+        profile = np.minimum(profile, np.maximum(reach, 0.0))
+    lifted = fill.copy()
+    lifted.root_positions = fill.root_positions + profile[:, None] * upv[None]
+    if lifted.translations is not None:
+        lifted.translations[:, 0] = lifted.root_positions
+    solved = ik.solve(lifted, chains, pos[:, effs]).motion
+    legs = sorted({j for c in chains for j in c.joints})
+    lifted.rotations[:, legs] = solved.rotations[:, legs]
+    return lifted
 
 
 def _average_fills(fills: Sequence[Motion], scores: Sequence[float] | None = None) -> Motion:
@@ -1481,6 +1512,15 @@ def inbetween(
             [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config)
              for c in cands], [c.score for c in cands],
         )  # fmt: skip
+        levels = [
+            _level_offset(onpath, a, lib.motions[c.clip], c, up, config.level_seconds)
+            for c in cands
+        ]
+        known = [(d, wk) for d, wk in zip(levels, neighbour_weights([c.score for c in cands]),
+                                          strict=True) if d is not None]  # fmt: skip
+        if known:
+            shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known)
+            lfill = _to_level(onpath, a, b, lfill, shift, up, config)
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
     lib_score = sum(lib_ends)
     use_kalman = (

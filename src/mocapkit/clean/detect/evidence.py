@@ -372,7 +372,7 @@ class Evidence:
             q, still, self.digression[:, joint], a, b, p["min_frames"], p["min_digression"],
             p["tol"], p["max_recur"], p["margin"], tell,
         )  # fmt: skip
-        if verdict == "frozen" and not self.frozen[a, joint]:
+        if verdict == "frozen" and not self.frozen[mdm_mod.held_from(a), joint]:
             verdict = "parked"
         return verdict, a, b + 1, value
 

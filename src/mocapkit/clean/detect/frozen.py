@@ -54,6 +54,8 @@ class FrozenJoints:
             )
         c = ev.config
         verdict, a, b, value = ev.frozen_why(joint, frame)
+        if verdict == "frozen":  # the run's first frame: the value the hold repeats
+            return f"{held(a, b)}: this frame is the last value captured before it, genuine"
         exact = bool(ev.exact_tells[joint] and np.all(q[a : b + 1] == q[a]))
         rests = (
             f"at a value it parks at exactly elsewhere ({int(value)} frames): clamped there"
