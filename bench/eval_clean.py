@@ -294,8 +294,10 @@ def find_jitter(
     ``min_seconds`` (50 ms) the joint jitters. ``rms_deg`` was set on the clean Bandai-1 tuning
     half (88 takes at 30 fps, where 10-15 Hz is all the band above the cutoff): 99% of its
     cells stay under 1.6 deg and 0.6% exceed 2 deg, on forearms, hands, feet and toes in fast
-    moves. Runs of a
-    joint at most ``merge_seconds`` apart are merged, so a rough stretch is one entry. Only
+    moves. The residual spans 10 Hz to half the frame rate, so the same capture noise reads
+    larger at 120 fps (CMU) than at 30 fps, where the threshold was set: at 120 fps the signal
+    lists more, and the eye verdicts decide. Runs of a joint at most ``merge_seconds`` apart
+    are merged, so a rough stretch is one entry. Only
     joints that rotate somewhere in the take count. Returns dicts (joint, frames [first, last]
     inclusive, peak_rms_deg)."""
     from scipy import signal as sig
@@ -392,20 +394,30 @@ def slide_row(slides: dict, key: tuple, clean, cor, cl) -> None:
         row[f"worst_{k}"].append(float(d.max()))
 
 
+def choose_takes(
+    files: list[str], n: int, seconds: float, min_seconds: float = MIN_SECONDS, fps: float = 0.0
+) -> tuple[dict, list[str]]:
+    """The candidate takes of a class (``4 n`` spread over ``files``, cut to ``seconds``,
+    resampled to ``fps`` when given, those of at least ``min_seconds`` kept: {path: motion})
+    and the ``n`` spread over them that are evaluated (the others are the small-scale
+    context)."""
+    takes = {}
+    for f in _spread(files, n * 4):
+        m = load(f, seconds)
+        if fps:
+            m = resample(m, fps)
+        if m.duration >= min_seconds:
+            takes[f] = m
+    return takes, _spread(sorted(takes), n)
+
+
 def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> None:
     kinds = args.kinds.split(",")
     vs = variants(args.ablate, args.also, args.drops)
     for cls, files in classes(set_name).items():
         if args.classes and cls not in args.classes:
             continue
-        takes = {}
-        for f in _spread(files, args.takes * 4):
-            m = load(f, args.seconds)
-            if args.fps:
-                m = resample(m, args.fps)
-            if m.duration >= args.min_seconds:
-                takes[f] = m
-        chosen = _spread(sorted(takes), args.takes)
+        takes, chosen = choose_takes(files, args.takes, args.seconds, args.min_seconds, args.fps)
         table.setdefault((set_name, cls, "n"), len(chosen))
         for ti, f in enumerate(chosen):
             clean = takes[f]

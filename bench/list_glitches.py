@@ -36,8 +36,9 @@ SHARED = Path(os.environ.get("MOCAPKIT_SHARED", ROOT.parent / "shared")) / "data
 FIXTURE = ROOT / "tests" / "clean" / "fixtures" / "cmu_glitches.json"
 EARLY_FRAMES = 2400  # the first 20 s at 120 fps: the part bench/eval_clean.py analyses
 NOT_INSPECTED = "not inspected: listed by the signal alone"
-# the CMU takes bench/eval_clean.py analyses (four per class, spread over those of 5 s or more):
-# the jitter signal lists ~2,000 events in the first 20 s of all takes; these six were judged
+# the CMU takes bench/eval_clean.py analyses by default (four per class spread over those of
+# 5 s or more: 03 has two; tests/clean/test_glitch_list.py checks it): the jitter signal lists
+# ~2,000 events in the first 20 s of all takes; those of these six were judged by eye
 EVAL_TAKES = ("01_01", "01_05", "01_10", "01_14", "03_03", "03_04")
 SIGNALS = {"excursion": "find_excursions", "hold": "find_holds", "jitter": "find_jitter"}
 

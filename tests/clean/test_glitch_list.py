@@ -86,6 +86,17 @@ def test_glitch_list_is_well_formed() -> None:
 
 
 @pytest.mark.skipif(not CMU.exists(), reason="shared CMU data not present")
+def test_the_jitter_verdicts_cover_the_takes_the_evaluation_analyses() -> None:
+    """EVAL_TAKES (whose jitter events were judged by eye) are the CMU takes bench/eval_clean.py
+    chooses with its defaults."""
+    mod = _eval_clean()
+    chosen = []
+    for files in mod.classes("cmu").values():
+        chosen += mod.choose_takes(files, 4, 20.0)[1]
+    assert tuple(Path(f).stem for f in chosen) == _list_glitches().EVAL_TAKES
+
+
+@pytest.mark.skipif(not CMU.exists(), reason="shared CMU data not present")
 def test_glitch_signal_reproduces_the_list_on_a_short_take() -> None:
     from mocapkit.io import read_motion
 
