@@ -197,7 +197,9 @@ def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:
     rule = FrozenJoints()
     assert rule.describe(ev, 40, 0).startswith("held bit for bit (one value repeated) frames 3")
     first = rule.describe(ev, 30, 0)  # not flagged: the value captured before the hold
-    assert "last value captured before it" in first and "parked" not in first
+    assert "last value captured before the hold" in first and "parked" not in first
+    # the same held frames as a flagged frame of the run names
+    assert first.split(" (")[0] == rule.describe(ev, 40, 0).split(" (")[0]
     assert "moving here" in rule.describe(ev, 70, 0)
     assert "shorter than 0.33 s" in rule.describe(ev, 102, 0)
     paused = bad.copy()

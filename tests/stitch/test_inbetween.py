@@ -522,6 +522,13 @@ def test_cli_goes_past_bad_library_files(files, tmp_path):
     assert out.exists() and "filled frames 60:75" in so
     js = json.loads((tmp_path / "r.json").read_text())
     assert len(js["skipped"]) == 2 and js["source"].endswith("good.bvh")
+    # an .amc without its subject's .asf is left out too, not the folder it is in (newcomer
+    # report: "no usable library file" with two good walks beside it)
+    (lib / "07_01.amc").write_text(":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 0 0 0\n")
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library", lib,
+                       "--out", tmp_path / "q.bvh")  # fmt: skip
+    assert code == 2 and (tmp_path / "q.bvh").exists() and "filled frames 60:75" in so
+    assert "07_01.amc: cannot find its ASF" in se and "no usable library file" not in se
     (lib / "good.bvh").unlink()
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library", lib,
                       "--out", tmp_path / "p.bvh")  # fmt: skip

@@ -381,20 +381,28 @@ def expand_library(
 ) -> tuple[list[Path], list[str]]:
     """:func:`expand_inputs` for a library job, which goes on past a bad input: the files the
     items name (each once), and one error line per item that names none (a missing path, an
-    empty folder, a pattern matching nothing)."""
+    empty folder, a pattern matching nothing) and per ``.amc`` without its ``.asf`` (left out,
+    not the folder it is in)."""
     found: list[Path] = []
     errors: list[str] = []
     for item in items:
         try:
-            found += expand_inputs([item], suffixes)
+            found += expand_item(item, suffixes)
         except CLIError as e:
             errors.append(e.message)
     seen: set[tuple[Any, ...]] = set()
     unique = []
     for f in found:
-        if file_key(f) not in seen:
-            seen.add(file_key(f))
-            unique.append(f)
+        if file_key(f) in seen:
+            continue
+        seen.add(file_key(f))
+        if f.suffix.lower() == ".amc":
+            try:
+                check_amc(f)
+            except CLIError as e:
+                errors.append(e.message)
+                continue
+        unique.append(f)
     return unique, errors
 
 

@@ -11,6 +11,7 @@ from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
+from mocapkit.clean.mdm import held_from
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,10 @@ class FrozenJoints:
         c = ev.config
         verdict, a, b, value = ev.frozen_why(joint, frame)
         if verdict == "frozen":  # the run's first frame: the value the hold repeats
-            return f"{held(a, b)}: this frame is the last value captured before it, genuine"
+            return (
+                f"{held(held_from(a), b)} after it: this frame is the last value captured "
+                "before the hold, genuine"
+            )
         exact = bool(ev.exact_tells[joint] and np.all(q[a : b + 1] == q[a]))
         rests = (
             f"at a value it parks at exactly elsewhere ({int(value)} frames): clamped there"
