@@ -1092,7 +1092,6 @@ def library_fill(
     seg = _ground_warp(seg, clip, a - 1, b, up)
     ct = clip.local_translations()
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
-
     r, tr = _offset_blend(
         seg.rotations, seg.local_translations(), clip.rotations[a - 1], clip.rotations[b],
         ct[a - 1], ct[b], blend, math.radians(config.blend_max_speed_deg) * clip.frame_time,
@@ -1136,7 +1135,7 @@ def _level_offset(
 
 
 LEVEL_MAX_HEIGHT_FRACTION = 0.03
-"""A level shift larger than this fraction of the character's height (about 5 cm for a person)
+"""A level shift larger than this fraction of the character's height (4-5 cm for a person)
 is not made: people's pelvis levels differ by less (Bandai-2 walks: 0.6 cm standard deviation
 between takes), so a larger difference is something else (a crouch, a slope) that the legs
 could not take up."""
