@@ -897,3 +897,44 @@ def test_a_rise_the_legs_cannot_follow_is_capped_and_does_not_pop_the_legs(human
         return np.degrees(np.linalg.norm(np.diff(w, axis=0), axis=-1)).max()
 
     assert turn_accel(out[0.5]) < turn_accel(out[0.0]) + 3.0
+
+
+@pytest.mark.parametrize("sign", [-1.0, 1.0])
+def test_feet_the_segments_plant_below_the_clips_floor_are_raised_to_it(humanoid, sign):
+    """A library person whose feet stand 1.5 cm below the clip's floor (the whole body lower):
+    the fill's level lifts the pelvis, the legs keep the segments' feet, and the foot lock
+    raises the planted feet onto the clip's floor. Feet standing above the floor are not
+    lowered: the fill keeps them where the segments put them."""
+    from dataclasses import replace
+
+    from mocapkit.features import foot_contacts, pelvis_index
+
+    walk, _ = humanoid
+    off = 0.015 * sign  # metres: below (-) or above (+) the clip's floor
+    moved = walk.copy()
+    tr = moved.local_translations()
+    tr[:, pelvis_index(walk.skeleton), 1] += off
+    moved.translations = tr
+    a, b = 40, 80
+    config = replace(DEFAULT_CONFIG, neighbours=1)
+    con = foot_contacts(walk, up="Y")
+    feet = list(con.joints)
+    T = forward_kinematics(walk)[0][:, feet, 1]
+    out = {}
+    for lock in (False, True):
+        res = inbetween(walk, (a, b), [moved], up="Y", method="library",
+                        config=replace(config, foot_lock=lock))  # fmt: skip
+        out[lock] = forward_kinematics(res.motion)[0][:, feet, 1]
+    mid = np.zeros(walk.num_frames, bool)
+    mid[a + 6 : b - 6] = True  # past the lock's fade at the gap's ends
+    planted = con.contacts & mid[:, None]  # the clip's truth: the library is the same walk
+    assert planted.sum() > 20
+    # without the lock (and its floor) the planted feet stand where the segment put them
+    np.testing.assert_allclose((out[False] - T)[planted], off, atol=0.002)
+    # with it: raised onto the clip's floor, or left where the segment put them (the rise is
+    # the median of a run's heights, and an ankle rolls: some frames stay a few mm off)
+    err = (out[True] - T)[planted] - (0.0 if sign < 0 else off)
+    assert abs(np.median(err)) < 0.001 and np.abs(err).mean() < 0.2 * abs(off), np.abs(err).mean()
+    # the context frames are the clip's own either way
+    np.testing.assert_array_equal(out[True][:a], T[:a])
+    np.testing.assert_array_equal(out[True][b:], T[b:])

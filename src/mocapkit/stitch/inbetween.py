@@ -100,7 +100,9 @@ library that has nothing like the context.
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
 :attr:`InbetweenConfig.blend_max_speed_deg`. A held foot moves as the library segments'
 planted feet moved (their roll and settling, weighted), so the lock takes out only the slide
-that fitting them to the context added: a fill that is a capture as it was stays so.
+that fitting them to the context added: a fill that is a capture as it was stays so. A foot
+the filled frames plant below the clip's own floor (where the context plants it) is raised
+onto it over the gap (:func:`_onto_floor`).
 """
 
 from __future__ import annotations
@@ -956,6 +958,7 @@ def _lock_feet(
         pos[:, list(effs)], flags, ex.seconds_to_frames(lock.blend), "first",
         ground_frame(up)[1], "offset", np.repeat(context[:, None], len(effs), 1), drift,
     )  # fmt: skip
+    targets, weights = _onto_floor(ex, pos[:, list(effs)], flags, context, targets, weights, up)
     ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
     x = np.clip(np.minimum(i - (a - 1), b - i) / (ramp + 1), 0.0, 1.0)
     # faded even where the target meets the context's foot: the leg may reach it in another
@@ -972,6 +975,53 @@ def _lock_feet(
     out = motion.copy()
     out.rotations[a:b, legs] = locked[1:-1]
     return out
+
+
+FLOOR_TOLERANCE_M = 0.002
+"""A foot the fill plants less than this below the clip's floor is left (:func:`_onto_floor`)."""
+
+
+def _onto_floor(ex: Motion, pos, flags, context, targets, weights, up: str):
+    """``targets`` and ``weights`` of :func:`_lock_feet` (``pos``: the foot joints' positions,
+    ``flags`` their contacts, ``context`` the frames the fill must not change) with each foot
+    joint that the filled frames plant lower than the context frames plant it raised by the
+    difference over all the filled frames, the lock's own correction kept as its weight applied
+    it. The planted height is the 10th percentile of the joint's planted frames (a foot rolls
+    up from the floor, not into it); differences under :data:`FLOOR_TOLERANCE_M` are left (a
+    capture's own steps differ by as much). A foot is never lowered.
+
+    Relies on: the floor is where the clip's own feet stand; the library segments were captured
+    by other people, on their own floor, with their own foot joints, and fitted to the clip's
+    bones and level, so their planted feet sit a few millimetres off the clip's floor (Bandai-2:
+    the planted toe's height varies by 0.5 cm between takes). A foot below the floor is
+    impossible and, moving, reads as skating. Tuning windows (bench_inbetween.py --tune; foot
+    skate at 5 / 15 / 30 / 45 frames, the truth's 27.1 / 31.6 / 31.6 / 31.6 cm/s): without
+    28.9 / 37.5 / 38.5 / 40.7, raised 28.7 / 34.9 / 33.4 / 34.2 (L2P at 15 / 30 frames 2.025 /
+    2.502 against 2.010 / 2.473; with medians for the planted heights and no tolerance 33.1 /
+    34.3 at 15 / 30 frames, but a capture filled from itself was moved by 7 mm). A first
+    version that also lowered feet planted above the floor: 30.6 / 37.0 / 35.8 / 36.3 (L2P
+    2.072 / 2.513); lowering pulls a leg the fill's level has already straightened. Lifting
+    free toes that sweep the floor at speed (to 1.5 or 2.5 cm above it) took off under 1 cm/s
+    more and was left out: it would change captured swings."""
+    from mocapkit.features import ground_frame, metres_per_unit
+
+    _, u, _ = ground_frame(up)
+    h = pos @ u
+    gap = ~context
+    rise = np.zeros(pos.shape[1])
+    for k in range(pos.shape[1]):
+        floor, fill = h[context & flags[:, k], k], h[gap & flags[:, k], k]
+        if len(floor) and len(fill):
+            rise[k] = max(float(np.percentile(floor, 10) - np.percentile(fill, 10)), 0.0)
+    lift = np.flatnonzero(rise * metres_per_unit(ex, None) > FLOOR_TOLERANCE_M)
+    if not len(lift):
+        return targets, weights
+    targets, weights = targets.copy(), weights.copy()
+    for k in lift:  # the lock's target as far as its weight pulled, then raised, held fully
+        w = weights[gap, k, None]
+        targets[gap, k] = pos[gap, k] + w * (targets[gap, k] - pos[gap, k]) + rise[k] * u
+        weights[gap, k] = 1.0
+    return targets, weights
 
 
 SOURCE_MARGIN = 6
