@@ -1000,8 +1000,8 @@ def _onto_floor(ex: Motion, pos, flags, context, targets, weights, up: str):
     2.502 against 2.010 / 2.473; with medians for the planted heights and no tolerance 33.1 /
     34.3 at 15 / 30 frames, but a capture filled from itself was moved by 7 mm). A first
     version (medians, every filled frame held at full weight, the toe lift below at 1.5 cm
-    on) that also lowered feet planted
-    above the floor: 30.6 / 37.0 / 35.8 / 36.3 (L2P 2.072 / 2.513), raising only in that
+    on) that also lowered feet planted above the floor: 30.6 / 37.0 / 35.8 / 36.3 (L2P
+    2.072 / 2.513), raising only in that
     version 28.5 / 33.2 / 34.2 / 34.7 (2.034 / 2.506): lowering made both worse. Lifting
     free toes that sweep the floor at speed (to 1.5 or 2.5 cm above it) took off under 1 cm/s
     more and was left out: it would change captured swings."""
