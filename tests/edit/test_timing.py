@@ -63,3 +63,14 @@ def test_speed_two_takes_every_other_frame_and_one_is_a_copy() -> None:
     assert change_speed(m, 1.0).allclose(m, 1e-12, 1e-12)
     with pytest.raises(ValueError, match="positive"):
         change_speed(m, 0.0)
+
+
+def test_speed_refuses_a_factor_that_leaves_no_motion_or_a_runaway_file() -> None:
+    m = walk()
+    F = m.num_frames
+    assert change_speed(m, F / 1.5).num_frames == 2  # the fastest that keeps two frames
+    with pytest.raises(ValueError, match=f"leaves 1 frame of the take's {F}"):
+        change_speed(m, F / 1.4)
+    with pytest.raises(ValueError, match="below the slowest"):
+        change_speed(m, 0.001)
+    assert change_speed(m, 0.01).num_frames == 100 * F

@@ -40,6 +40,11 @@ def trim(motion: Motion, start_s: float = 0.0, stop_s: float | None = None) -> M
     return trim_frames(motion, a, b)
 
 
+MIN_SPEED = 0.01
+"""Slowest :func:`change_speed` factor: 100 times slower already holds each captured frame
+for a hundred frames; slower only multiplies the file's size."""
+
+
 def change_speed(motion: Motion, factor: float) -> Motion:
     """The take played ``factor`` times faster (2.0: half the duration), at its own frame rate.
 
@@ -48,10 +53,22 @@ def change_speed(motion: Motion, factor: float) -> Motion:
     hemisphere-continuous tracks, translations linear), so the result has
     ``max(1, round(num_frames / factor))`` frames and the path is the same, only traversed at
     another pace. The frame time of the result is the source's, bit for bit.
+
+    Refused (ValueError): a factor that is not a positive number, one that leaves a take of
+    two or more frames a single frame (no motion is left to play), and one under
+    :data:`MIN_SPEED` (a take a hundred times longer, gigabytes of BVH for a minute's take).
     """
     factor = float(factor)
     if not (math.isfinite(factor) and factor > 0):
         raise ValueError(f"speed factor must be a positive number, got {factor!r}")
+    if factor < MIN_SPEED:
+        raise ValueError(f"speed factor {factor:g} is below the slowest, {MIN_SPEED:g}")
+    F = motion.num_frames
+    if F >= 2 and _frames_after_speed(F, factor) < 2:
+        raise ValueError(
+            f"speed factor {factor:g} leaves 1 frame of the take's {F}: expected at most "
+            f"{F / 1.5:g}, which keeps 2"
+        )
     if factor == 1.0 or motion.num_frames == 0:
         return motion.copy()
     ft = motion.frame_time
