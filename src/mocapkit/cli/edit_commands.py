@@ -76,7 +76,10 @@ def parse_renames(values: tuple[str, ...]) -> dict[str, str]:
     type=click.FloatRange(min=0, min_open=True),
     metavar="FACTOR",
     default=None,
-    help="Play FACTOR times faster (resampled, same frame rate): 2 halves the duration; 0.01 at slowest, and at least 2 frames are kept.",
+    help=(
+        "Play FACTOR times faster (resampled, same frame rate): 2 halves the duration; "
+        "0.01 at slowest, and at least 2 frames are kept."
+    ),
 )
 @up_option()
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary of what was done.")
