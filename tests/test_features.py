@@ -156,7 +156,10 @@ def test_resample_round_trip_integer_ratio_is_exact():
     m = smooth_motion(humanoid(), frames=75, fps=30.0)
     up = fe.resample(m, 120.0)
     assert up.frame_time == 1.0 / 120.0
-    assert up.num_frames == 300
+    assert up.num_frames == 4 * 75 - 3  # frame 0 to the last captured frame, none made up
+    # no frame repeats its neighbour: the motion never stops, so neither may the resampled one
+    assert rot.quat_angle(up.rotations[1:], up.rotations[:-1]).max(axis=1).min() > 1e-6
+    np.testing.assert_array_equal(up.rotations[-1], m.rotations[-1])
     back = fe.resample(up, 30.0)
     assert back.frame_time == 1.0 / 30.0
     assert back.num_frames == m.num_frames
@@ -168,7 +171,8 @@ def test_resample_round_trip_smooth_within_tolerance(fps):
     m = smooth_motion(humanoid(), frames=120, fps=30.0, freq=0.4)
     r = fe.resample(m, fps)
     assert r.frame_time == 1.0 / fps
-    assert abs(r.duration - m.duration) <= 0.5 * r.frame_time + 1e-12
+    span, r_span = (m.num_frames - 1) * m.frame_time, (r.num_frames - 1) * r.frame_time
+    assert abs(r_span - span) <= 0.5 * r.frame_time + 1e-12
     back = fe.resample(r, 30.0)
     assert back.num_frames == m.num_frames
     assert abs(back.duration - m.duration) < 1e-9
@@ -193,7 +197,7 @@ def test_resample_constant_speed_rotation_is_exact(fps):
     m = Motion(sk, q, root, 1.0 / src_fps)
     r = fe.resample(m, fps)
     n = r.num_frames
-    assert n == math.floor(F / src_fps * fps + 0.5)
+    assert n == math.floor((F - 1) / src_fps * fps + 0.5) + 1
     tn = np.minimum(np.arange(n) / fps, (F - 1) / src_fps)  # clamped at the last frame
     expected = rot.rotvec_to_quat(axis * omega * tn[:, None])
     assert rot.quat_angle(r.rotations[:, 3], expected).max() < 1e-9
@@ -217,8 +221,8 @@ def test_resample_interpolates_translations_and_keeps_root_column():
 def test_resample_edge_cases():
     m = smooth_motion(humanoid(), frames=1)
     r = fe.resample(m, 60.0)
-    assert r.num_frames == 2  # 1/30 s covered by two 1/60 s frames, the second clamped
-    np.testing.assert_array_equal(r.rotations[1], m.rotations[0])
+    assert r.num_frames == 1  # one sample spans no time: nothing to make up
+    np.testing.assert_array_equal(r.rotations[0], m.rotations[0])
     assert fe.resample(m[0:0], 60.0).num_frames == 0
     with pytest.raises(ValueError):
         fe.resample(m, 0.0)

@@ -191,11 +191,12 @@ def resample(motion: Motion, fps: float) -> Motion:
     """The motion at another frame rate.
 
     The new ``frame_time`` is exactly ``1 / fps``. New frame ``i`` samples the source at time
-    ``t_i = i / fps`` (source frame ``k`` lies at ``k * frame_time``); times past the last
-    source frame are clamped to it. The frame count is the whole number of new frames nearest to
-    the source duration ``num_frames * frame_time`` (so the duration is preserved within half a
-    new frame, and an up-then-down round trip gives back the original count):
-    ``n = max(1, floor(duration * fps + 0.5))``.
+    ``t_i = i / fps`` (source frame ``k`` lies at ``k * frame_time``). The new frames span the
+    source's samples, first to last: ``n - 1`` is ``(num_frames - 1) * frame_time * fps`` rounded
+    (a tie down), so the last new frame lies within half a new frame of the last source frame (a
+    time just past it is clamped to it), no frame is made up past the capture (30 fps to 60 fps
+    gives ``2 num_frames - 1`` frames, not a last frame repeated) and an up-then-down round trip
+    gives back the original count.
 
     Rotations: every joint's quaternion track is made hemisphere-continuous
     (:func:`~mocapkit.core.rotations.quat_unroll`) and then slerped between the two neighbouring
@@ -219,8 +220,9 @@ def resample(motion: Motion, fps: float) -> Motion:
     if F == 0:
         tr = None if motion.translations is None else motion.translations.copy()
         return Motion(sk, motion.rotations.copy(), motion.root_positions.copy(), new_ft, tr)
-    duration = F * motion.frame_time
-    n = max(1, math.floor(duration * fps + 0.5 + 1e-9))
+    # the nearest whole span, a tie rounded down: a frame is never made up half a frame past
+    # the capture (30 frames at twice the speed are frames 0, 2, .., 28, not a last one at 30)
+    n = math.ceil((F - 1) * motion.frame_time * fps - 0.5 - 1e-9) + 1
     s = (np.arange(n) * new_ft) / motion.frame_time
     snap = np.rint(s)
     s = np.where(np.abs(s - snap) < 1e-9, snap, s)

@@ -11,6 +11,7 @@ from mocapkit import datasets
 from mocapkit.core import rotations as rot
 from mocapkit.core.motion import Motion
 from mocapkit.edit import change_speed, trim, trim_frames
+from mocapkit.edit.timing import _frames_after_speed
 
 
 def walk(frame_time: float = 1 / 30, seconds: float = 2.0) -> Motion:
@@ -47,8 +48,9 @@ def test_change_speed_duration_and_exact_frame_time(factor: float, ft: float) ->
     m = walk(ft, 1.0)
     out = change_speed(m, factor)
     assert out.frame_time == m.frame_time  # bit for bit
-    assert out.num_frames == max(1, round(m.num_frames / factor))
-    assert abs(out.duration - m.duration / factor) <= m.frame_time / 2 + 1e-9
+    assert out.num_frames == _frames_after_speed(m.num_frames, factor)
+    span = (m.num_frames - 1) / factor  # in frames: the same samples, first to last
+    assert abs(out.num_frames - 1 - span) <= 0.5 + 1e-9
     assert out.skeleton is m.skeleton
     # the path is the same, run at another pace: first frames agree, the last is near the end
     assert rot.quat_angle(out.rotations[0], m.rotations[0]).max() < 1e-9
@@ -68,9 +70,9 @@ def test_speed_two_takes_every_other_frame_and_one_is_a_copy() -> None:
 def test_speed_refuses_a_factor_that_leaves_no_motion_or_a_runaway_file() -> None:
     m = walk()
     F = m.num_frames
-    assert change_speed(m, F / 1.5).num_frames == 2  # the fastest that keeps two frames
+    assert change_speed(m, 1.99 * (F - 1)).num_frames == 2  # about the fastest that keeps two
     with pytest.raises(ValueError, match=f"leaves 1 frame of the take's {F}"):
-        change_speed(m, F / 1.4)
+        change_speed(m, 2.0 * (F - 1))
     with pytest.raises(ValueError, match="below the slowest"):
         change_speed(m, 0.001)
-    assert change_speed(m, 0.01).num_frames == 100 * F
+    assert change_speed(m, 0.01).num_frames == 100 * (F - 1) + 1

@@ -50,9 +50,10 @@ def change_speed(motion: Motion, factor: float) -> Motion:
 
     The source is read as if its frame time were ``frame_time / factor`` and resampled back to
     the original rate with :func:`mocapkit.features.resample` (rotations slerped on
-    hemisphere-continuous tracks, translations linear), so the result has
-    ``max(1, round(num_frames / factor))`` frames and the path is the same, only traversed at
-    another pace. The frame time of the result is the source's, bit for bit.
+    hemisphere-continuous tracks, translations linear), so the result spans the same samples,
+    first to last, in ``(num_frames - 1) / factor`` frames (rounded, a tie down) and the path
+    is the same, only traversed at another pace. The frame time of the result is the source's,
+    bit for bit.
 
     Refused (ValueError): a factor that is not a positive number, one that leaves a take of
     two or more frames a single frame (no motion is left to play), and one under
@@ -66,8 +67,8 @@ def change_speed(motion: Motion, factor: float) -> Motion:
     F = motion.num_frames
     if F >= 2 and _frames_after_speed(F, factor) < 2:
         raise ValueError(
-            f"speed factor {factor:g} leaves 1 frame of the take's {F}: expected at most "
-            f"{F / 1.5:g}, which keeps 2"
+            f"speed factor {factor:g} leaves 1 frame of the take's {F}: expected less than "
+            f"{2 * (F - 1):g}, which keeps 2"
         )
     if factor == 1.0 or motion.num_frames == 0:
         return motion.copy()
@@ -82,4 +83,6 @@ def change_speed(motion: Motion, factor: float) -> Motion:
 
 def _frames_after_speed(num_frames: int, factor: float) -> int:
     """How many frames :func:`change_speed` returns (for summaries and tests)."""
-    return max(1, math.floor(num_frames / factor + 0.5 + 1e-9))
+    if num_frames == 0:
+        return 0
+    return math.ceil((num_frames - 1) / factor - 0.5 - 1e-9) + 1  # as resample counts
