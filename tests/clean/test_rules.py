@@ -372,6 +372,18 @@ def test_smooth_veto_a_step_vouches_for_the_nearest_run_only() -> None:
     fl = flagged(90, 2, [(70, 90, 0)])
     SmoothVeto().apply(evidence(end), fl)
     assert fl.mask[70:90, 0].all()
+    # ... but an error entered and left before the take's end holds the run between its steps:
+    # the natural motion after its exit, run on to the last frame, is not vouched for
+    flip = turn(smooth(), slice(50, 60), 0, 30.0)
+    mdm = np.zeros((90, 2))
+    mdm[50:60, 0], mdm[60:, 0] = 0.95, 0.7  # the error, then motion the take matches poorly
+    fl = flagged(90, 2, [(50, 90, 0)])
+    SmoothVeto().apply(evidence(flip, mdm=mdm), fl)
+    assert fl.mask[50:60, 0].all() and not fl.mask[61 + pad + 1 :, 0].any()
+    mdm[60:, 0] = 0.99  # the digression rises past the second step: the error goes on
+    fl = flagged(90, 2, [(50, 90, 0)])
+    SmoothVeto().apply(evidence(flip, mdm=mdm), fl)
+    assert fl.mask[50:90, 0].all()
 
 
 def test_wrong_way_hinge_axis_is_the_takes_own() -> None:

@@ -30,11 +30,15 @@ def unowned_runs(
     nearest to it (0 frames: inside), the runs of ``keep`` (frozen cells) competing too; a step
     between two runs vouches for the nearer only (ties for both). With ``trim``, also the cells
     of a run more than ``pad`` frames before its first owned step or after its last (unless the
-    run comes within ``pad`` frames of the take's first or last frame on that side: an error
-    cut off there has no step there). A run owning one step is cut on one side only, the side
-    away from the error: the error lies where the normalised digression ``z`` is higher over
-    the ``width`` frames after the step than before it, or before (:func:`mdm.step_sides`);
-    without ``z`` such a run is kept whole."""
+    run comes within ``pad`` frames of the take's first or last frame on that side and its
+    step nearest that side does not enter, or leave, the error there: an error cut off by the
+    take's start or end has no step there, but a run whose last step leaves the error holds
+    natural motion after it however far the run goes; Bandai-1 tuning half, gestures, flips
+    with local context: precision 0.917 before, 0.982 after, nothing else changed on either
+    half). A run owning one step is cut on one side only, the side away from the error: the
+    error lies where the normalised digression ``z`` is higher over the ``width`` frames after
+    the step than before it, or before (:func:`mdm.step_sides`); without ``z`` such a run is
+    kept whole."""
     mask = np.asarray(mask, dtype=bool)
     keep = np.asarray(keep, dtype=bool) & mask
     out = np.zeros_like(mask)
@@ -64,19 +68,29 @@ def unowned_runs(
                     # step on the other side is not vouched for
                     if z is None:
                         continue
-                    p = int(first[i])
-                    after = z[p : p + width, j].mean()
-                    before = z[max(0, p - width) : p, j].mean() if p > 0 else -np.inf
-                    if after >= before:
+                    if _enters(z[:, j], int(first[i]), width):
                         hi = False
                     else:
                         lo = False
-                # an error cut off by the take's start or end has no step there
+                elif z is not None:
+                    # an error cut off by the take's start or end has no step there; but a
+                    # run whose first step enters the error (or whose last leaves it) holds
+                    # the error between its steps, whatever lies beyond them
+                    lo = lo or _enters(z[:, j], int(first[i]), width)
+                    hi = hi or not _enters(z[:, j], int(last[i]), width)
                 if lo:
                     out[a : max(first[i] - pad, a), j] = True
                 if hi:
                     out[min(last[i] + pad, b) + 1 : b + 1, j] = True
     return out
+
+
+def _enters(z: np.ndarray, p: int, width: int) -> bool:
+    """Whether the step at frame ``p`` enters an error: the normalised digression ``z`` (one
+    joint's) is higher over the ``width`` frames from ``p`` on than over those before it."""
+    after = z[p : p + width].mean()
+    before = z[max(0, p - width) : p].mean() if p > 0 else -np.inf
+    return bool(after >= before)
 
 
 @dataclass(frozen=True)
