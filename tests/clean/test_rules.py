@@ -351,14 +351,14 @@ def test_noise_bursts_judge_each_joint_against_its_own_roughness() -> None:
 
 def test_smooth_veto_a_step_vouches_for_the_nearest_run_only() -> None:
     bad = turn(smooth(), slice(30, 40), 0, 30.0)  # an offset: steps at its two ends
-    # an error's run and, 4 frames after its exit step, a run of natural motion: the exit step
-    # is the error's, not the neighbour's
-    fl = flagged(90, 2, [(30, 40, 0), (44, 60, 0)])
+    # an error's run and, just after its exit step, a run of natural motion: the exit step is
+    # the error's, not the neighbour's
+    fl = flagged(90, 2, [(30, 41, 0), (43, 60, 0)])
     SmoothVeto().apply(evidence(bad), fl)
-    assert fl.mask[30:40, 0].all() and not fl.mask[44:60, 0].any()
-    fl = flagged(90, 2, [(30, 40, 0), (44, 60, 0)])
+    assert fl.mask[30:40, 0].all() and not fl.mask[43:60, 0].any()
+    fl = flagged(90, 2, [(30, 41, 0), (43, 60, 0)])
     SmoothVeto(nearest=False).apply(evidence(bad), fl)  # any step near: both kept
-    assert fl.mask[44:60, 0].all()
+    assert fl.mask[43:60, 0].all()
     # one run holding the error and natural motion after it: cut past the last step + pad
     fl = flagged(90, 2, [(30, 70, 0)])
     SmoothVeto().apply(evidence(bad), fl)

@@ -110,7 +110,7 @@ class SmoothVeto:
     veto: ClassVar[bool] = True
     signal: ClassVar[bool] = False
     min_deg: float = 12.0
-    pad_seconds: float = 0.2
+    pad_seconds: float = 0.05
     nearest: bool = True
     trim: bool = True
 
