@@ -226,6 +226,31 @@ def test_cancelling_steps_pair_two_close_errors_without_bridging_the_gap() -> No
     assert np.array_equal(np.flatnonzero(flagged[:, 0]), np.r_[30:40])
 
 
+def test_cancelling_steps_never_pair_an_exit_with_a_later_entry() -> None:
+    """Two wrong-way bends are not constant turns: each one's own ends cancel poorly, and the
+    exit of the first (+0.9 rad) cancels the entry of the second (-0.9 rad) across the clean
+    frames between them. Told which side of each jump digresses, the pair is refused there,
+    and only there: jumps closer than ``sided_frames`` pair whatever their sides say."""
+    q = _turning(120, J=1, seed=4)
+    bad = q.copy()
+    ax = np.array([1.0, 0.0, 0.0])
+    bad[10:30, 0] = rot.quat_mul(
+        q[10:30, 0], rot.rotvec_to_quat(np.linspace(0.4, 0.9, 20)[:, None] * ax)
+    )
+    bad[60:80, 0] = rot.quat_mul(
+        q[60:80, 0], rot.rotvec_to_quat(np.linspace(0.9, 0.3, 20)[:, None] * ax)
+    )
+    peaks = np.zeros((120, 1), dtype=bool)
+    peaks[[10, 30, 60, 80], 0] = True
+    devs = [mdm_mod.step_deviations(bad, "body")]
+    across = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35)
+    assert across[30:60, 0].all()  # the clean frames between the two errors
+    sides = np.zeros((120, 1), dtype=np.int8)
+    sides[[10, 60], 0], sides[[30, 80], 0] = 1, -1  # entries, exits
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15).any()
+    assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 31)[30:60, 0].all()
+
+
 def test_extend_to_steps_reaches_the_error_edges() -> None:
     F = 120
     q = _turning(F, J=2, seed=6)

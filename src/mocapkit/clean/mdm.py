@@ -525,6 +525,8 @@ def cancelling_steps(
     deviations: Sequence[np.ndarray],
     max_frames: int,
     tol: float,
+    sides: np.ndarray | None = None,
+    sided_frames: int = 0,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -542,7 +544,14 @@ def cancelling_steps(
     Each peak pairs at most once, the best-cancelling pairs first: two errors close together
     on one joint (the entry of the first, its exit, the entry of the second, ...) pair as two
     stretches, not through the exit of the first and the entry of the second across the clean
-    frames between them."""
+    frames between them. With ``sides`` (:func:`step_sides` of the peaks: +1 the error lies
+    after the jump, -1 before), a jump that leaves an error is never paired with a later one
+    that enters an error, ``sided_frames`` or more frames on: two wrong-way bends of an elbow
+    are not constant turns, so their own ends cancel poorly, and the exit of the first
+    cancelled the entry of the second better (Bandai-1 tuning half, gestures, bends: precision
+    0.929 / 0.975 local, 0.951 / 1.000 small context, without / with). Closer than a source
+    word the words' digression blurs the two sides, and a short spike's ends were misjudged
+    (a first version without ``sided_frames`` lost spike recall on the validation half)."""
     out = np.zeros(peaks.shape, dtype=bool)
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j])
@@ -551,6 +560,13 @@ def cancelling_steps(
             for e in ps[i + 1 :]:
                 if e - a > max_frames:
                     break
+                if (
+                    sides is not None
+                    and e - a >= sided_frames
+                    and sides[a, j] < 0
+                    and sides[e, j] > 0
+                ):
+                    continue  # leaves an error, then enters another: clean frames between
                 ratio = min(
                     np.linalg.norm(v[a, j] + x)
                     / max(min(np.linalg.norm(v[a, j]), np.linalg.norm(v[e, j])), 1e-12)

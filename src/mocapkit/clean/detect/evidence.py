@@ -15,6 +15,7 @@ import numpy as np
 
 from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.detect.config import DetectConfig, seconds_to_frames
+from mocapkit.clean.words import ANALYSIS_FPS, SOURCE_LEN
 from mocapkit.core import rotations as rot
 from mocapkit.core.runs import true_runs
 from mocapkit.core.skeleton import Skeleton
@@ -225,10 +226,20 @@ class Evidence:
 
     @cached_property
     def cancelling(self) -> np.ndarray:
-        """(F, J) bool: stretches between two jumps that cancel (:func:`mdm.cancelling_steps`)."""
+        """(F, J) bool: stretches between two jumps that cancel (:func:`mdm.cancelling_steps`),
+        never from a jump that leaves an error to one that enters another (needs the maps)."""
+        self._need_maps()
         span = round(self.config.pair_seconds * self.fps)
         devs = [self.body_deviations, self.parent_deviations]
-        return mdm_mod.cancelling_steps(self.jump_peaks, devs, span, self.config.pair_tol)
+        # which side of each jump digresses (needs the maps), judged only for jumps a source
+        # word apart or more: the words' digression blurs the two sides of a shorter stretch
+        sides = mdm_mod.step_sides(
+            self.jump_peaks, self.z, self.frames(self.config.step_side_seconds)
+        )
+        word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
+        return mdm_mod.cancelling_steps(
+            self.jump_peaks, devs, span, self.config.pair_tol, sides, word
+        )
 
     @cached_property
     def spike_size(self) -> np.ndarray:
