@@ -70,9 +70,15 @@ def test_speed_two_takes_every_other_frame_and_one_is_a_copy() -> None:
 def test_speed_refuses_a_factor_that_leaves_no_motion_or_a_runaway_file() -> None:
     m = walk()
     F = m.num_frames
-    assert change_speed(m, 1.99 * (F - 1)).num_frames == 2  # about the fastest that keeps two
-    with pytest.raises(ValueError, match=f"leaves 1 frame of the take's {F}"):
+    fastest = (F - 1) / 11  # always within 5%: 11 frames' span left
+    assert abs((F - 1) / (change_speed(m, fastest).num_frames - 1) / fastest - 1) <= 0.05
+    # 250x on 195 frames leaves the first and last pose: 194x, not 250x
+    with pytest.raises(ValueError, match=f"on the take's {F} frames leaves 2 frame"):
+        change_speed(m, 1.3 * (F - 1))
+    with pytest.raises(ValueError, match="leaves 1 frame"):
         change_speed(m, 2.0 * (F - 1))
+    with pytest.raises(ValueError, match="1 frame has no motion"):
+        change_speed(m[:1], 2.0)
     with pytest.raises(ValueError, match="below the slowest"):
         change_speed(m, 0.001)
     assert change_speed(m, 0.01).num_frames == 100 * (F - 1) + 1

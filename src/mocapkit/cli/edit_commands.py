@@ -73,12 +73,13 @@ def parse_renames(values: tuple[str, ...]) -> dict[str, str]:
 )
 @click.option(
     "--speed",
-    type=click.FloatRange(min=0, min_open=True),
+    type=click.FloatRange(min=0.01),
     metavar="FACTOR",
     default=None,
     help=(
-        "Play FACTOR times faster (resampled, same frame rate): 2 halves the duration; "
-        "0.01 at slowest, and at least 2 frames are kept."
+        "Play FACTOR times faster (resampled, same frame rate): 2 halves the duration. "
+        "Refused where the take is too short to play that fast (the frames left would play "
+        "more than 5% off FACTOR)."
     ),
 )
 @up_option()

@@ -45,6 +45,11 @@ MIN_SPEED = 0.01
 for a hundred frames; slower only multiplies the file's size."""
 
 
+SPEED_TOLERANCE = 0.05
+"""How far the speed the frames left play at may be from the factor asked for (a fraction):
+the frame count is whole, so a take sped up to a handful of frames plays at another speed."""
+
+
 def change_speed(motion: Motion, factor: float) -> Motion:
     """The take played ``factor`` times faster (2.0: half the duration), at its own frame rate.
 
@@ -55,9 +60,11 @@ def change_speed(motion: Motion, factor: float) -> Motion:
     is the same, only traversed at another pace. The frame time of the result is the source's,
     bit for bit.
 
-    Refused (ValueError): a factor that is not a positive number, one that leaves a take of
-    two or more frames a single frame (no motion is left to play), and one under
-    :data:`MIN_SPEED` (a take a hundred times longer, gigabytes of BVH for a minute's take).
+    Refused (ValueError): a factor that is not a positive number; one under :data:`MIN_SPEED`
+    (a take a hundred times longer, gigabytes of BVH for a minute's take); a take of one frame
+    (no motion to play faster or slower); and a factor the take is too short to play: the
+    whole frames left would play it more than :data:`SPEED_TOLERANCE` off the factor (250x
+    on 195 frames leaves 2, the first and last pose, which is 194x).
     """
     factor = float(factor)
     if not (math.isfinite(factor) and factor > 0):
@@ -65,13 +72,21 @@ def change_speed(motion: Motion, factor: float) -> Motion:
     if factor < MIN_SPEED:
         raise ValueError(f"speed factor {factor:g} is below the slowest, {MIN_SPEED:g}")
     F = motion.num_frames
-    if F >= 2 and _frames_after_speed(F, factor) < 2:
-        raise ValueError(
-            f"speed factor {factor:g} leaves 1 frame of the take's {F}: expected less than "
-            f"{2 * (F - 1):g}, which keeps 2"
-        )
-    if factor == 1.0 or motion.num_frames == 0:
+    if factor == 1.0 or F == 0:
         return motion.copy()
+    if F == 1:
+        raise ValueError("speed: a take of 1 frame has no motion to play faster or slower")
+    n = _frames_after_speed(F, factor)
+    played = (F - 1) / (n - 1) if n >= 2 else math.inf
+    if abs(played / factor - 1.0) > SPEED_TOLERANCE:
+        # (F - 1) / factor frames, rounded, are off by at most half a frame: well within the
+        # tolerance from 0.5 / tol + 1 frames on
+        fastest = (F - 1) / (0.5 / SPEED_TOLERANCE + 1.0)
+        raise ValueError(
+            f"speed factor {factor:g} on the take's {F} frames leaves {n} frame(s), which "
+            f"play it {played:.3g}x, more than {SPEED_TOLERANCE:.0%} off: factors up to "
+            f"{fastest:.3g} always play within it"
+        )
     ft = motion.frame_time
     fast = Motion(
         motion.skeleton, motion.rotations, motion.root_positions, ft / factor, motion.translations
