@@ -187,16 +187,23 @@ def _unit(v: np.ndarray, eps: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
 # resampling
 
 
+SAME_RATE_TOLERANCE = 1e-5
+""":func:`resample` leaves a motion as it is when its rate is the one asked for within this
+fraction: BVH files write 30 fps as ``Frame Time: 0.0333333`` (30.00003 fps), and resampling
+that to 30 fps would only interpolate every frame by a hair."""
+
+
 def resample(motion: Motion, fps: float) -> Motion:
     """The motion at another frame rate.
 
-    The new ``frame_time`` is exactly ``1 / fps``. New frame ``i`` samples the source at time
-    ``t_i = i / fps`` (source frame ``k`` lies at ``k * frame_time``). The new frames span the
-    source's samples, first to last: ``n - 1`` is ``(num_frames - 1) * frame_time * fps`` rounded
-    (a tie down), so the last new frame lies within half a new frame of the last source frame (a
-    time just past it is clamped to it), no frame is made up past the capture (30 fps to 60 fps
-    gives ``2 num_frames - 1`` frames, not a last frame repeated) and an up-then-down round trip
-    gives back the original count.
+    The new ``frame_time`` is exactly ``1 / fps`` (a motion already at ``fps`` within
+    :data:`SAME_RATE_TOLERANCE` is returned as a copy, its frame time kept). New frame ``i``
+    samples the source at time ``t_i = i / fps`` (source frame ``k`` lies at ``k *
+    frame_time``). The new frames span the source's samples, first to last: ``n - 1`` is
+    ``(num_frames - 1) * frame_time * fps`` rounded (a tie down), so the last new frame lies
+    within half a new frame of the last source frame (a time just past it is clamped to it),
+    no frame is made up past the capture (30 fps to 60 fps gives ``2 num_frames - 1`` frames,
+    not a last frame repeated) and an up-then-down round trip gives back the original count.
 
     Rotations: every joint's quaternion track is made hemisphere-continuous
     (:func:`~mocapkit.core.rotations.quat_unroll`) and then slerped between the two neighbouring
@@ -214,6 +221,8 @@ def resample(motion: Motion, fps: float) -> Motion:
     fps = float(fps)
     if not math.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive number, got {fps!r}")
+    if abs(motion.frame_time * fps - 1.0) <= SAME_RATE_TOLERANCE:
+        return motion.copy()  # the same rate, its frame time written rounded: nothing to do
     new_ft = 1.0 / fps
     F = motion.num_frames
     sk = motion.skeleton
