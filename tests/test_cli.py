@@ -74,6 +74,16 @@ def test_convert_resample_order_scale_npz(walk_bvh: Path, tmp_path: Path) -> Non
     assert read_motion(back).allclose(m)
 
 
+def test_convert_refuses_a_rate_that_leaves_one_frame(walk_bvh: Path, tmp_path: Path) -> None:
+    """A rate so low that the take's span is under half a frame would write a single pose
+    (newcomer report: --fps 10 on a 5-frame file wrote 1 frame and exit 0)."""
+    short = write_motion(read_motion(walk_bvh)[:3], tmp_path / "short.bvh")
+    out = tmp_path / "one.bvh"
+    code, so, se = run("convert", str(short), str(out), "--fps", "5")
+    assert code != 0 and "leaves 1 frame of the take's 3" in so + se and not out.exists()
+    assert run("convert", str(short), str(out), "--fps", "20")[0] == 0
+
+
 def test_convert_and_edit_name_the_rate_as_info_does(walk_bvh: Path, tmp_path: Path) -> None:
     """A frame time written as 0.033333 (6 digits, as many tools write it) is 30 fps in `info`;
     convert and edit said "30.0003 fps" (newcomer report)."""

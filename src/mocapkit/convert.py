@@ -32,11 +32,19 @@ FOLDER_FORMATS = ("bvh", "npz", "glb", "gltf")
 
 def convert_motion(motion: Motion, fps: float | None = None, scale: float | None = None) -> Motion:
     """Resample to ``fps`` (:func:`mocapkit.features.resample`) and/or multiply every length
-    (bone offsets, root and joint translations) by ``scale`` (e.g. 0.01 for cm -> m)."""
+    (bone offsets, root and joint translations) by ``scale`` (e.g. 0.01 for cm -> m). A rate
+    that would leave a take of two or more frames a single frame is refused (ValueError)."""
     from mocapkit import features
 
     if fps is not None:
-        motion = features.resample(motion, fps)
+        out = features.resample(motion, fps)
+        if motion.num_frames >= 2 and out.num_frames < 2:  # its motion would be gone
+            span = (motion.num_frames - 1) * motion.frame_time
+            raise ValueError(
+                f"--fps {fps:g} leaves 1 frame of the take's {motion.num_frames}: its "
+                f"{span:.3g} s are under half a frame at {fps:g} fps"
+            )
+        motion = out
     if scale is not None:
         if not scale > 0:
             raise ValueError(f"--scale must be positive, got {scale}")
