@@ -386,6 +386,25 @@ def test_smooth_veto_a_step_vouches_for_the_nearest_run_only() -> None:
     assert fl.mask[50:90, 0].all()
 
 
+def test_explain_says_the_smooth_veto_spares_a_frozen_run() -> None:
+    """A held joint enters its hold smoothly, so the smooth veto keeps frozen cells; --explain
+    said only "not applied" there and "cleared it" on a moving cell with the same step size
+    (newcomer report)."""
+    from mocapkit.clean.detect.pipeline import explain
+
+    q = smooth()
+    bad = q.copy()
+    bad[30:50, 0] = q[30, 0]
+    ev = evidence(bad, dig=rot.quat_angle(bad, q))
+    fl = run_pipeline(ev, pipeline=(FrozenJoints, SmoothVeto))
+    assert fl.mask[40, 0]
+    line = {
+        name: verdict
+        for name, verdict, _ in explain(ev, fl, 0, 40, (FrozenJoints, SmoothVeto)).lines
+    }
+    assert line["smooth"] == "veto: not applied (it spares frozen cells)"
+
+
 def test_wrong_way_hinge_axis_is_the_takes_own() -> None:
     F = 90
     rv = np.zeros((F, 1, 3))

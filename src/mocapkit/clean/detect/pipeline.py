@@ -149,6 +149,11 @@ class Explanation:
         return "\n".join(out)
 
 
+def _holds(table: dict, rule: str, frame: int, joint: int) -> bool:
+    cells = table.get(rule)
+    return cells is not None and bool(cells[frame, joint])
+
+
 def explain(
     evidence: Evidence,
     flags: Flags,
@@ -173,6 +178,10 @@ def explain(
             verdict = "veto: cleared it" if hit else "veto: not applied"
             if hit:
                 cleared.append(rule.name)
+            spares = getattr(rule, "spares", ())  # optional: rules whose cells a veto keeps
+            spared = [r for r in spares if _holds(flags.added, r, frame, joint)]
+            if spared and not hit:
+                verdict += f" (it spares {', '.join(spared)} cells)"
         else:
             verdict = "flagged it" if hit else "did not flag"
             if hit and flags.mask[frame, joint]:

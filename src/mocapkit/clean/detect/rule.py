@@ -17,7 +17,8 @@ class Rule(Protocol):
     for that joint (several errors on one joint would vouch for each other); ``glyph``: the
     mark of its cells in the heat map. ``from_config`` picks its thresholds from a
     :class:`DetectConfig`; ``apply`` changes ``flags``; ``cells`` (signal rules) gives what it
-    would flag; ``describe`` says, in one line, what it measured at a cell.
+    would flag; ``describe`` says, in one line, what it measured at a cell. A veto may name in
+    ``spares`` the rules whose cells it never clears (``--explain`` says so).
     """
 
     name: ClassVar[str]

@@ -109,6 +109,8 @@ class SmoothVeto:
     name: ClassVar[str] = "smooth"
     veto: ClassVar[bool] = True
     signal: ClassVar[bool] = False
+    spares: ClassVar[tuple[str, ...]] = ("frozen",)
+    """Rules whose cells this veto never clears (a held joint enters its hold smoothly)."""
     min_deg: float = 12.0
     pad_seconds: float = 0.05
     nearest: bool = True
@@ -123,7 +125,9 @@ class SmoothVeto:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.min_deg <= 0:
             return
-        keep = flags.added.get("frozen", np.zeros(flags.mask.shape, dtype=bool))
+        keep = np.zeros(flags.mask.shape, dtype=bool)
+        for rule in self.spares:
+            keep |= flags.added.get(rule, keep)
         pad = ev.frames(self.pad_seconds)
         if self.nearest:
             cells = unowned_runs(
