@@ -26,6 +26,7 @@ from mocapkit.edit.joints import drop_joints, joints_matching, rename_joints
 from mocapkit.edit.mirror import mirror
 from mocapkit.edit.rootmotion import ROOT_NAME, extract_root_motion, in_place
 from mocapkit.edit.timing import change_speed, trim_frames
+from mocapkit.summary import nominal_fps
 
 __all__ = ["EDIT_ORDER", "ROOT_MODES", "EditResult", "apply_edits"]
 
@@ -45,10 +46,10 @@ class EditResult:
     def to_json(self) -> dict[str, Any]:
         m = self.motion
         return {
-            "input": {"frames": self.input_frames, "fps": self.input_fps},
+            "input": {"frames": self.input_frames, "fps": nominal_fps(1.0 / self.input_fps)},
             "output": {
                 "frames": m.num_frames,
-                "fps": m.fps,
+                "fps": nominal_fps(m.frame_time),  # 30, not 30.00003 for 0.0333333
                 "frame_time": m.frame_time,
                 "duration_s": m.duration,
                 "joints": m.num_joints,
