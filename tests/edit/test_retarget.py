@@ -271,3 +271,31 @@ def test_a_rig_without_legs_is_named_as_source_or_target(tmp_path):
     assert r.exit_code == 2 and r.output.count("\n") == 1
     assert r.output.startswith(f"mocapkit: error: {b}: cannot retarget the target rig")
     assert not (tmp_path / "o.bvh").exists()
+
+
+def test_a_rig_that_never_stands_upright_is_warned_about():
+    """A four-legged rig named like a biped (the corpus' Bip01 elephant) was retargeted onto a
+    person without a word. A rig whose trunk lies level over its legs, in its rest pose and
+    in every frame, is warned about as source or as target; a person walking is not."""
+    from dataclasses import replace
+
+    from mocapkit import datasets
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.motion import Motion
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion
+    sk = walk.skeleton
+    trunk = [sk.names.index("Spine")]  # the Spine joint and everything above it
+    for j in range(sk.num_joints):
+        if sk.parents[j] in trunk:
+            trunk.append(j)
+    pitch = rot.rotvec_to_quat(np.array([np.pi / 2, 0.0, 0.0]))  # forward, about the side axis
+    offsets = sk.offsets.copy()
+    offsets[trunk] = rot.quat_apply(pitch, offsets[trunk])
+    level = Motion(replace(sk, offsets=offsets), walk.rotations, walk.root_positions,
+                   walk.frame_time)  # fmt: skip
+    assert retarget(walk, walk).figures["warnings"] == []
+    src = retarget(level, walk).figures["warnings"]
+    assert len(src) == 1 and src[0].startswith("the source never stands upright")
+    tgt = retarget(walk, level).figures["warnings"]
+    assert len(tgt) == 1 and tgt[0].startswith("the target never stands upright")

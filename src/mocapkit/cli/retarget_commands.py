@@ -114,6 +114,8 @@ def retarget(
             segments=[Segment(0, m.num_frames, "generated", str(source), 0, src.num_frames)],
         )
         side = plan.write(out)
+    for line in res.figures["warnings"]:
+        click.echo(f"mocapkit: warning: {line}", err=True)
     if as_json:
         echo_json({"output": str(out), **res.to_json()})
         return

@@ -204,6 +204,30 @@ def _is_standing(body: Body, pos: np.ndarray) -> bool:
     return True
 
 
+def _ever_upright(motion: Motion, body: Body) -> bool:
+    """Whether the rig's zero pose or any frame of ``motion`` (every frame up to 400, else 400
+    spread over it) holds the body upright: the pelvis-to-neck direction within 45 deg of the
+    up axis and both ankles below the pelvis by a third of their leg's length or more. A person
+    stands, walks or runs upright in some frame of nearly any take (every Bandai, CMU and
+    corpus take but a 1-frame pose tilted 45 deg); a four-legged rig never does (the corpus'
+    Bip01 elephant)."""
+    up_j = body.neck if body.neck is not None else body.head
+    legs = [(body.joint(f"{side}_hip"), body.joint(f"{side}_ankle")) for side in ("left", "right")]
+    if up_j is None or any(j is None for leg in legs for j in leg):
+        return True  # nothing to judge by: the mapping itself says what is missing
+    _, u, _ = ground_frame(body.up)
+    sk = motion.skeleton
+    zero = Motion(sk, rot.quat_identity((1, sk.num_joints)), sk.offsets[:1].copy(), 1.0)
+    step = max(1, motion.num_frames // 400)
+    pos = np.concatenate([forward_kinematics(zero)[0], forward_kinematics(motion[::step])[0]])
+    spine = pos[:, up_j] - pos[:, body.pelvis]
+    ok = spine @ u > np.cos(np.radians(45.0)) * np.linalg.norm(spine, axis=-1)
+    for hip, ankle in legs:
+        length = np.linalg.norm(pos[:, ankle] - pos[:, hip], axis=-1)
+        ok &= (pos[:, body.pelvis] - pos[:, ankle]) @ u > length / 3.0
+    return bool(ok.any())
+
+
 def _reference(motion: Motion, body: Body) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Reference pose of a rig: (positions (J,3), global rotations (J,4), local rotations
     (J,4)). The zero pose when it stands, else the motion's frame with the straightest legs."""
@@ -599,6 +623,7 @@ def _transfer(
         "B_T": dict(zip(order, B_T, strict=True)),
         "clamped": clamped,
         "unmapped": unmapped,
+        "upright": {"source": _ever_upright(source, bS), "target": _ever_upright(target, bT)},
     }
     return out, info
 
@@ -1037,6 +1062,16 @@ def retarget(
             for k, v in info["clamped"].items()
         },
     }
+    # a rig none of whose poses stands upright (a four-legged rig named like a biped, a take
+    # that lies or crawls throughout on a rig whose rest pose does not stand either) has no
+    # pose in which its bones can be matched to a standing body's
+    figures["warnings"] = [
+        f"the {role} never stands upright (no pose with its legs below the pelvis and its "
+        "spine above): retargeting matches upright two-legged bodies, so a four-legged rig "
+        "comes out wrong"
+        for role, upright in info["upright"].items()
+        if not upright
+    ]
     figures["contacts"]["detected_frames"] = int(detected.contacts.any(axis=1).sum())
     figures["contacts"]["contact_drift_m"] = cfg.contact_drift
     if bT.ground_root is not None:
