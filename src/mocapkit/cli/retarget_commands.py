@@ -64,7 +64,8 @@ def retarget(
     clavicles, shoulders, elbows, wrists); rest-pose differences (T-pose, A-pose, other bone
     axes) are aligned; the pelvis path is scaled by leg length; units and up axis follow
     TARGET; planted feet are held by IK. Prints foot slide during contacts (source and
-    output), effector path error and knees/elbows bent backwards.
+    output), effector path error and knees/elbows bent backwards, and warns when either rig
+    never stands upright (a four-legged rig: retargeting matches upright two-legged bodies).
 
     \b
     Examples:

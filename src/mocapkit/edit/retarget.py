@@ -460,7 +460,7 @@ class Retargeted:
         how far it was out of reach: frames clamped, mean and max shortfall in cm),
         ``joint_limits`` (per knee and elbow, frames bent backwards
         beyond the margin in the source and in the output, and whether the output kept every
-        limit the source kept)."""
+        limit the source kept), ``warnings`` (a rig that never stands upright)."""
         return {
             "frames": self.motion.num_frames,
             "fps": self.motion.fps,
