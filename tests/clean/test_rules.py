@@ -319,6 +319,15 @@ def test_run_pipeline_records_reasons_and_never_flags_unanalysed_joints() -> Non
     assert fl.reasons_at(slice(40, 42), 0) == ["spike"]
     ev.analysed = np.array([False, True])
     assert not run_pipeline(ev, pipeline=ORIGINAL_ORDER).mask[:, 0].any()
+    # --explain does not list verdicts that cannot apply (newcomer report); the JSON keeps them
+    from mocapkit.clean.detect.pipeline import explain
+
+    why = explain(ev, run_pipeline(ev), 0, 40)
+    assert (
+        str(why).splitlines()[1].startswith("  the joint was not analysed")
+        and len(str(why).splitlines()) == 2
+    )
+    assert len(why.to_json()["rules"]) == len(why.lines) > 0
 
 
 def test_noise_bursts_judge_each_joint_against_its_own_roughness() -> None:

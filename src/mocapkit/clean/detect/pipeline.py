@@ -141,8 +141,12 @@ class Explanation:
         if self.cleared_by:
             why += f" (cleared by {', '.join(self.cleared_by)})"
         out = [f"{self.joint} frame {self.frame} ({self.seconds:.3f} s): {head}{why}"]
-        if not self.analysed:
-            out.append("  the joint was not analysed (it does not rotate, or no word covers it)")
+        if not self.analysed:  # no rule's verdict applies: say so instead of listing them
+            out.append(
+                "  the joint was not analysed (it does not rotate, or no word covers it): no "
+                "rule flags it (--report's JSON keeps what each rule measured)"
+            )
+            return "\n".join(out)
         w = max((len(r) for r, _, _ in self.lines), default=0)
         for r, v, m in self.lines:
             out.append(f"  {r:<{w}s}  {v:<22s} {m}")
