@@ -278,7 +278,7 @@ def test_noise_bursts() -> None:
     # --explain names the burst a flagged cell is in, whatever the cell's own roughness
     ev = evidence(bad)
     f = int(np.flatnonzero(ev.noise_bursts[:, 1])[0])
-    assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}-")
+    assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}:")
     assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
 
 

@@ -44,7 +44,7 @@ class FrozenJoints:
             # a value repeated bit for bit is the solver holding it without data
             exact = np.all(q[a : b + 1] == q[a])
             how = "held bit for bit (one value repeated)" if exact else "held still"
-            return f"{how} frames {a}-{b} ({(b - a + 1) / ev.fps:.2f} s)"
+            return f"{how} frames {a}:{b + 1} ({(b - a + 1) / ev.fps:.2f} s)"
 
         run = run_around(ev.frozen[:, joint], frame)
         if run is not None:

@@ -95,11 +95,11 @@ class MDMHysteresis:
         # the joint's own enters the error there)
         own = "" if v > self.threshold else f" (below {self.threshold:g}: an abrupt cell)"
         if kinds:
-            return f"MDM {v:.3f}{own} in a run {a}-{b} above {self.threshold:g} seeded by " + (
+            return f"MDM {v:.3f}{own} in a run {a}:{b + 1} above {self.threshold:g} seeded by " + (
                 ", ".join(kinds)
             )
         return (
-            f"MDM {v:.3f} in a run {a}-{b} above {self.threshold:g} with no seed (peak "
+            f"MDM {v:.3f} in a run {a}:{b + 1} above {self.threshold:g} with no seed (peak "
             f"{peak:.3f} <= {self.seed_threshold:g}, no abrupt cell or step)"
         )
 

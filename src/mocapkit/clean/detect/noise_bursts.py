@@ -56,10 +56,10 @@ class NoiseBursts:
                 return f"{here}, not a burst: a burst is {need}"
             secs = (above[1] - above[0] + 1) / ev.fps
             return (
-                f"{here}, above the level on frames {above[0]}-{above[1]} only ({secs:.2f} s): "
+                f"{here}, above the level on frames {above[0]}:{above[1] + 1} only ({secs:.2f} s): "
                 f"not a burst (a burst is {need}; a single pop is left to the other rules)"
             )
         a, b = run
         # the burst's roughness spans its frames and two before and one after it
         peak = ev.roughness[max(a - 2, 0) : b + 2, joint].max()
-        return f"in a burst on frames {a}-{b}: roughness up to {deg(peak)} around it, {need}"
+        return f"in a burst on frames {a}:{b + 1}: roughness up to {deg(peak)} around it, {need}"

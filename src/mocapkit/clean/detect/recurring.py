@@ -61,9 +61,9 @@ class RecurringVeto:
             return "no digressing run here to match"
         a, b = run
         if b - a + 1 > ev.frames(self.max_seconds):
-            return f"run {a}-{b} longer than {self.max_seconds:g} s: not a motif"
+            return f"run {a}:{b + 1} longer than {self.max_seconds:g} s: not a motif"
         m = mdm_mod.excursion_match(
             ev.rotations[:, joint], a, b + 1, [o[:, joint] for o in ev.context_rotations],
             ev.frames(self.flex_seconds),
         )  # fmt: skip
-        return f"closest repeat of run {a}-{b}: {deg(m) if np.isfinite(m) else 'none'}"
+        return f"closest repeat of run {a}:{b + 1}: {deg(m) if np.isfinite(m) else 'none'}"
