@@ -273,7 +273,8 @@ def convert_many(
     if len(subs) != len(srcs):
         raise ValueError("subfolders must name one folder per source")
     results: dict[int, ItemResult] = {}
-    written: dict[Path, Path] = {}
+    written: dict[Path, Path] = {}  # by case-folded output path
+    written_at: set[Path] = set()  # the output paths as written
     emitted = 0
 
     def emit() -> None:
@@ -294,12 +295,16 @@ def convert_many(
             src = srcs[k]
             out = output_path(src, out_dir, to, subs[k])
             try:
-                key = out.resolve()
+                # names that differ only by case are one file on macOS and Windows: an output
+                # folder must not hold two of them
+                key = Path(str(out.resolve()).casefold())
                 if key in written:
                     raise ValueError(
-                        f"{src}: its output {out} is already written from {written[key]}; "
-                        "rename one of them"
-                    )
+                        f"{src}: its output {out} is already written from {written[key]}"
+                        + ("" if out.resolve() in written_at else " (names that differ only "
+                           "by case are one file on macOS and Windows)")
+                        + "; rename one of them"
+                    )  # fmt: skip
                 if key in claimed:
                     later.append(k)
                     continue
@@ -314,6 +319,7 @@ def convert_many(
                 r = entry["result"]
                 results[k] = ItemResult(src, out, r["frames"], r["fps"], resumed=True)
                 written[key] = src
+                written_at.add(out.resolve())
                 continue
             wave.append((k, out, key, resume))
         emit()
@@ -326,6 +332,7 @@ def convert_many(
             results[k] = item
             if item.ok:
                 written[key] = srcs[k]
+                written_at.add(out.resolve())
                 manifest.record(
                     (subs[k] / out.name).as_posix(), resume, [out],
                     {"frames": item.frames, "fps": item.fps},

@@ -307,6 +307,19 @@ def test_convert_many_same_stem_twice_is_an_error_for_the_second(
     assert res.to_json()["converted"] == 1
 
 
+def test_convert_many_stems_differing_only_by_case_are_one_output(
+    library: Path, tmp_path: Path
+) -> None:
+    """``Walk.npz`` and ``walk.npz`` are one file on macOS and Windows: the second input of a
+    folder whose stems differ only by case is refused and says why (on Linux the two were
+    written side by side, and the folder lost one when copied to a Mac)."""
+    write_motion(read_motion(library / "walk.bvh"), tmp_path / "Walk.npz")
+    res = convert_many([library / "walk.bvh", tmp_path / "Walk.npz"], tmp_path / "o", "glb")
+    assert [i.ok for i in res.items] == [True, False]
+    assert "differ only by case" in res.items[1].error
+    assert sorted(p.name for p in (tmp_path / "o").glob("*.glb")) == ["walk.glb"]
+
+
 def test_convert_folder_mode_needs_both_options(library: Path, tmp_path: Path) -> None:
     code, _, err = run("convert", str(library), "--to", "glb")
     assert code == 2 and "needs both --out-dir and --to" in err
