@@ -21,7 +21,9 @@ class CancellingJumps:
 
     Relies on: a spike, an offset or a flip turns a stretch by one constant rotation, entered
     and left with opposite jumps; natural motion that jumps seldom jumps back by the same
-    rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`)."""
+    rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is never
+    paired with a later one entering another (the frames between are clean), where the
+    digression tells the two sides of each jump apart."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
