@@ -273,8 +273,7 @@ def convert_many(
     if len(subs) != len(srcs):
         raise ValueError("subfolders must name one folder per source")
     results: dict[int, ItemResult] = {}
-    written: dict[Path, Path] = {}  # by case-folded output path
-    written_at: set[Path] = set()  # the output paths as written
+    written: dict[Path, tuple[Path, Path]] = {}  # case-folded output -> (source, output)
     emitted = 0
 
     def emit() -> None:
@@ -299,12 +298,15 @@ def convert_many(
                 # folder must not hold two of them
                 key = Path(str(out.resolve()).casefold())
                 if key in written:
-                    raise ValueError(
-                        f"{src}: its output {out} is already written from {written[key]}"
-                        + ("" if out.resolve() in written_at else " (names that differ only "
-                           "by case are one file on macOS and Windows)")
-                        + "; rename one of them"
-                    )  # fmt: skip
+                    first, there = written[key]
+                    if there == out.resolve():
+                        why = f"its output {out} is already written from {first}"
+                    else:  # e.g. walk.bvh after Walk.npz
+                        why = (
+                            f"its output {out} and {there}, written from {first}, differ only "
+                            "by case: one file on macOS and Windows"
+                        )
+                    raise ValueError(f"{src}: {why}; rename one of them")
                 if key in claimed:
                     later.append(k)
                     continue
@@ -318,8 +320,7 @@ def convert_many(
             if entry is not None and entry.get("result"):
                 r = entry["result"]
                 results[k] = ItemResult(src, out, r["frames"], r["fps"], resumed=True)
-                written[key] = src
-                written_at.add(out.resolve())
+                written[key] = (src, out.resolve())
                 continue
             wave.append((k, out, key, resume))
         emit()
@@ -331,8 +332,7 @@ def convert_many(
         for (k, out, key, resume), item in zip(wave, done, strict=True):
             results[k] = item
             if item.ok:
-                written[key] = srcs[k]
-                written_at.add(out.resolve())
+                written[key] = (srcs[k], out.resolve())
                 manifest.record(
                     (subs[k] / out.name).as_posix(), resume, [out],
                     {"frames": item.frames, "fps": item.fps},

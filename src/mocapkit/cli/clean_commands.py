@@ -102,7 +102,7 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     except (ValueError, OverflowError):
         raise CLIError(f"--explain {spec!r}: expected {form}") from None
     if not 0 <= frame < motion.num_frames:
-        raise CLIError(f"--explain {spec!r}: frame {frame} outside 0-{motion.num_frames - 1}")
+        raise CLIError(f"--explain {spec!r}: frame {frame} outside 0:{motion.num_frames}")
     return names.index(joint), frame
 
 

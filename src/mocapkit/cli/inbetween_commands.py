@@ -82,7 +82,7 @@ def inbetween_cmd(
     json_path: str | None,
     lenient: bool,
 ) -> None:
-    """Replace frames A..B-1 of CLIP by motion found in the library.
+    """Replace frames A:B of CLIP (B excluded) by motion found in the library.
 
     Every segment of every library clip (also played backwards), of the gap's length and of
     nearby lengths time-warped to fit, is scored by how well its body-local poses match the

@@ -77,6 +77,7 @@ def retarget(
     from mocapkit.edit.retarget import retarget as run
     from mocapkit.io import WRITABLE, find_asf, write_motion
     from mocapkit.provenance import Provenance, Segment, sidecar_path
+    from mocapkit.summary import nominal_fps
 
     check_input_file(source)
     check_input_file(target, "motion or ASF file")
@@ -128,8 +129,8 @@ def retarget(
     eff = res.figures["effector_path_error_pct"]["mean"]
     lim = res.figures["joint_limits"]
     click.echo(
-        f"wrote {out} ({m.num_frames} frames at {m.fps:.6g} fps, pelvis path x{res.scale:.3f})"
-        f" and its plan {side}"
+        f"wrote {out} ({m.num_frames} frames at {nominal_fps(m.frame_time):g} fps, "
+        f"pelvis path x{res.scale:.3f}) and its plan {side}"
     )
     click.echo(f"foot slide in contacts: source {cm(fs['source'])}; output {cm(fs['output'])}")
     click.echo(

@@ -64,6 +64,7 @@ from mocapkit.features import (
     resample,
 )
 from mocapkit.ik import FootLockConfig, flexion_angles, hinge_axis, lock_feet
+from mocapkit.summary import nominal_fps
 
 __all__ = [
     "RetargetConfig",
@@ -463,7 +464,7 @@ class Retargeted:
         limit the source kept), ``warnings`` (a rig that never stands upright)."""
         return {
             "frames": self.motion.num_frames,
-            "fps": self.motion.fps,
+            "fps": nominal_fps(self.motion.frame_time),  # 30, not 30.00003
             "scale": self.scale,
             "mapping": dict(self.mapping),
             **self.figures,

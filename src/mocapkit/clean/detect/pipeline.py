@@ -169,9 +169,9 @@ def explain(
     :func:`run_pipeline` on ``evidence`` with the same ``pipeline``)."""
     F, J = evidence.shape
     if not 0 <= joint < J:
-        raise ValueError(f"joint index {joint} outside 0-{J - 1}")
+        raise ValueError(f"joint index {joint} outside 0:{J}")
     if not 0 <= frame < F:
-        raise ValueError(f"frame {frame} outside 0-{F - 1}")
+        raise ValueError(f"frame {frame} outside 0:{F}")
     lines = []
     reasons, cleared = [], []
     for rule in build(evidence.config, pipeline):
