@@ -193,6 +193,16 @@ fraction: BVH files write 30 fps as ``Frame Time: 0.0333333`` (30.00003 fps), an
 that to 30 fps would only interpolate every frame by a hair."""
 
 
+def resampled_frames(num_frames: int, frame_time: float, fps: float) -> int:
+    """How many frames :func:`resample` makes of ``num_frames`` at ``frame_time`` at ``fps``:
+    the source's span in new frames, rounded with a tie down (a frame is never made up half a
+    frame past the capture: 30 frames at twice the rate's span are frames 0, 2, .., 28), plus
+    one; 0 for none."""
+    if num_frames <= 0:
+        return 0
+    return math.ceil((num_frames - 1) * frame_time * fps - 0.5 - 1e-9) + 1
+
+
 def resample(motion: Motion, fps: float) -> Motion:
     """The motion at another frame rate.
 
@@ -229,9 +239,7 @@ def resample(motion: Motion, fps: float) -> Motion:
     if F == 0:
         tr = None if motion.translations is None else motion.translations.copy()
         return Motion(sk, motion.rotations.copy(), motion.root_positions.copy(), new_ft, tr)
-    # the nearest whole span, a tie rounded down: a frame is never made up half a frame past
-    # the capture (30 frames at twice the speed are frames 0, 2, .., 28, not a last one at 30)
-    n = math.ceil((F - 1) * motion.frame_time * fps - 0.5 - 1e-9) + 1
+    n = resampled_frames(F, motion.frame_time, fps)
     s = (np.arange(n) * new_ft) / motion.frame_time
     snap = np.rint(s)
     s = np.where(np.abs(s - snap) < 1e-9, snap, s)

@@ -46,7 +46,7 @@ class EditResult:
     def to_json(self) -> dict[str, Any]:
         m = self.motion
         return {
-            "input": {"frames": self.input_frames, "fps": nominal_fps(1.0 / self.input_fps)},
+            "input": {"frames": self.input_frames, "fps": self.input_fps},
             "output": {
                 "frames": m.num_frames,
                 "fps": nominal_fps(m.frame_time),  # 30, not 30.00003 for 0.0333333
@@ -107,7 +107,7 @@ def apply_edits(
         if old in dropped:
             raise ValueError(f"rename: joint {old!r} is dropped by {drop!r}")
 
-    res = EditResult(motion, motion.num_frames, motion.fps)
+    res = EditResult(motion, motion.num_frames, nominal_fps(motion.frame_time))
     m = motion
     if trim is not None:
         a, b = trim

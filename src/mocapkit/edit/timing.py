@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from mocapkit.core.motion import Motion
-from mocapkit.features import resample
+from mocapkit.features import resample, resampled_frames
 
 __all__ = ["change_speed", "trim", "trim_frames"]
 
@@ -76,7 +76,7 @@ def change_speed(motion: Motion, factor: float) -> Motion:
         return motion.copy()
     if F == 1:
         raise ValueError("speed: a take of 1 frame has no motion to play faster or slower")
-    n = _frames_after_speed(F, factor)
+    n = _frames_after_speed(F, factor, motion.frame_time)
     played = (F - 1) / (n - 1) if n >= 2 else math.inf
     if abs(played / factor - 1.0) > SPEED_TOLERANCE:
         # (F - 1) / factor frames, rounded, are off by at most half a frame: well within the
@@ -96,8 +96,7 @@ def change_speed(motion: Motion, factor: float) -> Motion:
     return Motion(out.skeleton, out.rotations, out.root_positions, ft, out.translations)
 
 
-def _frames_after_speed(num_frames: int, factor: float) -> int:
-    """How many frames :func:`change_speed` returns (for summaries and tests)."""
-    if num_frames == 0:
-        return 0
-    return math.ceil((num_frames - 1) / factor - 0.5 - 1e-9) + 1  # as resample counts
+def _frames_after_speed(num_frames: int, factor: float, frame_time: float = 1.0) -> int:
+    """How many frames :func:`change_speed` returns: the source read at ``frame_time /
+    factor``, resampled back to ``1 / frame_time`` (as it does, so the same rounding)."""
+    return resampled_frames(num_frames, frame_time / factor, 1.0 / frame_time)
