@@ -82,3 +82,21 @@ def test_speed_refuses_a_factor_that_leaves_no_motion_or_a_runaway_file() -> Non
     with pytest.raises(ValueError, match="below the slowest"):
         change_speed(m, 0.001)
     assert change_speed(m, 0.01).num_frames == 100 * (F - 1) + 1
+
+
+def test_trim_in_seconds_reads_times_as_the_cli_does() -> None:
+    """A start inside the last frame's span is that frame (as ``--trim 6.49s:`` on a 6.5 s
+    take), not "past the end"; bad times are refused with the option named."""
+    m = walk()
+    last = trim(m, m.duration - 0.4 * m.frame_time)
+    assert last.num_frames == 1
+    assert np.array_equal(last.rotations[0], m.rotations[-1])
+    for a, b in (
+        (1.0, 1.0),
+        (2.0, 1.0),
+        (-0.1, None),
+        (float("nan"), None),
+        (m.duration + 1, None),
+    ):
+        with pytest.raises(ValueError, match="trim"):
+            trim(m, a, b)

@@ -101,6 +101,16 @@ class RangeSpec:
             raise RangeError(f"{option}: expected {want} with both ends given, got {text!r}")
         return cls(text, lo, hi, False, option)
 
+    @classmethod
+    def seconds(cls, start: float, stop: float | None = None, option: str = "range") -> RangeSpec:
+        """The range ``start``-``stop`` seconds (None: to the end), as ``1.5s:4s`` reads (for
+        the API, which takes numbers)."""
+        if not all(math.isfinite(t) and t >= 0 for t in (start, 0.0 if stop is None else stop)):
+            raise RangeError(f"{option}: expected times from 0 s on, got {start:g}:{stop}")
+        text = f"{start:g}s:" + ("" if stop is None else f"{stop:g}s")
+        end = None if stop is None else _End(float(stop), True)
+        return cls(text, _End(float(start), True), end, False, option)
+
     def frames(self, fps: float, num_frames: int | None = None) -> tuple[int, int]:
         """``(start, stop)`` frames, stop excluded, for a take at ``fps`` of ``num_frames``
         frames (None: no upper bound is checked, for options whose takes are checked later).

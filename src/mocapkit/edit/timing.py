@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from mocapkit.core.motion import Motion
+from mocapkit.core.ranges import RangeSpec
 from mocapkit.features import resample, resampled_frames
 
 __all__ = ["change_speed", "trim", "trim_frames"]
@@ -33,11 +34,12 @@ def trim_frames(motion: Motion, start: int, stop: int | None = None) -> Motion:
 
 def trim(motion: Motion, start_s: float = 0.0, stop_s: float | None = None) -> Motion:
     """The frames whose times lie in ``[start_s, stop_s)`` seconds (frame k at ``k *
-    frame_time``; each bound becomes the nearest frame, as in :mod:`mocapkit.core.ranges`)."""
-    ft = motion.frame_time
-    a = math.floor(start_s / ft + 0.5 + 1e-9)
-    b = None if stop_s is None else math.floor(stop_s / ft + 0.5 + 1e-9)
-    return trim_frames(motion, a, b)
+    frame_time``; each bound becomes the nearest frame, and a start inside the last frame's
+    span is that frame: the CLI's ``--trim 1.5s:4s``, :class:`mocapkit.core.ranges.RangeSpec`).
+
+    Refused (ValueError): negative times, an empty or reversed range, ends past the take."""
+    spec = RangeSpec.seconds(start_s, stop_s, "trim")
+    return trim_frames(motion, *spec.frames(motion.fps, motion.num_frames))
 
 
 MIN_SPEED = 0.01
