@@ -23,7 +23,7 @@ OTHER_COLOURS = ("#bcbd22", "#17becf", "#7f7f7f", "#2ca02c")
 REASON_TEXT = {
     "mdm": "moves unlike its nearest neighbours in the context (MDM above the threshold)",
     "cancelling-jumps": "jumps away and back (a pop)",
-    "spike": "a one-frame spike",
+    "spike": "leaves its smooth path and comes back within 1/6 s (a spike)",
     "frozen": "holds still while the body moves",
     "noise": "a burst of jitter",
     "wrong-way-hinge": "a knee or elbow bent the wrong way",

@@ -137,11 +137,12 @@ class DetectConfig:
     pair_quantile: float = 97.0
 
     # ------------------------------------------------------------------ spikes
-    #: (Retired rule.) A short stretch that leaves the joint's smooth path (the cubic through the
-    #: frames around it) by more than this many degrees at every frame is a spike: natural
-    #: motion of one joint does not leave and rejoin its own smooth path within a sixth of a
-    #: second by 25 deg.
-    spike_deg: float = 25.0
+    #: A short stretch that leaves the joint's smooth path (the cubic through the frames
+    #: around it) by more than this many degrees at every frame is a spike: natural motion of
+    #: one joint does not leave and rejoin its own smooth path within a sixth of a second by
+    #: 30 deg (tuning half: 25 deg flagged a clean cell, 30-40 deg none; injected spikes are
+    #: 20-90 deg).
+    spike_deg: float = 30.0
     #: Longest spike (seconds).
     spike_seconds: float = 1.0 / 6.0
     #: A spike within this long (seconds) of a run already flagged is left to that run: the run's
