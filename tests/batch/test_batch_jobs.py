@@ -77,9 +77,26 @@ def test_context_of_is_nearest_in_name_order():
     takes = ["a/x_001.bvh", "a/x_002.bvh", "a/x_003.bvh", "a/y_001.bvh", "b/x_001.bvh"]
     by_prefix = context_of(takes, "prefix", 1)
     assert by_prefix["a/x_002.bvh"] == ["a/x_001.bvh"]
-    assert by_prefix["a/y_001.bvh"] == [] and by_prefix["b/x_001.bvh"] == []
+    assert by_prefix["b/x_001.bvh"] == []  # alone in its folder
     assert context_of(takes, "folder", 8)["b/x_001.bvh"] == []
     assert context_of(takes, "all", 2)["a/x_003.bvh"] == ["a/x_002.bvh", "a/y_001.bvh"]
+
+
+def test_prefix_context_widens_to_the_content_when_a_style_has_few_takes():
+    """Bandai-1 has one take per content and style (dash_normal_001): its related takes are the
+    other styles of the same content (dash_*), not none; a style with enough takes keeps its
+    own; a name no prefix groups with three others falls back to its folder."""
+    takes = [f"d/dash_{s}_001.bvh" for s in ("angry", "happy", "normal", "sad")]
+    takes += [f"d/walk_normal_00{k}.bvh" for k in range(1, 6)] + ["d/walk_sad_001.bvh"]
+    takes += ["d/walk-back_normal_001.bvh", "d/zz.bvh"]
+    ctx = context_of(takes, "prefix", 8)
+    assert ctx["d/dash_normal_001.bvh"] == [
+        f"d/dash_{s}_001.bvh" for s in ("angry", "happy", "sad")
+    ]
+    assert ctx["d/walk_normal_003.bvh"] == [f"d/walk_normal_00{k}.bvh" for k in (1, 2, 4, 5)]
+    # walk_sad's style has no other take: every walk_ take, never walk-back's
+    assert ctx["d/walk_sad_001.bvh"] == [f"d/walk_normal_00{k}.bvh" for k in range(1, 6)]
+    assert len(ctx["d/zz.bvh"]) == 8 and "d/zz.bvh" not in ctx["d/zz.bvh"]
 
 
 def test_in_process_reference(reference, library):

@@ -10,12 +10,13 @@ a timeline each).
     res.summary_path, res.failed
 
 Related takes (the context) are found by ``context_by``: ``"folder"`` (the takes of the same
-folder: CMU's subject folders), ``"prefix"`` (the same folder and the same name up to its last
-``_``: Bandai's ``content_style_NNN``) or ``"all"``; of those, the ``context_max`` nearest in
-name order. Outputs (repaired take, report) are written atomically; each take's manifest entry
-(:mod:`mocapkit.batch.manifest`) is written after them, so a rerun skips the takes that are
-complete and unchanged. A take that cannot be read or cleaned is reported in the summary and
-the others go on.
+folder: CMU's subject folders), ``"prefix"`` (the same folder and the longest name prefix, up
+to a ``_``, that at least three other takes share: Bandai's ``content_style_NNN``, or every
+style of the content when a style has fewer takes) or ``"all"``; of those, the ``context_max``
+nearest in name order. Outputs (repaired take, report) are written atomically; each take's
+manifest entry (:mod:`mocapkit.batch.manifest`) is written after them, so a rerun skips the
+takes that are complete and unchanged. A take that cannot be read or cleaned is reported in
+the summary and the others go on.
 """
 
 from __future__ import annotations
@@ -91,29 +92,45 @@ def find_takes(library: str | Path) -> list[str]:
     return sorted(out)
 
 
-def _group_key(rel: str, by: str) -> str:
-    parent, _, name = rel.rpartition("/")
-    if by == "all":
-        return ""
-    if by == "folder":
-        return parent
-    stem = name.rsplit(".", 1)[0]
-    return f"{parent}/{stem.rsplit('_', 1)[0] if '_' in stem else stem}"
+MIN_RELATED = 3
+"""``"prefix"`` widens a take's group until it holds this many other takes: the small-scale
+context of the cleaning paper's evaluation (and ``bench/eval_clean.py``) is three takes."""
+
+
+def _stem(rel: str) -> str:
+    return rel.rpartition("/")[2].rsplit(".", 1)[0]
+
+
+def _related(rel: str, folder: Sequence[str]) -> list[str]:
+    """The takes of ``rel``'s folder (``folder``, ``rel`` among them) that share the longest
+    name prefix (up to a ``_``) with it held by at least :data:`MIN_RELATED` others: Bandai's
+    ``content_style_NNN`` first (the same content and style), then ``content`` (every style of
+    it) when a style has one or two takes; the whole folder when no prefix gathers enough."""
+    parts = _stem(rel).split("_")
+    for k in range(len(parts) - 1, 0, -1):
+        prefix = "_".join(parts[:k])
+        members = [t for t in folder if _stem(t) == prefix or _stem(t).startswith(prefix + "_")]
+        if len(members) - 1 >= MIN_RELATED:
+            return members
+    return list(folder)
 
 
 def context_of(takes: Sequence[str], by: str, max_takes: int) -> dict[str, list[str]]:
-    """Each take's context: the other takes of its group (``by``), the ``max_takes`` nearest to
+    """Each take's context: the other takes related to it (``by``: its folder, the takes of its
+    folder with the same name prefix (:func:`_related`), or all), the ``max_takes`` nearest to
     it in name order (ties: the earlier), listed in name order."""
-    groups: dict[str, list[str]] = {}
+    folders: dict[str, list[str]] = {}
     for t in sorted(takes):
-        groups.setdefault(_group_key(t, by), []).append(t)
+        folders.setdefault("" if by == "all" else t.rpartition("/")[0], []).append(t)
     out: dict[str, list[str]] = {}
-    for members in groups.values():
-        for k, t in enumerate(members):
+    for members in folders.values():
+        for t in members:
+            group = _related(t, members) if by == "prefix" else members
+            k = group.index(t)
             others = sorted(
-                (i for i in range(len(members)) if i != k), key=lambda i: (abs(i - k), i)
+                (i for i in range(len(group)) if i != k), key=lambda i: (abs(i - k), i)
             )[:max_takes]
-            out[t] = [members[i] for i in sorted(others)]
+            out[t] = [group[i] for i in sorted(others)]
     return out
 
 

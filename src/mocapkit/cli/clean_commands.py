@@ -194,8 +194,8 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     type=click.Choice(CONTEXT_BY),
     default=None,
     help="Folder mode: each take's related takes are the same folder (CMU's subject folders), "
-    "the same folder and name up to its last '_' (Bandai's content_style_NNN; the default), "
-    "or every take.",
+    "the same folder and the longest name prefix up to a '_' that three other takes share "
+    "(the default: Bandai's content_style_NNN, or every style of the content), or every take.",
 )
 @click.option(
     "--context-max",
