@@ -195,7 +195,8 @@ def test_clean_explains_a_cell_and_reports_reasons(files) -> None:
     [("LeftForeArm", "expected JOINT:FRAME"), ("Nope:3", "no joint named"),
      ("Knee_L:3", "no joint named 'Knee_L' (did you mean LeftLeg?)"),
      ("leftforearm:3", "(did you mean LeftForeArm?)"),
-     ("Head:x", "expected JOINT:FRAME"), ("Head:99999", "outside")],
+     ("Head:x", "expected a frame (60) or a time (2.0s), got 'x'"),
+     ("Head:99999", "past the end of the take")],
 )  # fmt: skip
 def test_clean_explain_bad_input_is_one_line(files, spec, msg) -> None:
     code, _, stderr = run("clean", str(files["input"]), "--explain", spec, "--quiet")
@@ -222,3 +223,18 @@ def test_clean_a_one_frame_take_says_it_is_too_short(files, tmp_path) -> None:
     assert code == 2
     assert "the take is too short: 1 frame(s) spanning 0.00 s" in stderr
     assert len(stderr.strip().splitlines()) == 1
+
+
+def test_explain_reads_frames_and_times_as_every_option_does() -> None:
+    """--explain JOINT:TIME uses the CLI's one reading of a position: a time inside the last
+    frame's span is the last frame (as --trim takes it), not "outside"."""
+    from mocapkit.cli.clean_commands import parse_explain
+    from mocapkit.cli.common import CLIError
+    from mocapkit.datasets import procedural_motion
+
+    m = procedural_motion("walk", seconds=2.0, fps=30.0, seed=1).motion
+    head = m.skeleton.index("Head")
+    assert parse_explain("Head:0.5s", m) == (head, 15)
+    assert parse_explain(f"Head:{m.duration - 0.01:.3f}s", m) == (head, m.num_frames - 1)
+    with pytest.raises(CLIError, match=r"past the end of the take \(60 frames, 2 s at 30 fps"):
+        parse_explain(f"Head:{m.num_frames}", m)

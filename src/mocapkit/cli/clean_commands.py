@@ -32,6 +32,7 @@ from mocapkit.cli.common import (
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.motion import Motion
+from mocapkit.core.ranges import RangeError, parse_frame
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 
@@ -97,12 +98,10 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     names = list(motion.skeleton.names)
     if joint not in names:
         raise CLIError(f"--explain {spec!r}: {no_joint_named(joint, motion.skeleton)}")
-    try:
-        frame = round(float(when[:-1]) * motion.fps) if when.endswith("s") else int(when)
-    except (ValueError, OverflowError):
-        raise CLIError(f"--explain {spec!r}: expected {form}") from None
-    if not 0 <= frame < motion.num_frames:
-        raise CLIError(f"--explain {spec!r}: frame {frame} outside 0:{motion.num_frames}")
+    try:  # the CLI's one reading of a frame or a time (a time in the last frame's span is it)
+        frame = parse_frame(when, motion.fps, motion.num_frames, f"--explain {spec!r}")
+    except RangeError as e:
+        raise CLIError(str(e)) from None
     return names.index(joint), frame
 
 

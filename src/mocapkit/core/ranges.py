@@ -183,7 +183,7 @@ def parse_range(
 
 def parse_frame(text: str, fps: float, num_frames: int | None, option: str = "frame") -> int:
     """One frame from ``60`` or ``2.0s`` (:class:`RangeError` for anything else)."""
-    spec = RangeSpec.parse(text, option, single=True)
-    if not spec.single:
+    end = _parse_end(text) if isinstance(text, str) else None
+    if end is None:  # a range or anything else: the message offers only what is taken here
         raise RangeError(f"{option}: expected {_SYNTAX_ONE}, got {text!r}")
-    return spec.frames(fps, num_frames)[0]
+    return RangeSpec(text, end, None, True, option).frames(fps, num_frames)[0]
