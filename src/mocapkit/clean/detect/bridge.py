@@ -50,4 +50,7 @@ class BridgeHoles:
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         n = ev.frames(self.max_seconds, 1)
         # the frames as this take has them: 0.05 s is 2 frames (0.067 s) at 30 fps
-        return f"holes of up to {n} frame(s) ({n / ev.fps:.3g} s) between two flagged runs"
+        return (
+            f"closes holes of up to {n} frame(s) ({n / ev.fps:.3g} s) between two flagged runs "
+            "of a joint"
+        )

@@ -50,7 +50,7 @@ class CancellingJumps:
                 f"last jump peak frame {before[-1]} ({deg(ev.jump_size[before[-1], joint])})"
             )
         if len(after):
-            parts.append(f"next frame {after[0]} ({deg(ev.jump_size[after[0], joint])})")
+            parts.append(f"next jump peak frame {after[0]} ({deg(ev.jump_size[after[0], joint])})")
         inside = bool(ev.cancelling[frame, joint])
         parts.append("between two that cancel" if inside else "not between two that cancel")
         return "; ".join(parts)

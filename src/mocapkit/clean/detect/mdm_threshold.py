@@ -90,13 +90,14 @@ class MDMHysteresis:
         if peak > max(self.seed_threshold, self.threshold):
             kinds.append(f"MDM peak {_fine(peak, self.seed_threshold)} > {self.seed_threshold:g}")
         if seeds.any():
-            kinds.append(f"abrupt cell at frame {a + int(np.argmax(seeds))}")
+            kinds.append(f"an abrupt cell at frame {a + int(np.argmax(seeds))}")
         # a cell below the threshold is in the run only as an abrupt seed (a step far above
         # the joint's own enters the error there)
         own = "" if v > self.threshold else f" (below {self.threshold:g}: an abrupt cell)"
         if kinds:
-            return f"MDM {v:.3f}{own} in a run {a}:{b + 1} above {self.threshold:g} seeded by " + (
-                ", ".join(kinds)
+            return (
+                f"MDM {v:.3f}{own} in a run {a}:{b + 1} (MDM above {self.threshold:g}, or "
+                "abrupt) seeded by " + ", ".join(kinds)
             )
         return (
             f"MDM {v:.3f} in a run {a}:{b + 1} above {self.threshold:g} with no seed (peak "

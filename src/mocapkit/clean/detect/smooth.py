@@ -152,7 +152,7 @@ class SmoothVeto:
             f"{deg(s)} (needs {self.min_deg:g})"
         )
         if self.nearest:
-            out += "; a step vouches for the nearest flagged run only"
+            out += "; a step keeps only the flagged run nearest to it"
             if self.trim:
-                out += f", which ends {self.pad_seconds:g} s past the steps it owns"
+                out += f", and that run only up to {self.pad_seconds:g} s past its steps"
         return out
