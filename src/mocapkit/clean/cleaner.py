@@ -190,9 +190,8 @@ class SelfSimilarityCleaner:
         if tex.rotations.shape[0] < N or motion.num_frames < 2:  # before the groups: a short
             # take would be reported as having no rotating joint
             raise ValueError(
-                f"the take is too short: {motion.num_frames} frame(s) spanning "
-                f"{(motion.num_frames - 1) * motion.frame_time:.2f} s; cleaning compares motion "
-                f"words of {N / self.fps:.2f} s"
+                f"the take is too short: {motion.num_frames} frame(s) ({motion.duration:.3f} s); "
+                f"cleaning compares motion words of {N} frames ({N / self.fps:.3f} s)"
             )
         active = rotating_joints(motion)
         for c in context:
@@ -227,9 +226,9 @@ class SelfSimilarityCleaner:
         self._finish_maps()
         if not self.analysed_.any():
             raise ValueError(
-                f"the take is too short: {motion.num_frames} frames spanning "
-                f"{(motion.num_frames - 1) * motion.frame_time:.2f} s, and no motion word of "
-                f"{N / self.fps:.2f} s found a like word away from itself"
+                f"the take is too short: {motion.num_frames} frames ({motion.duration:.3f} s), "
+                f"and no motion word of {N} frames ({N / self.fps:.3f} s) found a like word "
+                "away from itself"
                 + ("" if context else " (give context takes, or a longer take)")
             )
         return self
