@@ -69,7 +69,7 @@ class Converted:
         return {
             "output": str(self.output),
             "frames": self.motion.num_frames,
-            "fps": self.motion.fps,
+            "fps": nominal_fps(self.motion.frame_time),  # 30, as info gives it
         }
 
 

@@ -108,7 +108,7 @@ class Provenance:
             "tool": self.tool,
             "mocapkit_version": _version(),
             "output": path(self.output),
-            "fps": self.fps,
+            "fps": _nominal(self.fps),
             "frames": self.frames,
             "inputs": [path(x) for x in self.inputs],
             "parameters": _map_strings(dict(self.parameters), path),
@@ -252,3 +252,10 @@ def _version() -> str:
         return metadata.version("mocapkit")
     except metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
         return "unknown"
+
+
+def _nominal(fps: float) -> float:
+    """``fps`` as ``mocapkit info`` gives it (30, not 30.00003 for a frame time of 0.0333333)."""
+    from mocapkit.summary import nominal_fps  # summary reads files; this module is below io
+
+    return nominal_fps(1.0 / fps) if fps > 0 else fps

@@ -25,6 +25,7 @@ from mocapkit.clean.cleaner import Progress, Segment, SelfSimilarityCleaner
 from mocapkit.clean.detect import DetectConfig, Explanation
 from mocapkit.clean.repair import ContactConstraint, RepairResult
 from mocapkit.core.motion import Motion
+from mocapkit.summary import nominal_fps
 
 __all__ = ["CleanReport", "run"]
 
@@ -110,7 +111,7 @@ class CleanReport:
         """The JSON-ready report (``mocapkit clean --report``)."""
         return {
             "input": self.source,
-            "fps": self.fps,
+            "fps": nominal_fps(1.0 / self.fps),  # 30, as info gives it (not 30.00003)
             "frames": self.frames,
             "joints": list(self.joints),
             "threshold": self.threshold,
