@@ -4,7 +4,6 @@ write; :func:`convert_many` converts a list of files into a folder, going on pas
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -109,19 +108,6 @@ def convert_file(
         if scale is not None:
             raise ValueError("give --units or --scale, not both")
         scale = units_scale(motion, units)
-    elif str(output).lower().endswith(".bvh") and motion.skeleton.metres_per_unit is not None:
-        from mocapkit.body import UNITS
-
-        mpu = motion.skeleton.metres_per_unit
-        common = ("m", "cm", "mm", "inch")  # what BVH readers assume; CMU's unit is not one
-        if not any(abs(mpu / UNITS[u] - 1) < 1e-9 for u in common) and scale is None:
-            warnings.warn(
-                f"{source}: its unit ({mpu:g} m) cannot be stated in a BVH file, which other "
-                "tools will read as inch or cm (mocapkit guesses it back from the height); "
-                "pass --units cm (or m, inch) to rescale",
-                UserWarning,
-                stacklevel=2,
-            )
     motion = convert_motion(motion, fps=fps, scale=scale)
     return Converted(write_motion(motion, output, order=order), motion)
 

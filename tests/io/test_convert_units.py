@@ -30,6 +30,13 @@ def test_cmu_to_bvh_without_units_warns_that_the_unit_is_lost(shared_path, tmp_p
     r = CliRunner().invoke(main, ["convert", str(amc), str(tmp_path / "raw.bvh")])
     assert r.exit_code == 0
     assert "--units" in r.output
+    # every command that writes the take as BVH says so (the writer warns), not convert alone
+    r = CliRunner().invoke(main, ["edit", str(amc), str(tmp_path / "e.bvh"), "--trim", "0:20"])
+    assert r.exit_code == 0 and "cannot be stated in a BVH file" in r.output, r.output
+    r = CliRunner().invoke(main, ["edit", str(amc), str(tmp_path / "e.npz"), "--trim", "0:20"])
+    assert r.exit_code == 0 and "cannot be stated" not in r.output, r.output
+    r = CliRunner().invoke(main, ["convert", str(amc), str(tmp_path / "cm.bvh"), "--units", "cm"])
+    assert r.exit_code == 0 and "cannot be stated" not in r.output, r.output
     bad = CliRunner().invoke(
         main, ["convert", str(amc), str(tmp_path / "x.bvh"), "--units", "cm", "--scale", "2"]
     )

@@ -761,6 +761,22 @@ def format_bvh(motion: Motion, order: str | None = None, digits: int = 12) -> st
     return "\n".join(out) + "\n"
 
 
+BVH_UNITS_M = (1.0, 0.01, 0.001, 0.0254)
+"""The units other tools read a BVH file in (m, cm, mm, inch): a BVH file cannot state its unit."""
+
+
 def write_bvh(motion: Motion, path: str | Path, order: str | None = None, digits: int = 12) -> Path:
-    """Write a motion as BVH atomically (temp file + rename). Returns the path."""
+    """Write a motion as BVH atomically (temp file + rename). Returns the path.
+
+    Warns when the take's unit is known and is none that BVH readers assume (a CMU ASF's
+    0.0564444 m): the numbers are written as they are, and the reader will guess."""
+    mpu = motion.skeleton.metres_per_unit
+    if mpu is not None and not any(abs(mpu / u - 1) < 1e-9 for u in BVH_UNITS_M):
+        warnings.warn(
+            f"the take's unit ({mpu:g} m, from its source) cannot be stated in a BVH file, "
+            "which other tools will read as inch or cm (mocapkit guesses it back from the "
+            "height); `mocapkit convert --units cm` (or m, inch) rescales it",
+            UserWarning,
+            stacklevel=2,
+        )
     return atomic_write_text(path, format_bvh(motion, order=order, digits=digits))
