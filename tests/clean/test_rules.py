@@ -452,6 +452,15 @@ def test_frozen_straight_hinge_is_parked() -> None:
     fl = Flags((90, 2))
     FrozenJoints().apply(evidence(bent, dig=dig, hinges=[0]), fl)
     assert fl.mask[12:78, 0].all()
+    # the limb above held bit for bit too (joint 1 is the hinge's parent): one dropout of
+    # both, the straight hinge included (CMU 03_02's opening); its parent moving: parked
+    both = held.copy()
+    both[10:80, 1] = both[10, 1]
+    for parents, hinge_flagged in (([1, -1], True), ([-1, 0], False)):
+        fl = Flags((90, 2))
+        FrozenJoints().apply(evidence(both, dig=dig, hinges=[0], parents=parents), fl)
+        assert fl.mask[12:78, 0].all() == hinge_flagged, parents
+        assert fl.mask[12:78, 1].all()
 
 
 def twisting_elbow(

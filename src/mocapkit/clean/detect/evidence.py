@@ -90,6 +90,8 @@ class Evidence:
             recurring veto looks for the same excursion there; the hinge axis is fitted on them
             too if the config's ``hinge_context``).
         names: the J joint names (for explanations).
+        parents: the J parent indices (root -1) or None (then a straight hinge's hold is
+            never judged by its parent's).
 
     The maps are set by :meth:`set_maps` after the search: ``mdm`` (F, J) in [0, 1], ``z`` the
     normalised digression (unbounded, (F, J)), ``digression`` (F, J) radians, ``spread`` (F, J)
@@ -105,6 +107,7 @@ class Evidence:
         context_rotations: Sequence[np.ndarray] = (),
         names: Sequence[str] | None = None,
         hinge_bones: np.ndarray | None = None,
+        parents: Sequence[int] | None = None,
     ) -> None:
         self.rotations = np.asarray(rotations, dtype=np.float64)
         if self.rotations.ndim != 3 or self.rotations.shape[2] != 4:
@@ -118,6 +121,7 @@ class Evidence:
         self.context_rotations = [np.asarray(c, dtype=np.float64) for c in context_rotations]
         J = self.rotations.shape[1]
         self.names = list(names) if names is not None else [f"joint{j}" for j in range(J)]
+        self.parents = None if parents is None else np.asarray(parents, dtype=np.int64)
         self.mdm: np.ndarray | None = None
         self.z: np.ndarray | None = None
         self.digression: np.ndarray | None = None
@@ -140,7 +144,9 @@ class Evidence:
         sk = motion.skeleton
         hinges = straight_hinges(sk, np.radians(cfg.hinge_straight_deg))
         bones = hinge_bones(sk, hinges)
-        return cls(motion.rotations, motion.fps, cfg, hinges, same_rate, sk.names, bones)
+        return cls(
+            motion.rotations, motion.fps, cfg, hinges, same_rate, sk.names, bones, sk.parents
+        )
 
     def set_maps(
         self,
@@ -390,16 +396,21 @@ class Evidence:
     @cached_property
     def frozen(self) -> np.ndarray:
         """(F, J) bool: frozen runs (:func:`mdm.frozen_cells`), less the straight hinges held
-        within ``frozen_straight_deg`` of straight (parked at their limit)."""
+        within ``frozen_straight_deg`` of straight (parked at their limit), unless the hinge's
+        parent is frozen over the whole hold: a live upper arm or thigh trembles, so when it
+        is held too the straight elbow or knee is the same dropout (CMU 03_02 opens with every
+        joint exactly at zero, a straight elbow included: newcomer report)."""
         self._need_maps()
         c = self.config
         p = self._frozen_params()
         out = mdm_mod.frozen_cells(self.rotations, self.digression, **p)
         if c.frozen_straight_deg > 0:
-            # a straight hinge held straight is parked at its limit
+            held = out.copy()
             for j in self.hinges:
                 for a, b in true_runs(out[:, j]):
                     w = abs(float(self.rotations[a, j, 0]))
-                    if 2.0 * np.arccos(min(w, 1.0)) <= np.radians(c.frozen_straight_deg):
+                    straight = 2.0 * np.arccos(min(w, 1.0)) <= np.radians(c.frozen_straight_deg)
+                    up = -1 if self.parents is None else int(self.parents[j])
+                    if straight and not (up >= 0 and held[a : b + 1, up].all()):
                         out[a : b + 1, j] = False
         return out

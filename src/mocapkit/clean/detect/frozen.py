@@ -73,6 +73,7 @@ class FrozenJoints:
             "calm": f"{held(a, b)}, but its KNN words stay within {deg(value)} of it (they "
             f"hold too; frozen needs {c.frozen_min_digression_deg:g} deg)",
             "rests": f"{held(a, b)} {rests}, not frozen",
-            "parked": f"{held(a, b)} straight: a knee or elbow parked at its limit, not frozen",
+            "parked": f"{held(a, b)} straight while the limb above it is not held: a knee or "
+            "elbow parked at its limit, not frozen",
             "frozen": held(a, b),
         }[verdict]
