@@ -77,3 +77,36 @@ def test_the_library_and_the_cli_do_not_import_matplotlib() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_heat_map_decision_panel_shows_what_the_mdm_alone_does_not_decide(tmp_path) -> None:
+    """The decision panel colours a flagged cell by its rule, and marks in pale grey a cell
+    whose MDM is above the threshold but that no rule flagged (newcomer report: dark MDM
+    without a flag read as a miss); the rest is white."""
+    from matplotlib.colors import to_rgb
+    from matplotlib.image import imread
+
+    from mocapkit.viz.figures.clean import _UNFLAGGED, plot_mdm
+    from mocapkit.viz.reasons import REASON_COLOURS
+
+    F, J = 300, 4
+    mdm = np.zeros((F, J))
+    mdm[100:200, 1] = 0.9  # above the threshold, not flagged
+    mdm[100:200, 2] = 0.9
+    dec = np.full((F, J), -1)
+    dec[100:200, 2] = 0  # flagged by the first reason
+    p = plot_mdm(mdm, ["a", "b", "c", "d"], [{"joint_index": 2, "start": 100, "end": 199,
+                 "reasons": ["frozen"]}], tmp_path / "h.png", 30.0, "t", decision=dec,
+                 reason_names=["frozen"], threshold=0.5)  # fmt: skip
+
+    def pale(path) -> int:  # pixels of the "not flagged" grey
+        img = imread(path)[..., :3].reshape(-1, 3)
+        return int((np.abs(img - to_rgb(_UNFLAGGED)).max(axis=1) < 0.01).sum())
+
+    img = imread(p)[..., :3]
+    colours = {tuple(np.round(c, 2)) for c in img.reshape(-1, 3)}
+    assert any(np.abs(np.array(c) - to_rgb(REASON_COLOURS["frozen"])).max() < 0.02 for c in colours)
+    # all below the threshold: the pale block is gone (the MDM's own greys may hold that grey)
+    q = plot_mdm(mdm * 0.5, ["a", "b", "c", "d"], [], tmp_path / "g.png", 30.0, "t",
+                 threshold=0.5)  # fmt: skip
+    assert pale(p) > pale(q) + 2000

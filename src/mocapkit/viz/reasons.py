@@ -14,11 +14,11 @@ REASON_COLOURS = {
     "noise": "#9467bd",
     "wrong-way-hinge": "#8c564b",
     "extend": "#f7b6d2",
-    "bridge": "#c7c7c7",
+    "bridge": "#17becf",  # not grey: the MDM below is in greys
 }
 """Colour of each rule's cells (others: :data:`OTHER_COLOURS` in order of appearance)."""
 
-OTHER_COLOURS = ("#bcbd22", "#17becf", "#7f7f7f", "#2ca02c")
+OTHER_COLOURS = ("#bcbd22", "#2ca02c", "#7f7f7f", "#393b79")
 
 REASON_TEXT = {
     "mdm": "moves unlike its nearest neighbours in the context (MDM above the threshold)",

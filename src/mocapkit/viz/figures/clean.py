@@ -2,9 +2,11 @@
 
 Two panels share the time axis and the joint rows (labelled with joint names): on top the
 *decision*, every flagged cell coloured by the first rule that flagged it (legend: the rule
-names), white elsewhere, so colour there means "flagged, and why"; below, the MDM in greys
-(white = like its neighbours, black = distinct) with the threshold marked on its colour bar, so
-a dark MDM cell that is not flagged is visible as such and no box is drawn on it.
+names), pale grey where the MDM is above the threshold but no rule flagged the cell (no seed,
+or a veto cleared it: ``clean --explain`` says which), white elsewhere, so colour there means
+"flagged, and why"; below, the MDM in greys (white = like its neighbours, black = distinct)
+with the threshold marked on its colour bar, so a dark MDM cell that is not flagged is visible
+as such and no box is drawn on it.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ __all__ = ["REASON_COLOURS", "plot_clean_report", "plot_mdm"]
 
 _MAX_ROW_LABELS = 60  # joint names readable at 7 pt on the tallest figure
 _MAX_COLUMNS = 3000  # time columns drawn: a longer take is max-pooled (a flagged frame survives)
+_UNFLAGGED = "#d9d9d9"  # MDM above the threshold, not flagged: paler than any rule's colour
 
 
 def _seg(s: Any) -> tuple[int, int, int, tuple[str, ...]]:
@@ -94,6 +97,10 @@ def plot_mdm(
     colours = [reason_colour(r, seen) for r in reason_names]
     dec = _pool(decision.astype(np.int16), np.max)
     img = np.ones((*dec.T.shape, 3))
+    unflagged = np.zeros(dec.shape, dtype=bool)
+    if threshold is not None:  # above the threshold, yet no rule flagged it
+        unflagged = _pool(mdm > threshold, np.max) & (dec < 0)
+        img[unflagged.T] = to_rgb(_UNFLAGGED)
     for i, c in enumerate(colours):
         img[(i == dec.T)] = to_rgb(c)
     ax_d.imshow(img, aspect="auto", origin="upper", interpolation="nearest", extent=extent)
@@ -112,6 +119,10 @@ def plot_mdm(
         for i, (r, c) in enumerate(zip(reason_names, colours, strict=True))
         if i in shown
     ]
+    if unflagged.any():
+        handles.append(
+            Patch(color=_UNFLAGGED, label=f"MDM > {threshold:g}, not\nflagged (--explain)")
+        )
     if handles:
         ax_d.legend(
             handles=handles,
@@ -123,10 +134,11 @@ def plot_mdm(
             frameon=False,
         )
     head = title or "cleaning"
-    ax_d.set_title(
+    fig.suptitle(
         wrap(f"{head}: {n_flagged} flagged segment{'s' if n_flagged != 1 else ''}", 80),
         fontsize=10,
     )
+    ax_d.set_title("decision: the flagged cells, by the first rule to flag them", fontsize=9)
     im = ax_m.imshow(
         _pool(mdm, np.max).T,
         aspect="auto",
@@ -138,13 +150,15 @@ def plot_mdm(
         extent=extent,
     )
     ax_m.set_title("movement digression map (MDM)", fontsize=9)
-    cb = fig.colorbar(im, ax=ax_m, pad=0.01, fraction=0.04)
+    # under its panel: a bar at the right sat in the legend's wide column, far from the map
+    cb = fig.colorbar(im, ax=ax_m, location="bottom", pad=0.02, fraction=0.05, aspect=40)
     label = "MDM (0 = like its neighbours)"
     if threshold is not None:
-        cb.ax.axhline(threshold, color="#d62728", lw=1.5)
         label += f"; threshold {threshold:g} (line)"
     cb.set_label(label, fontsize=7)
     cb.ax.tick_params(labelsize=7)
+    if threshold is not None:
+        cb.ax.axvline(threshold, color="#d62728", lw=1.5)
     step = thin_ticks(J, _MAX_ROW_LABELS)
     rows = list(range(0, J, step))
     labels = short_labels(names, 26)
@@ -162,6 +176,9 @@ def plot_mdm(
 def plot_clean_report(report: Any, path: str | Path, title: str | None = None) -> Path:
     """:func:`plot_mdm` of a :class:`~mocapkit.clean.CleanReport` (title: the take's name)."""
     name = title if title is not None else Path(report.source).name
+    ctx = tuple(getattr(report, "context", ()) or ())
+    n = len(ctx)
+    name += f" (against {n} context take{'s' if n != 1 else ''})" if n else " (the take alone)"
     return plot_mdm(
         report.mdm,
         report.joints,
