@@ -191,7 +191,7 @@ class SelfSimilarityCleaner:
             # take would be reported as having no rotating joint
             raise ValueError(
                 f"the take is too short: {motion.num_frames} frame(s) ({motion.duration:.3f} s); "
-                f"cleaning compares motion words of {N} frames ({N / self.fps:.3f} s)"
+                f"cleaning compares motion words of {N / self.fps:.3f} s"
             )
         active = rotating_joints(motion)
         for c in context:
@@ -227,8 +227,7 @@ class SelfSimilarityCleaner:
         if not self.analysed_.any():
             raise ValueError(
                 f"the take is too short: {motion.num_frames} frames ({motion.duration:.3f} s), "
-                f"and no motion word of {N} frames ({N / self.fps:.3f} s) found a like word "
-                "away from itself"
+                f"and no motion word of {N / self.fps:.3f} s found a like word away from itself"
                 + ("" if context else " (give context takes, or a longer take)")
             )
         return self
