@@ -153,12 +153,18 @@ def test_cancelling_jumps_three_errors_on_one_joint_do_not_hide_each_other() -> 
 
 
 def test_spikes() -> None:
-    bad = turn(smooth(), slice(40, 42), 0, 40.0)
+    bad = turn(smooth(), slice(40, 42), 0, 50.0)
     fl = Flags((90, 2))
     Spikes().apply(evidence(bad), fl)
     assert fl.mask[40:42, 0].all() and fl.mask.sum() == 2
     fl = Flags((90, 2))
     Spikes().apply(evidence(smooth(amp=1.5)), fl)
+    assert not fl.mask.any()
+    fl = Flags((90, 2))  # longer than spike_seconds (two frames at 30 fps): not this rule's
+    Spikes().apply(evidence(turn(smooth(), slice(40, 43), 0, 50.0)), fl)
+    assert not fl.mask.any()
+    fl = Flags((90, 2))  # under 40 deg: an impact's wobble, not a spike
+    Spikes().apply(evidence(turn(smooth(), slice(40, 41), 0, 30.0)), fl)
     assert not fl.mask.any()
     fl = flagged(90, 2, [(43, 46, 0)])  # already flagged next to it: left to that run
     Spikes().apply(evidence(bad), fl)
@@ -318,7 +324,7 @@ def test_extend_to_steps() -> None:
 
 
 def test_run_pipeline_records_reasons_and_never_flags_unanalysed_joints() -> None:
-    bad = turn(smooth(), slice(40, 42), 0, 40.0)
+    bad = turn(smooth(), slice(40, 42), 0, 50.0)
     ev = evidence(bad)
     fl = run_pipeline(ev, pipeline=ORIGINAL_ORDER)
     assert fl.mask[40:42, 0].all()

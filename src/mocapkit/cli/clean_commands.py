@@ -240,7 +240,7 @@ def clean_command(
     cell), and so, whatever their MDM, are pops (a jump away and back by the same turn:
     cancelling-jumps), noise bursts, joints held still while their neighbours move on (frozen; a
     dropout repeats one value bit for bit), knees or elbows bent the wrong way, and spikes (a
-    joint off its own smooth path by 30 deg for at most 1/6 s); --explain
+    joint off its own smooth path by 40 deg for at most 1/15 s); --explain
     JOINT:FRAME says which rule decided a cell and why. With --out, flagged cells are replaced
     by the neighbours' median, blended at the edges, and where a repaired joint moves a planted
     foot (a hip, knee or ankle, or the pelvis, under a foot on the ground) IK on that leg holds

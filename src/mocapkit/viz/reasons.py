@@ -23,7 +23,7 @@ OTHER_COLOURS = ("#bcbd22", "#2ca02c", "#7f7f7f", "#393b79")
 REASON_TEXT = {
     "mdm": "moves unlike its nearest neighbours in the context (MDM above the threshold)",
     "cancelling-jumps": "jumps away and back (a pop)",
-    "spike": "leaves its smooth path and comes back within 1/6 s (a spike)",
+    "spike": "leaves its smooth path and comes back within 1/15 s (a spike)",
     "frozen": "holds still while the body moves",
     "noise": "a burst of jitter",
     "wrong-way-hinge": "a knee or elbow bent the wrong way",

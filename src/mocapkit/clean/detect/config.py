@@ -139,12 +139,14 @@ class DetectConfig:
     # ------------------------------------------------------------------ spikes
     #: A short stretch that leaves the joint's smooth path (the cubic through the frames
     #: around it) by more than this many degrees at every frame is a spike: natural motion of
-    #: one joint does not leave and rejoin its own smooth path within a sixth of a second by
-    #: 30 deg (tuning half: 25 deg flagged a clean cell, 30-40 deg none; injected spikes are
-    #: 20-90 deg).
-    spike_deg: float = 30.0
-    #: Longest spike (seconds).
-    spike_seconds: float = 1.0 / 6.0
+    #: one joint does not leave and rejoin its own smooth path by 40 deg within two frames at
+    #: 30 fps. On the clean takes of the tuning half (88, each alone, every flag a false
+    #: alarm) 30 deg over 1/6 s flagged 24 stretches (a wave, a dance, a dash's foot strikes:
+    #: the cubic around five frames cannot follow an impact); 40 deg over 1/15 s or 1/30 s
+    #: none, at 30 and at 120 fps, and still caught the tuning half's missed one-frame spike.
+    spike_deg: float = 40.0
+    #: Longest spike (seconds): two frames at 30 fps (see ``spike_deg``).
+    spike_seconds: float = 1.0 / 15.0
     #: A spike within this long (seconds) of a run already flagged is left to that run: the run's
     #: wrong frames spoil the cubic around it.
     spike_pad_seconds: float = 0.2

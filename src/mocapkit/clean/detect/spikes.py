@@ -22,13 +22,14 @@ class Spikes:
     flagged (its wrong frames spoil the cubic).
 
     Relies on: a joint's rotation is smooth at the capture rate; it does not leave its own path
-    by 30 deg and come back within a sixth of a second, whatever the context holds (a punch's
-    impact wobble is 12-15 deg)."""
+    by 40 deg and come back within a fifteenth of a second, whatever the context holds (a
+    punch's impact wobble is 12-15 deg; over longer stretches an impact does leave the cubic
+    through the frames around it, so a spike is short)."""
 
     name: ClassVar[str] = "spike"
     veto: ClassVar[bool] = False
     signal: ClassVar[bool] = False
-    min_deg: float = 30.0
+    min_deg: float = 40.0
     pad_seconds: float = 0.2
 
     @classmethod
