@@ -396,19 +396,39 @@ def test_spike_size_matches_the_reference_and_sees_a_spike_not_fast_motion() -> 
     assert not mdm_mod.spike_size(bad[:4], 3).any()  # no gap with two frames either side
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_spike_size_matches_the_reference_above_its_floor(seed: int) -> None:
+    """The compiled kernel against the loop reference: exact where the reference is above the
+    floor, at most the floor elsewhere; rough random motion with spikes of every length."""
+    from clean.naive import spike_size as naive_spike_size
+
+    rng = np.random.default_rng(seed)
+    q = _turning(30, J=3, seed=seed)
+    for _ in range(4):
+        a, n, j = int(rng.integers(2, 24)), int(rng.integers(1, 5)), int(rng.integers(0, 3))
+        q[a : a + n, j] = rot.quat_mul(q[a : a + n, j], rot.rotvec_to_quat(rng.normal(0, 0.6, 3)))
+    for max_frames in (1, 3, 5):
+        ref = naive_spike_size(q, max_frames)
+        assert np.allclose(mdm_mod.spike_size(q, max_frames), ref, atol=1e-9)
+        floor = float(np.quantile(ref, 0.7))
+        fast = mdm_mod.spike_size(q, max_frames, floor)
+        above = ref > floor + 1e-9
+        assert np.allclose(fast[above], ref[above], atol=1e-9)
+        assert (fast[~above] <= floor + 1e-9).all()
+
+
 def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:
     walk = datasets.procedural_motion("walk", seconds=6.0, seed=5).motion
     j = list(walk.skeleton.names).index("LeftArm")
     q = walk.rotations.copy()
-    d = rot.rotvec_to_quat(np.array([np.radians(40.0), 0.0, 0.0]))
+    d = rot.rotvec_to_quat(np.array([np.radians(50.0), 0.0, 0.0]))
     q[80:82, j] = rot.quat_mul(q[80:82, j], d)
     bad = type(walk)(walk.skeleton, q, walk.root_positions, walk.frame_time)
-    from mocapkit.clean.detect import ORIGINAL_ORDER, MDMHysteresis, Spikes
+    from mocapkit.clean.detect import ORIGINAL_ORDER, PIPELINE, MDMHysteresis, Spikes
 
-    # by the retired spike rule (its spike size alone): in a 6 s take the spike's own jumps
-    # are the joint's top percent, so the cancelling jumps miss it, and so does the default
-    # pipeline (the spike rule earned nothing on the Bandai-1 validation half)
-    for pipeline in (ORIGINAL_ORDER, (MDMHysteresis, Spikes)):
+    # by the spike rule (its spike size alone): in a 6 s take the spike's own jumps are the
+    # joint's top percent, so the cancelling jumps miss it
+    for pipeline in (PIPELINE, ORIGINAL_ORDER, (MDMHysteresis, Spikes)):
         cl = SelfSimilarityCleaner(pipeline=pipeline).fit(bad)
         cl.mdm_[:, j] = 0.0  # as if the KNN words had followed the spike
         cl.forget_flags()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 from scipy import ndimage
 
@@ -600,42 +601,109 @@ def spike_size(rotations: np.ndarray, max_frames: int, floor: float = 0.0) -> np
 
     ``floor`` (radians): values at or below it are only bounded (a gap whose first frame lies
     within ``floor`` of the prediction is not scored further; its frames get at most ``floor``):
-    exact above the floor, and ``max_frames`` times faster on long gaps (120 fps)."""
+    exact above the floor. A compiled loop (:func:`_spike_kernel`; the reference is
+    ``tests/clean/naive.py``): the vectorised version spent 0.2 s per 15 s take at 120 fps,
+    four times the rest of the rules."""
     q = np.asarray(rotations, dtype=np.float64)
-    F = q.shape[0]
+    if q.ndim != 3 or q.shape[2] != 4:
+        raise ValueError(f"rotations must be (F, J, 4), got {q.shape}")
+    if not np.isfinite(q).all():
+        raise ValueError("rotations must be finite")
+    norms = np.linalg.norm(q, axis=-1, keepdims=True)
+    q = q / np.where(norms > 0, norms, 1.0)
     out = np.zeros(q.shape[:2])
-    if F < 5:
-        return out
-    # the two knots before a gap starting at a: the same for every gap length
-    a_all = np.arange(2, F - 1)
-    inv_all = rot.quat_inv(q[a_all - 1])
-    before = [rot.quat_to_rotvec(rot.quat_mul(inv_all, q[a_all + t])) for t in (-2, -1)]
-    for n in range(1, max_frames + 1):
-        a = np.arange(2, F - n - 1)  # gap a .. a + n - 1; frames a-2, a-1, a+n, a+n+1 known
-        A = len(a)
-        if A == 0:
-            continue
-        ref = q[a - 1]
-        inv = inv_all[:A]
-        knots = np.array([-2.0, -1.0, n, n + 1.0])
-        after = [rot.quat_to_rotvec(rot.quat_mul(inv, q[a + int(t)])) for t in knots[2:]]
-        x = np.stack([before[0][:A], before[1][:A], *after])
-        coef = np.einsum("ck,k...->c...", np.linalg.inv(np.vander(knots, 4)), x)
-        tangent = np.einsum("c,c...->...", np.vander([0.0], 4)[0], coef)
-        score = rot.quat_angle(q[a], rot.quat_mul(ref, rot.rotvec_to_quat(tangent)))
-        ai, ji = np.nonzero(score > floor)
-        if len(ai) and n > 1:
-            sub = score[ai, ji]
-            c_sub = coef[:, ai, ji]
-            r_sub = ref[ai, ji]
-            for g in range(1, n):
-                tangent = np.einsum("c,c...->...", np.vander([float(g)], 4)[0], c_sub)
-                pred = rot.quat_mul(r_sub, rot.rotvec_to_quat(tangent))
-                sub = np.minimum(sub, rot.quat_angle(q[a[ai] + g, ji], pred))
-            score[ai, ji] = sub
-        for g in range(n):
-            out[a + g] = np.maximum(out[a + g], score)
+    if q.shape[0] >= 5 and max_frames >= 1:
+        _spike_kernel(np.ascontiguousarray(q), int(max_frames), float(floor), out)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):  # pragma: no cover - compiled
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _log(w, x, y, z):  # pragma: no cover - compiled
+    """Rotation vector of a unit quaternion (shortest rotation), as rot.quat_to_rotvec."""
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = np.sqrt(x * x + y * y + z * z)
+    angle = 2.0 * np.arctan2(s, w)
+    if angle < 1e-4:
+        a2 = angle * angle
+        k = 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0
+    else:
+        k = angle / s
+    return x * k, y * k, z * k
+
+
+@numba.njit(cache=True, nogil=True)
+def _exp(x, y, z):  # pragma: no cover - compiled
+    """Unit quaternion of a rotation vector, as rot.rotvec_to_quat."""
+    angle = np.sqrt(x * x + y * y + z * z)
+    if angle < 1e-4:
+        a2 = angle * angle
+        k = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+    else:
+        k = np.sin(0.5 * angle) / angle
+    return np.cos(0.5 * angle), x * k, y * k, z * k
+
+
+@numba.njit(cache=True, nogil=True)
+def _log_from(r0, r1, r2, r3, b):  # pragma: no cover - compiled
+    """Rotation vector of ``b`` (4,) relative to the unit quaternion ``r``: log(r^-1 b)."""
+    w, x, y, z = _qmul(r0, -r1, -r2, -r3, b[0], b[1], b[2], b[3])
+    return _log(w, x, y, z)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _spike_kernel(q, max_frames, floor, out):  # pragma: no cover - compiled
+    F, J = q.shape[0], q.shape[1]
+    # Lagrange weights of the cubic through the knots -2, -1, n, n + 1 at the gap's frames
+    W = np.zeros((max_frames + 1, max_frames, 4))
+    for n in range(1, max_frames + 1):
+        knots = np.array([-2.0, -1.0, float(n), n + 1.0])
+        for g in range(n):
+            for k in range(4):
+                v = 1.0
+                for m in range(4):
+                    if m != k:
+                        v *= (g - knots[m]) / (knots[k] - knots[m])
+                W[n, g, k] = v
+    for j in numba.prange(J):  # joints are independent: one per thread
+        logs = np.empty((max_frames + 3, 3))  # log(q[a-1]^-1 q[a-1+d]), d = 2 .. max + 2
+        for a in range(2, F - 2):
+            r0, r1, r2, r3 = q[a - 1, j, 0], q[a - 1, j, 1], q[a - 1, j, 2], q[a - 1, j, 3]
+            x0 = _log_from(r0, r1, r2, r3, q[a - 2, j])
+            top = min(max_frames, F - a - 2)  # the longest gap with two frames after it
+            for d in range(2, top + 3):
+                x = _log_from(r0, r1, r2, r3, q[a - 1 + d, j])
+                logs[d, 0], logs[d, 1], logs[d, 2] = x[0], x[1], x[2]
+            for n in range(1, top + 1):
+                score = np.inf
+                for g in range(n):  # the knot at -1 is the reference itself: log 0
+                    w0, w2, w3 = W[n, g, 0], W[n, g, 2], W[n, g, 3]
+                    tx = w0 * x0[0] + w2 * logs[n + 1, 0] + w3 * logs[n + 2, 0]
+                    ty = w0 * x0[1] + w2 * logs[n + 1, 1] + w3 * logs[n + 2, 1]
+                    tz = w0 * x0[2] + w2 * logs[n + 1, 2] + w3 * logs[n + 2, 2]
+                    e0, e1, e2, e3 = _exp(tx, ty, tz)
+                    p = _qmul(r0, r1, r2, r3, e0, e1, e2, e3)
+                    c = q[a + g, j]
+                    rel = _qmul(p[0], -p[1], -p[2], -p[3], c[0], c[1], c[2], c[3])
+                    s = np.sqrt(rel[1] * rel[1] + rel[2] * rel[2] + rel[3] * rel[3])
+                    ang = 2.0 * np.arctan2(s, abs(rel[0]))
+                    if ang < score:
+                        score = ang
+                    if g == 0 and score <= floor:
+                        break  # the first frame is on the path: bounded, not scored further
+                for g in range(n):
+                    if score > out[a + g, j]:
+                        out[a + g, j] = score
 
 
 # Two signal-level seeds that need no KNN word: a noise burst shakes the joint frame to frame
