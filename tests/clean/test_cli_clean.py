@@ -162,7 +162,8 @@ def test_clean_with_contact(files, tmp_path) -> None:
                               spec, "--quiet")  # fmt: skip
         assert code == 0, stderr
         assert read_motion(other).allclose(read_motion(out), 1e-9, 1e-9)
-    for bad, words in (("LeftHand@70:55", "reversed"), ("LeftHand@5:2000", "past the end"),
+    for bad, words in (("LeftHand@70:55", "reversed"),
+                       ("LeftHand@5:2000", "--contact 'LeftHand@5:2000': frames 5:2000 past"),
                        ("LeftHand@1:5@x", "expected JOINT@A:B")):  # fmt: skip
         code, _, stderr = run("clean", str(files["input"]), "--contact", bad)
         assert code == 2 and words in stderr and len(stderr.splitlines()) == 1, stderr
@@ -196,7 +197,7 @@ def test_clean_explains_a_cell_and_reports_reasons(files) -> None:
      ("Knee_L:3", "no joint named 'Knee_L' (did you mean LeftLeg?)"),
      ("leftforearm:3", "(did you mean LeftForeArm?)"),
      ("Head:x", "expected a frame (60) or a time (2.0s), got 'x'"),
-     ("Head:99999", "past the end of the take")],
+     ("Head:99999", "--explain 'Head:99999': frame 99999 past the end of the take")],
 )  # fmt: skip
 def test_clean_explain_bad_input_is_one_line(files, spec, msg) -> None:
     code, _, stderr = run("clean", str(files["input"]), "--explain", spec, "--quiet")
