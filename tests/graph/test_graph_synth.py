@@ -100,6 +100,9 @@ def test_json_roundtrip_and_graphml(built, tmp_path):
     assert kinds.count("clip") + kinds.count("transition") == len(edges)
     with pytest.raises(ValueError, match="format"):
         MotionGraph.from_dict({"format": "x"})
+    for other in ([{"format": "x"}], "graph", 3):  # valid JSON of another shape (info --json)
+        with pytest.raises(ValueError, match="not a motion graph file"):
+            MotionGraph.from_dict(other)
 
 
 def test_scc_walk_never_gets_stuck(built, clips):

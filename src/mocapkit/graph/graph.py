@@ -370,6 +370,10 @@ class MotionGraph:
 
     @classmethod
     def from_dict(cls, data: dict) -> MotionGraph:
+        if not isinstance(data, dict):  # valid JSON of another shape (info --json's list)
+            raise ValueError(
+                f"not a motion graph file (a JSON {type(data).__name__}, not an object)"
+            )
         if data.get("format") != FORMAT:
             raise ValueError(f"not a motion graph file (format {data.get('format')!r})")
         try:
