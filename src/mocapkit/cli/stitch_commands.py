@@ -223,7 +223,8 @@ def stitch_cmd(
         f"best: {data_paths[tr.clip]} landing {res.data_frame(tr.landing)}{resampled}, "
         f"take-off {tr.takeoff}, k = {tr.k} "
         f"(L* = {tr.lscore:.6g}, windowed Euclidean = {tr.euclidean:.6g}; "
-        f"{tr.candidates} candidates in {res.search_seconds:.2f} s, {where})"
+        f"{tr.candidates} candidate{'' if tr.candidates == 1 else 's'} in "
+        f"{res.search_seconds:.2f} s, {where})"
     )
     if method == "kalman" and tr.k:
         say(

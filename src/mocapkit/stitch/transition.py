@@ -88,7 +88,8 @@ class Stitched:
 
     ``motion``: the result, on the query's skeleton. Output frames ``0..takeoff`` are the query's
     (``takeoff`` = a), ``generated`` (a slice) the generated/blended frames and ``landing_index``
-    the output frame of the data's landing frame b. ``transform``: the ground transform applied
+    the output frame of the data's landing frame b (a cross-fade plays it blended, at the
+    window's first frame). ``transform``: the ground transform applied
     to the data clip (None without alignment). ``method``: "kalman", "crossfade", "slerp" or
     "linear". For "kalman": ``kalman_positions`` (k, J', 3) — the body-local feature trajectory
     the L-score predicts for the injected frames, ``fk_positions`` (k, J', 3) — the body-local
@@ -556,7 +557,10 @@ def crossfade(
     has_t = query.translations is not None or data.translations is not None
     blend = Motion(query.skeleton, rots, tra[:, 0], query.frame_time, tra if has_t else None)
     motion = _join(query[: a - n + 1], blend, data[b + n :])
-    return Stitched(motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a + 1, transform, up=up)
+    # data frame b plays (blended) at output a - n + 1; data b + n plays as is at a + 1
+    return Stitched(
+        motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a - n + 1, transform, up=up
+    )
 
 
 def interpolate_gap(
