@@ -170,3 +170,19 @@ def test_bandai_clip_stitch_drops_the_ground_root(shared_path) -> None:
     assert res.kalman_positions is None or res.kalman_positions.shape[1] == 21
     assert res.motion.skeleton.names == q.skeleton.names
     res.motion.check_finite()
+
+
+def test_clips_too_short_for_any_transition_say_so(walk, run) -> None:
+    """A clip too short for any take-off, blend or gap is refused with its length and what is
+    needed, not an impossible range ("outside [4, 0]", "outside [2999, 194]", "3 <= A < B < 1";
+    newcomer report)."""
+    from mocapkit.stitch.inbetween import check_gap
+
+    with pytest.raises(ValueError, match=r"the query has 2 frame\(s\); a take-off needs"):
+        stitch(walk[:2], 1, run, up="Y")
+    with pytest.raises(ValueError, match=r"the query has \d+ frame\(s\); this transition needs"):
+        crossfade(walk, run, 60, 0, window_seconds=100.0)
+    with pytest.raises(ValueError, match=r"the clip has 4 frame\(s\); filling a gap needs"):
+        check_gap("0:1", 4)
+    with pytest.raises(ValueError, match=r"expected 3 <= A < B < 90"):
+        check_gap("1:5", 90)

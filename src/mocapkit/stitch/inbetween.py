@@ -322,6 +322,11 @@ def check_gap(
             a, b = (whole_number(x, "a gap end") for x in gap)
         except (TypeError, ValueError):
             raise ValueError(f"gap must be (A, B) in whole frames or 'A:B', got {gap!r}") from None
+    if num_frames < 5:  # 3 context frames, one gap frame and 1 after: no gap can fit
+        raise ValueError(
+            f"{name}: the clip has {num_frames} frame(s); filling a gap needs at least 5 (3 "
+            "context frames before the gap, one in it, 1 after it)"
+        )
     if not 3 <= a < b < num_frames:
         raise ValueError(
             f"{name}: gap {a}:{b}: expected 3 <= A < B < {num_frames} (it has {num_frames} "

@@ -352,6 +352,11 @@ def check_takeoffs(takeoffs, n_query: int, w: int) -> list[int]:
             stacklevel=2,
         )
         return ok
+    if n_query < w:  # no take-off frame can have its window: say so, not an empty range
+        raise ValueError(
+            f"the query has {n_query} frame(s); a take-off needs the {w} frames up to it "
+            f"(the L-score window w = {w})"
+        )
     for a in takeoffs:
         if not w - 1 <= a < n_query:
             raise ValueError(

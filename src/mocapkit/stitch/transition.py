@@ -225,6 +225,16 @@ class Stitched:
 
 def _check_frames(query: Motion, takeoff: int, data: Motion, landing: int, before: int, after: int):
     a, b = int(takeoff), int(landing)
+    if before > query.num_frames:  # no take-off frame can work: say why, not an empty range
+        raise ValueError(
+            f"the query has {query.num_frames} frame(s); this transition needs {before} of it "
+            "up to the take-off (a shorter blend, or a longer query)"
+        )
+    if after > data.num_frames:
+        raise ValueError(
+            f"the data clip has {data.num_frames} frame(s); this transition needs {after} of it "
+            "from the landing (a shorter blend, or a longer clip)"
+        )
     if a != takeoff or not before - 1 <= a < query.num_frames:
         raise ValueError(
             f"take-off frame {takeoff} outside [{before - 1}, {query.num_frames - 1}] of the query"
