@@ -244,3 +244,25 @@ def test_build_leaves_out_clips_of_another_skeleton_or_rate(clip_dir: Path, tmp_
     assert "b_60fps.bvh: 60 fps, but" in err
     assert "a_other.bvh: a different skeleton from" in err
     assert "Traceback" not in err
+
+
+def test_graph_names_clips_as_given_and_says_when_it_was_moved(clip_dir: Path, tmp_path: Path):
+    """Clip paths are stored relative to the graph file as the user named them (a linked
+    library stays lib/..., not the links' targets); a graph moved away from its library says
+    where it looked, not a bare "cannot read file" (newcomer report)."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for p in sorted(clip_dir.glob("*.bvh"))[:2]:
+        (lib / p.name).symlink_to(p)
+    out = tmp_path / "g.json"
+    code, so, se = run("graph", "build", str(lib), "--out", str(out), "--transitions", "10",
+                       "--quiet")  # fmt: skip
+    assert code == 0, so + se
+    paths = [c["path"] for c in json.loads(out.read_text())["clips"]]
+    assert all(p.startswith("lib/") for p in paths), paths
+    moved = tmp_path / "sub" / "g.json"
+    moved.parent.mkdir()
+    moved.write_text(out.read_text())
+    code, _, err = run("graph", "synth", str(moved), "--seconds", "2", "--out",
+                       str(tmp_path / "s.bvh"))  # fmt: skip
+    assert code == 2 and "relative to its own folder" in err and len(err.splitlines()) == 1

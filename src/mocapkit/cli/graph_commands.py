@@ -88,10 +88,11 @@ def usable_clips(files: list[Path], motions: list) -> tuple[list[Path], list, li
 
 
 def _rel(path: Path, base: Path) -> str:
+    # as the user named them (links not followed): lib/walk.bvh, not ../../data/walk.bvh
     try:
-        return os.path.relpath(path.resolve(), base.resolve())
+        return os.path.relpath(os.path.abspath(path), os.path.abspath(base))
     except ValueError:  # other drive (Windows)
-        return str(path.resolve())
+        return os.path.abspath(path)
 
 
 @graph.command("build")
@@ -298,6 +299,12 @@ def synth(graph_file, seconds, path_csv, out, seed, blend, as_json):
     with naming(graph_file):
         g = load_graph(graph_file)
     clip_paths = g.clip_paths(Path(graph_file).parent)
+    for c, p in zip(g.clips, clip_paths, strict=True):
+        if not p.exists():
+            raise CLIError(
+                f"{graph_file}: its clip {c.path} is not at {p} (a graph file names its clips "
+                "relative to its own folder: keep it beside its library, or build it again)"
+            )
     inputs = [graph_file, *clip_paths, *([path_csv] if path_csv else [])]
     check_outputs([(out, WRITABLE), sidecar_path(out)], inputs)
     motions = load_all(clip_paths, False)
