@@ -235,10 +235,19 @@ def build(
         f"{len(db.window)} frames; {st['candidates']} candidate transitions "
         f"({st['gflop']:.1f} GFLOP in {st['tile_seconds']:.1f} s, stride {g.stride})"
     )
+    rule = "--transitions" if T is not None else "--threshold" if threshold is not None else ""
+    sel = st.get("selection") or {}
+    if rule:
+        kept = f"kept T = {g.T} ({rule}): {g.num_transitions} transitions"
+    else:  # the knee's cheapest, then what connects the clips: say how the total is made
+        kept = (
+            f"kept the knee rule's T = {g.T} cheapest ({sel.get('knee', 0)} transitions at or "
+            f"under its cost), {sel.get('end', 0)} more at clip ends and {sel.get('bridge', 0)} "
+            f"bridging components: {g.num_transitions} transitions"
+        )
     click.echo(
-        f"kept T = {g.T} ({'--transitions' if T is not None else '--threshold' if threshold is not None else 'knee rule'}): "  # noqa: E501
-        f"{g.num_transitions} transitions, {int(g.in_scc.sum())} in the largest strongly "
-        f"connected component ({g.scc_frames()} frames)"
+        f"{kept}, {int(g.in_scc.sum())} in the largest strongly connected component "
+        f"({g.scc_frames()} frames)"
     )
     click.echo(
         f"tiles: {plan.num_tiles} in {len(plan.tasks)} tasks ({where}); memory per worker at "
