@@ -97,6 +97,11 @@ def test_prefix_context_widens_to_the_content_when_a_style_has_few_takes():
     # walk_sad's style has no other take: every walk_ take, never walk-back's
     assert ctx["d/walk_sad_001.bvh"] == [f"d/walk_normal_00{k}.bvh" for k in range(1, 6)]
     assert len(ctx["d/zz.bvh"]) == 8 and "d/zz.bvh" not in ctx["d/zz.bvh"]
+    # a whole name is a prefix too: walk.bvh beside walk_1..3 is one of them
+    odd = context_of(["e/walk.bvh", "e/walk_1.bvh", "e/walk_2.bvh", "e/walk_3.bvh", "e/z_1.bvh"],
+                     "prefix", 8)  # fmt: skip
+    assert odd["e/walk.bvh"] == ["e/walk_1.bvh", "e/walk_2.bvh", "e/walk_3.bvh"]
+    assert odd["e/walk_2.bvh"] == ["e/walk.bvh", "e/walk_1.bvh", "e/walk_3.bvh"]
 
 
 def test_in_process_reference(reference, library):

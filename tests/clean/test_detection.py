@@ -415,6 +415,11 @@ def test_compiled_spike_size_matches_the_reference_above_its_floor(seed: int) ->
         above = ref > floor + 1e-9
         assert np.allclose(fast[above], ref[above], atol=1e-9)
         assert (fast[~above] <= floor + 1e-9).all()
+    assert np.allclose(mdm_mod.spike_size(q[:7], 50), naive_spike_size(q[:7], 3), atol=1e-9)
+    zero = q.copy()
+    zero[3, 0] = 0.0
+    with pytest.raises(ValueError, match="unit quaternions"):
+        mdm_mod.spike_size(zero, 2)
 
 
 def test_a_spike_the_mdm_misses_is_flagged_end_to_end() -> None:

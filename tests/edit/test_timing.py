@@ -90,6 +90,7 @@ def test_trim_in_seconds_reads_times_as_the_cli_does() -> None:
     m = walk()
     last = trim(m, m.duration - 0.4 * m.frame_time)
     assert last.num_frames == 1
+    assert trim(m, m.duration - 0.4 * m.frame_time, m.duration).num_frames == 1  # to the end
     assert np.array_equal(last.rotations[0], m.rotations[-1])
     for a, b in (
         (1.0, 1.0),

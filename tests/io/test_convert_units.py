@@ -37,6 +37,11 @@ def test_cmu_to_bvh_without_units_warns_that_the_unit_is_lost(shared_path, tmp_p
     assert r.exit_code == 0 and "cannot be stated" not in r.output, r.output
     r = CliRunner().invoke(main, ["convert", str(amc), str(tmp_path / "cm.bvh"), "--units", "cm"])
     assert r.exit_code == 0 and "cannot be stated" not in r.output, r.output
+    # a scale to centimetres typed by hand (seven digits) is centimetres
+    r = CliRunner().invoke(
+        main, ["convert", str(amc), str(tmp_path / "s.bvh"), "--scale", "5.644444"]
+    )
+    assert r.exit_code == 0 and "cannot be stated" not in r.output, r.output
     bad = CliRunner().invoke(
         main, ["convert", str(amc), str(tmp_path / "x.bvh"), "--units", "cm", "--scale", "2"]
     )

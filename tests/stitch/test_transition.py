@@ -120,14 +120,15 @@ def test_crossfade_and_interpolation_baselines(walk, run) -> None:
     assert cf.k == n and cf.generated == slice(a - n + 1, a + 1)
     assert cf.motion.num_frames == a + 1 + run.num_frames - b - n
     assert cf.motion[: a - n + 1].allclose(walk[: a - n + 1])
-    # data frame b blends in at the window's first frame; after the window the data plays as
-    # is from b + n, and the provenance says so (newcomer report: it said b, 6 frames off)
-    assert cf.landing_index == a - n + 1
+    # after the window the data plays as is from b + n, and the provenance and the JSON say so
+    # (newcomer report: they said b, the window's length off)
+    assert cf.landing_index == a + 1
     moved = features.apply_ground_transform(run, cf.transform)
     tail = cf.motion[a + 1 :]
     assert np.allclose(tail.rotations, moved.rotations[b + n :], atol=1e-12)
     seg = cf.provenance("out.bvh").segments[-1]
     assert (seg.output_start, seg.source_start, seg.source_stop) == (a + 1, b + n, run.num_frames)
+    assert cf.to_json()["data_frame_at_landing_output"] == b + n
     # Blend weights rise from query to data: the first blended frame is nearest the query.
     blend = cf.motion.rotations[cf.generated]
     moved = features.apply_ground_transform(run, cf.transform)

@@ -101,18 +101,29 @@ def _stem(rel: str) -> str:
     return rel.rpartition("/")[2].rsplit(".", 1)[0]
 
 
-def _related(rel: str, folder: Sequence[str]) -> list[str]:
+def _related(rel: str, groups: dict[str, list[str]], folder: list[str]) -> list[str]:
     """The takes of ``rel``'s folder (``folder``, ``rel`` among them) that share the longest
-    name prefix (up to a ``_``) with it held by at least :data:`MIN_RELATED` others: Bandai's
-    ``content_style_NNN`` first (the same content and style), then ``content`` (every style of
-    it) when a style has one or two takes; the whole folder when no prefix gathers enough."""
+    name prefix (up to a ``_``, or the whole name) with it held by at least
+    :data:`MIN_RELATED` others: Bandai's ``content_style_NNN`` first (the same content and
+    style), then ``content`` (every style of it) when a style has one or two takes; the whole
+    folder when no prefix gathers enough. ``groups``: :func:`_prefix_groups` of the folder."""
     parts = _stem(rel).split("_")
-    for k in range(len(parts) - 1, 0, -1):
-        prefix = "_".join(parts[:k])
-        members = [t for t in folder if _stem(t) == prefix or _stem(t).startswith(prefix + "_")]
+    for k in range(len(parts), 0, -1):
+        members = groups.get("_".join(parts[:k]), [])
         if len(members) - 1 >= MIN_RELATED:
             return members
-    return list(folder)
+    return folder
+
+
+def _prefix_groups(folder: Sequence[str]) -> dict[str, list[str]]:
+    """Every name prefix up to a ``_`` (and every whole name) of the takes of one folder, with
+    the takes that have it, in name order: one pass, not a scan of the folder per take."""
+    groups: dict[str, list[str]] = {}
+    for t in folder:
+        parts = _stem(t).split("_")
+        for k in range(1, len(parts) + 1):
+            groups.setdefault("_".join(parts[:k]), []).append(t)
+    return groups
 
 
 def context_of(takes: Sequence[str], by: str, max_takes: int) -> dict[str, list[str]]:
@@ -124,8 +135,9 @@ def context_of(takes: Sequence[str], by: str, max_takes: int) -> dict[str, list[
         folders.setdefault("" if by == "all" else t.rpartition("/")[0], []).append(t)
     out: dict[str, list[str]] = {}
     for members in folders.values():
+        groups = _prefix_groups(members) if by == "prefix" else {}
         for t in members:
-            group = _related(t, members) if by == "prefix" else members
+            group = _related(t, groups, members) if by == "prefix" else members
             k = group.index(t)
             others = sorted(
                 (i for i in range(len(group)) if i != k), key=lambda i: (abs(i - k), i)

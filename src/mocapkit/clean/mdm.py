@@ -610,10 +610,13 @@ def spike_size(rotations: np.ndarray, max_frames: int, floor: float = 0.0) -> np
     if not np.isfinite(q).all():
         raise ValueError("rotations must be finite")
     norms = np.linalg.norm(q, axis=-1, keepdims=True)
-    q = q / np.where(norms > 0, norms, 1.0)
+    if (norms == 0).any():
+        raise ValueError("rotations must be unit quaternions (a zero one was given)")
+    q = q / norms
     out = np.zeros(q.shape[:2])
-    if q.shape[0] >= 5 and max_frames >= 1:
-        _spike_kernel(np.ascontiguousarray(q), int(max_frames), float(floor), out)
+    longest = min(int(max_frames), q.shape[0] - 4)  # a gap needs two frames on either side
+    if longest >= 1:
+        _spike_kernel(np.ascontiguousarray(q), longest, float(floor), out)
     return out
 
 

@@ -123,7 +123,15 @@ class RangeSpec:
             and self.start.seconds
             and lo == num_frames
             and self.start.value * fps < num_frames
-            and (self.single or self.stop is None or self.stop.frame(fps) > lo)
+            and (
+                self.single
+                or self.stop is None
+                or (
+                    self.stop.frame(fps) >= lo
+                    and self.stop.value * (fps if self.stop.seconds else 1.0)
+                    > self.start.value * fps
+                )
+            )
         ):  # a time in the last frame's span (6.49 s of a 6.5 s take) rounds past it
             lo = num_frames - 1
         if self.single:

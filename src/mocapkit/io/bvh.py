@@ -771,7 +771,8 @@ def write_bvh(motion: Motion, path: str | Path, order: str | None = None, digits
     Warns when the take's unit is known and is none that BVH readers assume (a CMU ASF's
     0.0564444 m): the numbers are written as they are, and the reader will guess."""
     mpu = motion.skeleton.metres_per_unit
-    if mpu is not None and not any(abs(mpu / u - 1) < 1e-9 for u in BVH_UNITS_M):
+    # within 1e-6: a --scale typed with seven digits (5.644444) does reach centimetres
+    if mpu is not None and not any(abs(mpu / u - 1) < 1e-6 for u in BVH_UNITS_M):
         warnings.warn(
             f"the take's unit ({mpu:g} m, from its source) cannot be stated in a BVH file, "
             "which other tools will read as inch or cm (mocapkit guesses it back from the "

@@ -87,9 +87,10 @@ class Stitched:
     """A stitched motion and where its parts are.
 
     ``motion``: the result, on the query's skeleton. Output frames ``0..takeoff`` are the query's
-    (``takeoff`` = a), ``generated`` (a slice) the generated/blended frames and ``landing_index``
-    the output frame of the data's landing frame b (a cross-fade plays it blended, at the
-    window's first frame). ``transform``: the ground transform applied
+    (``takeoff`` = a), ``generated`` (a slice) the generated/blended frames, ``landing_index``
+    the first output frame after them, where the data clip plays as it is: from its landing
+    frame b, or from ``landing_played`` (a cross-fade blends b .. b + n - 1 into its window,
+    and plays b + n there). ``transform``: the ground transform applied
     to the data clip (None without alignment). ``method``: "kalman", "crossfade", "slerp" or
     "linear". For "kalman": ``kalman_positions`` (k, J', 3) — the body-local feature trajectory
     the L-score predicts for the injected frames, ``fk_positions`` (k, J', 3) — the body-local
@@ -125,6 +126,7 @@ class Stitched:
     output: str | None = None
     skipped: tuple[tuple[str, str], ...] = ()
     data_fps: float | None = None
+    landing_played: int | None = None
     data_frames: int | None = None
 
     def data_frame(self, frame: int) -> int:
@@ -159,7 +161,8 @@ class Stitched:
         data = self.data_names[clip] if self.data_names else "data"
         g0, g1 = self.generated.start, self.generated.stop
         F = self.motion.num_frames
-        tail = self.landing + (g1 - self.landing_index)
+        played = self.landing if self.landing_played is None else self.landing_played
+        tail = played + (g1 - self.landing_index)
         segs = [
             Segment(0, g0, "clip", self.query_name, 0, g0),
             Segment(g0, g1, "generated", None, None, None),
@@ -201,6 +204,9 @@ class Stitched:
             frames=self.motion.num_frames,
             generated_frames=[self.generated.start, self.generated.stop],
             landing_output_frame=self.landing_index,
+            data_frame_at_landing_output=self.data_frame(
+                self.landing if self.landing_played is None else self.landing_played
+            ),
             fk_error_mean=float(self.fk_error_mean),
             fk_error_max=float(self.fk_error_max),
         )
@@ -567,10 +573,11 @@ def crossfade(
     has_t = query.translations is not None or data.translations is not None
     blend = Motion(query.skeleton, rots, tra[:, 0], query.frame_time, tra if has_t else None)
     motion = _join(query[: a - n + 1], blend, data[b + n :])
-    # data frame b plays (blended) at output a - n + 1; data b + n plays as is at a + 1
+    # after the window the data plays as is from b + n (b .. b + n - 1 are in the blend)
     return Stitched(
-        motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a - n + 1, transform, up=up
-    )
+        motion, "crossfade", a, b, n, slice(a - n + 1, a + 1), a + 1, transform, up=up,
+        landing_played=b + n,
+    )  # fmt: skip
 
 
 def interpolate_gap(

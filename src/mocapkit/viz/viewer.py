@@ -352,7 +352,10 @@ def sidecar_stitch_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | No
         "takeoff": a - 1,
         "generated": [a, b],
         "landing": b,
-        "landingData": tr.target_frame,
+        # the data frame playing at the landing (a cross-fade's window holds the chosen one)
+        "landingData": tail[0].source_start
+        if tail and tail[0].source_start is not None
+        else tr.target_frame,
         "k": int(plan.parameters.get("k", b - a)),
         "lscore": tr.cost,
         "lscoreByK": [],

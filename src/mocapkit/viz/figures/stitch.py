@@ -68,7 +68,9 @@ def plot_stitch(
     cm = 100.0 * features.metres_per_unit(m, None)
     fps = m.fps
     a, land = stitched.takeoff, stitched.landing_index
-    lo, hi = max(0, a - margin), min(m.num_frames, land + margin + 1)
+    # a cross-fade's window starts before its take-off: show all of it
+    first = min(a, stitched.generated.start)
+    lo, hi = max(0, first - margin), min(m.num_frames, max(land, a) + margin + 1)
     lp = features.local_positions(m[lo:hi], up=up) * cm
     _, ui, fi = features.ground_plane_axes(up)
     frames = np.arange(lo, hi)
@@ -153,7 +155,7 @@ def plot_stitch(
         query = getattr(stitched, "query_name", "query")
         title = (
             f"{Path(str(query)).stem} → {Path(str(data)).stem} at its frame {tr.landing}: "
-            f"best of {tr.candidates} candidates by {tr.score}"
+            f"best of {tr.candidates} candidate{'' if tr.candidates == 1 else 's'} by {tr.score}"
         )
     if title:
         fig.suptitle(wrap(title, 140), fontsize=11)
