@@ -164,6 +164,7 @@ def test_clean_with_contact(files, tmp_path) -> None:
         assert read_motion(other).allclose(read_motion(out), 1e-9, 1e-9)
     for bad, words in (("LeftHand@70:55", "reversed"),
                        ("LeftHand@5:2000", "--contact 'LeftHand@5:2000': frames 5:2000 past"),
+                       ("LeftHand@x:3", "--contact 'LeftHand@x:3': expected A:B"),
                        ("LeftHand@1:5@x", "expected JOINT@A:B")):  # fmt: skip
         code, _, stderr = run("clean", str(files["input"]), "--contact", bad)
         assert code == 2 and words in stderr and len(stderr.splitlines()) == 1, stderr

@@ -76,6 +76,11 @@ def test_bad_ranges_are_one_line_naming_the_option(text: str, single: bool, word
 def test_parse_frame_refuses_ranges_and_spec_reports_units() -> None:
     with pytest.raises(RangeError, match="--landing: expected a frame"):
         parse_frame("1:5", 30.0, 300, option="--landing")
+    # a position inside a longer argument: its messages name the whole argument, once
+    with pytest.raises(RangeError, match=r"^--explain 'Head:400': frame 400 past the end"):
+        parse_frame("400", 30.0, 300, "--explain", shown="Head:400")
+    with pytest.raises(RangeError, match=r"^--explain 'Head:x': expected a frame"):
+        parse_frame("x", 30.0, 300, "--explain", shown="Head:x")
     assert RangeSpec.parse("1s:2s").in_seconds and not RangeSpec.parse("1:2").in_seconds
     with pytest.raises(RangeError, match="open end"):
         RangeSpec.parse("5:").frames(30.0, None)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -64,9 +65,12 @@ def parse_contact(spec: str, motion: Motion) -> Any:
         if parts[0] not in names:
             raise CLIError(f"--contact {spec!r}: {no_joint_named(parts[0], motion.skeleton)}")
         try:
-            lo, hi = RangeSpec.parse(parts[1], "--contact").frames(motion.fps, motion.num_frames)
+            # the range's messages name the whole argument, not its range alone
+            r = RangeSpec.parse(parts[1], f"--contact {spec!r}")
+            r = dataclasses.replace(r, option="--contact", text=spec)
+            lo, hi = r.frames(motion.fps, motion.num_frames)
         except RangeError as e:
-            raise CLIError(_whole_spec(e, "--contact", parts[1], spec)) from None
+            raise CLIError(str(e)) from None
         pos = _contact_point(parts[2], spec, form) if len(parts) == 3 else None
         return ContactConstraint(names.index(parts[0]), lo, hi - 1, pos)
     form = "JOINT@A:B[@X,Y,Z] or JOINT:START-END[:X,Y,Z]"
@@ -88,16 +92,6 @@ def parse_contact(spec: str, motion: Motion) -> Any:
     return c
 
 
-def _whole_spec(e: RangeError, option: str, part: str, spec: str) -> str:
-    """A range error about ``part`` of an option's argument, naming the whole argument
-    (``--explain 'Head:99999'``, not ``--explain '99999'``)."""
-    text = str(e)
-    for said in (f"{option} {part!r}", f"{option} {part.strip()!r}", option):
-        if text.startswith(said):
-            return f"{option} {spec!r}" + text[len(said) :]
-    return text
-
-
 def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     """``JOINT:FRAME`` -> (joint index, frame). FRAME is a 0-based frame or seconds (``1.5s``);
     the last ``:`` separates, so joint names with colons (``mixamorig:LeftHand``) work."""
@@ -109,9 +103,9 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     if joint not in names:
         raise CLIError(f"--explain {spec!r}: {no_joint_named(joint, motion.skeleton)}")
     try:  # the CLI's one reading of a frame or a time (a time in the last frame's span is it)
-        frame = parse_frame(when, motion.fps, motion.num_frames, "--explain")
+        frame = parse_frame(when, motion.fps, motion.num_frames, "--explain", shown=spec)
     except RangeError as e:
-        raise CLIError(_whole_spec(e, "--explain", when, spec)) from None
+        raise CLIError(str(e)) from None
     return names.index(joint), frame
 
 

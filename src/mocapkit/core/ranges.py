@@ -189,9 +189,13 @@ def parse_range(
     return RangeSpec.parse(text, option, single).frames(fps, num_frames)
 
 
-def parse_frame(text: str, fps: float, num_frames: int | None, option: str = "frame") -> int:
-    """One frame from ``60`` or ``2.0s`` (:class:`RangeError` for anything else)."""
+def parse_frame(
+    text: str, fps: float, num_frames: int | None, option: str = "frame", shown: str | None = None
+) -> int:
+    """One frame from ``60`` or ``2.0s`` (:class:`RangeError` for anything else). ``shown``:
+    the whole argument the position is part of, named in messages (``--explain 'Head:99'``)."""
     end = _parse_end(text) if isinstance(text, str) else None
+    where = option if shown is None else f"{option} {shown!r}"
     if end is None:  # a range or anything else: the message offers only what is taken here
-        raise RangeError(f"{option}: expected {_SYNTAX_ONE}, got {text!r}")
-    return RangeSpec(text, end, None, True, option).frames(fps, num_frames)[0]
+        raise RangeError(f"{where}: expected {_SYNTAX_ONE}, got {text!r}")
+    return RangeSpec(shown or text, end, None, True, option).frames(fps, num_frames)[0]
