@@ -173,8 +173,28 @@ def test_injectors_change_only_their_joint_and_window(takes) -> None:
         assert not diff[:, [k for k in range(walk.num_joints) if k != j]].any()
         fr = np.flatnonzero(inj.frames)
         assert len(fr) >= 1 and fr.min() >= 50 and fr.max() < 50 + 41
+        # the window holds every rewritten frame; the changed ones (over a degree) are in it
+        assert np.array_equal(np.flatnonzero(diff[:, j]), np.flatnonzero(inj.window & diff[:, j]))
+        assert not (inj.frames & ~inj.window).any()
     with pytest.raises(ValueError):
         inject(walk, "nope", 1, rng)
+
+
+def test_a_hold_where_the_joint_barely_moved_is_rewritten_but_not_truth(takes) -> None:
+    """A frozen hold's first frames, where the live joint drifted under a degree from the held
+    value, are rewritten (a flag there is no false alarm) but not in the truth (no miss)."""
+    from mocapkit.clean.evaluate import inject_errors
+
+    walk, _ = takes
+    q = walk.rotations.copy()
+    q[50:60, 7] = q[50, 7]  # the live joint rests, then moves on
+    rest = Motion(walk.skeleton, q, walk.root_positions, walk.frame_time, walk.translations)
+    cor = inject_errors(rest, [("frozen", 7, 50)], rng=0)
+    (err,) = cor.errors
+    held = np.flatnonzero(err.window)
+    assert held[0] == 51 and np.all(cor.motion.rotations[held, 7] == q[50, 7])
+    assert not cor.truth[51:60, 7].any() and cor.rewritten[51:60, 7].all()
+    assert cor.truth[60:, 7].any() and not (cor.truth & ~cor.rewritten).any()
 
 
 @pytest.mark.parametrize("ground_root", [False, True])

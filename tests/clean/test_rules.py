@@ -9,6 +9,7 @@ import pytest
 
 from mocapkit.clean import SelfSimilarityCleaner
 from mocapkit.clean.detect import (
+    ADDED,
     ORIGINAL_ORDER,
     PIPELINE,
     RETIRED,
@@ -20,6 +21,7 @@ from mocapkit.clean.detect import (
     ExtendToSteps,
     Flags,
     FrozenJoints,
+    LimitReleaseVeto,
     MDMHysteresis,
     NoiseBursts,
     PaperThreshold,
@@ -71,14 +73,13 @@ def flagged(F: int, J: int, cells) -> Flags:
 def test_pipeline_is_data_and_config_has_no_frames() -> None:
     names = [r.name for r in ORIGINAL_ORDER]
     assert names[0] == "mdm" and names[-1] == "bridge" and len(set(names)) == len(names)
-    assert set(ORIGINAL_ORDER) - set(RETIRED) == set(PIPELINE) and len(PIPELINE) == len(
-        set(PIPELINE)
-    )
+    assert (set(ORIGINAL_ORDER) - set(RETIRED)) | set(ADDED) == set(PIPELINE)
+    assert len(PIPELINE) == len(set(PIPELINE))
     # the spike rule runs after every other flagging rule: a spike beside a run they flag is
     # left to that run
     flaggers = [r for r in PIPELINE if not r.veto and r.name not in ("spike", "bridge")]
     assert all(PIPELINE.index(r) < PIPELINE.index(Spikes) for r in flaggers)
-    for r in ORIGINAL_ORDER:
+    for r in (*ORIGINAL_ORDER, *ADDED):
         assert r.__doc__ and "Relies on" in r.__doc__, r.__name__
         assert dataclasses.is_dataclass(r) and r.__dataclass_params__.frozen
     for f in dataclasses.fields(DetectConfig):
@@ -272,6 +273,63 @@ def test_recurring_veto() -> None:
     fl = flagged(F, 1, [(59, 62, 0)])
     RecurringVeto().apply(evidence(rot.rotvec_to_quat(rv), dig=dig), fl)
     assert fl.mask[59:62, 0].all()  # once only: an error
+
+
+def parked_toe() -> np.ndarray:
+    """(600, 1, 4) a toe clamped flat at a limit (-16.6 deg about z) in six rests (trembling
+    in the file's last digit), leaving it between them: by a jump (frames 40-99: the clamp
+    lets go with a 20 deg jump, the toe drifts back to 8 deg off, the clamp catches it in one
+    step) or smoothly."""
+    F = 600
+    rv = np.zeros((F, 1, 3))
+    rv[:, 0, 2] = np.radians(-16.6)
+    t = np.arange(F)
+    for a, b in ((140, 200), (240, 300), (340, 400), (440, 500)):  # smooth, as a live toe
+        rv[a:b, 0, 2] += np.radians(25.0) * np.sin(np.pi * (t[a:b] - a) / (b - a)) ** 2
+    rv[40:100, 0, 0] = np.radians(np.linspace(20.0, 8.0, 60))
+    # the solver's last digit trembles (0.002 deg: still, at the limit within its tolerance)
+    rv += np.radians(0.002) * np.random.default_rng(0).standard_normal(rv.shape)
+    return rot.rotvec_to_quat(rv)
+
+
+def test_limit_release_veto() -> None:
+    q = parked_toe()
+    ev = evidence(q)
+    assert (40, 99) in ev.limit_excursions[0]
+    fl = flagged(600, 1, [(40, 60, 0), (75, 100, 0)])
+    LimitReleaseVeto().apply(ev, fl)
+    assert not fl.mask.any()  # the clamp let go: measured motion, abrupt at the limit only
+    fl = flagged(600, 1, [(40, 100, 0)])
+    LimitReleaseVeto().apply(ev, fl)
+    assert not fl.mask.any()  # the whole excursion, both of its jumps the clamp's
+    # a run two cancelling jumps flagged was turned by one rotation: spared
+    fl = Flags((600, 1))
+    fl.flag("cancelling-jumps", np.arange(600)[:, None] // 20 == 2)
+    LimitReleaseVeto().apply(ev, fl)
+    assert fl.mask[40:60, 0].all()
+    assert "off a limit" in LimitReleaseVeto().describe(ev, 50, 0)
+
+    # an error on the parked frames holds its turned value: no release
+    bad = turn(q, slice(210, 226), 0, 30.0, axis=(1.0, 0.0, 0.0))
+    fl = flagged(600, 1, [(210, 226, 0)])
+    LimitReleaseVeto().apply(evidence(bad), fl)
+    assert fl.mask[210:226, 0].all()
+    # an offset inside a smooth excursion enters and leaves with its own jumps
+    bad = turn(q, slice(160, 176), 0, 30.0, axis=(1.0, 0.0, 0.0))
+    fl = flagged(600, 1, [(160, 176, 0)])
+    LimitReleaseVeto().apply(evidence(bad), fl)
+    assert fl.mask[160:176, 0].all()
+    # a joint that never rests at one value twice has no limit
+    live = smooth(600, 1)
+    live[40:100, 0] = rot.quat_mul(live[40:100, 0], q[40:100, 0])
+    fl = flagged(600, 1, [(40, 60, 0)])
+    LimitReleaseVeto().apply(evidence(live), fl)
+    assert fl.mask[40:60, 0].all()
+    assert evidence(live).limit_excursions[0] == []
+    # off: limit_holds=0
+    fl = flagged(600, 1, [(40, 60, 0)])
+    LimitReleaseVeto.from_config(DetectConfig(limit_holds=0)).apply(ev, fl)
+    assert fl.mask[40:60, 0].all()
 
 
 def test_noise_bursts() -> None:

@@ -66,6 +66,17 @@ class Corrupted:
     errors: list[Injected] = field(default_factory=list)
 
     @property
+    def rewritten(self) -> np.ndarray:
+        """(F, J) bool: every cell an error rewrote, the truth cells and those it changed by
+        less than ``MIN_CHANGE_DEG`` (a frozen hold where the live joint barely moved): a flag
+        there is no false alarm, a miss there no miss (score them as excused)."""
+        out = self.truth.copy()
+        for e in self.errors:
+            if e.window is not None:
+                out[e.window, e.joint] = True
+        return out
+
+    @property
     def frames(self) -> np.ndarray:
         """(F,) bool: frames where any joint was corrupted."""
         return self.truth.any(axis=1)

@@ -22,12 +22,16 @@ MIN_CHANGE_DEG = 1.0
 
 @dataclass
 class Injected:
-    """A corrupted take: ``motion``, the ``joint`` index, the ``kind``, and ``frames`` (F,) bool."""
+    """A corrupted take: ``motion``, the ``joint`` index, the ``kind``, ``frames`` (F,) bool
+    (changed by more than ``MIN_CHANGE_DEG``) and ``window`` (F,) bool (every frame the error
+    rewrote; a frozen hold's frames that drift less than that from the live motion, or a noise
+    draw under it, are in the window but not in ``frames``)."""
 
     motion: Motion
     joint: int
     kind: str
     frames: np.ndarray
+    window: np.ndarray | None = None
 
 
 def hinge_joints(motion: Motion) -> list[int]:
@@ -129,4 +133,6 @@ def inject(
         None if motion.translations is None else motion.translations.copy(),
     )
     changed = rot.quat_angle(q[:, joint], orig) > np.radians(MIN_CHANGE_DEG)
-    return Injected(out, joint, kind, changed)
+    window = np.zeros(F, dtype=bool)
+    window[start + (kind == "frozen") : start + n] = True  # a hold keeps its first frame's own
+    return Injected(out, joint, kind, changed, window)

@@ -390,6 +390,41 @@ def frozen_verdict(
     return ("rests", float(recur)) if recur >= max_recur else ("frozen", dig)
 
 
+def limit_values(
+    q: np.ndarray, still: np.ndarray, min_frames: int, min_holds: int, tol: float
+) -> np.ndarray:
+    """(L, 4) the rotations one joint (``q`` (F, 4), ``still`` (F-1,) its held steps) comes to
+    rest at again and again: the first value of each still run of at least ``min_frames``
+    frames that at least ``min_holds`` such runs (itself included) rest within ``tol`` radians
+    of. A solver clamping a joint at its limit (toes flat at -16.6 deg in Bandai-1's
+    dance-short takes) writes the limit's value each time it parks the joint there; a natural
+    pause rests somewhere new each time."""
+    runs = [(a, b) for a, b in true_runs(still) if b - a + 2 >= min_frames]
+    if len(runs) < max(min_holds, 1):
+        return np.zeros((0, 4))
+    v = np.asarray([q[a] for a, _ in runs], dtype=np.float64)
+    near = rot.quat_angle(v[:, None], v[None, :]) <= tol  # (R, R)
+    out, taken = [], np.zeros(len(v), dtype=bool)
+    for i in np.argsort(-near.sum(axis=1), kind="stable"):
+        if not taken[i] and near[i].sum() >= min_holds:
+            out.append(v[i])
+            taken |= near[i]
+    return np.asarray(out).reshape(-1, 4)
+
+
+def limit_excursions(
+    q: np.ndarray, still: np.ndarray, min_frames: int, min_holds: int, tol: float
+) -> list[tuple[int, int]]:
+    """The excursions ``(s, e)`` (frames, inclusive) of one joint off a limit it is clamped at
+    (:func:`limit_values`): runs of at least two frames farther than ``tol`` from it, with
+    frames at the limit on both sides."""
+    lims = limit_values(q, still, min_frames, min_holds, tol)
+    if not len(lims):
+        return []
+    at = (rot.quat_angle(q[:, None], lims[None]) <= tol).any(axis=1)
+    return [(int(s), int(e)) for s, e in true_runs(~at) if 0 < s < e < len(q) - 1]
+
+
 def hysteresis(weak: np.ndarray, strong: np.ndarray) -> np.ndarray:
     """(F, J) bool: the runs (along time, per joint) of ``weak | strong`` cells that hold at
     least one ``strong`` cell."""

@@ -8,7 +8,8 @@
 Rules (each module's docstring says what fact it relies on): :class:`MDMHysteresis` (the
 paper's MDM threshold, seeded), :class:`DominanceVeto`, :class:`CancellingJumps`,
 :class:`Spikes`, :class:`FrozenJoints`, :class:`SmoothVeto`, :class:`RecurringVeto`,
-:class:`NoiseBursts`, :class:`WrongWayHinges`, :class:`ExtendToSteps`.
+:class:`LimitReleaseVeto`, :class:`NoiseBursts`, :class:`WrongWayHinges`,
+:class:`ExtendToSteps`.
 """
 
 from mocapkit.clean.detect.bridge import BridgeHoles
@@ -20,9 +21,11 @@ from mocapkit.clean.detect.extend import ExtendToSteps
 from mocapkit.clean.detect.flags import Flags
 from mocapkit.clean.detect.frozen import FrozenJoints
 from mocapkit.clean.detect.hinges import WrongWayHinges
+from mocapkit.clean.detect.limit_release import LimitReleaseVeto
 from mocapkit.clean.detect.mdm_threshold import MDMHysteresis, PaperThreshold, abrupt_seeds
 from mocapkit.clean.detect.noise_bursts import NoiseBursts
 from mocapkit.clean.detect.pipeline import (
+    ADDED,
     ORIGINAL_ORDER,
     PAPER_PIPELINE,
     PIPELINE,
@@ -41,6 +44,7 @@ from mocapkit.clean.detect.smooth import SmoothVeto
 from mocapkit.clean.detect.spikes import Spikes
 
 __all__ = [
+    "ADDED",
     "ORIGINAL_ORDER",
     "PAPER_PIPELINE",
     "PIPELINE",
@@ -55,6 +59,7 @@ __all__ = [
     "ExtendToSteps",
     "Flags",
     "FrozenJoints",
+    "LimitReleaseVeto",
     "MDMHysteresis",
     "NoiseBursts",
     "PaperThreshold",

@@ -210,6 +210,24 @@ class DetectConfig:
     #: Timing slack (seconds) when matching an excursion's entry, peak and exit.
     recur_flex_seconds: float = 1.0 / 30.0
 
+    # ------------------------------------------------------------------ limit-release veto
+    #: A rotation the joint comes to rest at in this many still runs or more is a limit the
+    #: solver clamps it at; a flagged run inside a smooth excursion off it, from the limit back
+    #: to the limit, is the clamp letting go (0: off).
+    limit_holds: int = 3
+    #: A rest at the limit lasts at least this long (seconds).
+    limit_hold_seconds: float = 0.1
+    #: At the limit: within this angle (degrees) of its value (the clamp writes one value; the
+    #: file's last digit moves it by about 1e-5 deg).
+    limit_tol_deg: float = 0.5
+    #: A released run moves: some frame of it lies this far (degrees) from its first or last;
+    #: an error on the parked frames turns them by one rotation and keeps the limit's tremble
+    #: (about a degree), which is no release.
+    limit_move_deg: float = 3.0
+    #: The clamp's own jumps fall within this long (seconds) of the excursion's ends; a jump
+    #: further inside belongs to something else (an error), and the excursion is not vetoed.
+    limit_edge_seconds: float = 1.0 / 30.0
+
     # ------------------------------------------------------------------ noise bursts
     #: Second difference of the angular velocity above this (degrees) at nearly every frame is
     #: a noise burst: smooth motion keeps it small, white noise of s per axis gives ~4.5 s.

@@ -255,6 +255,23 @@ class Evidence:
         return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
 
     @cached_property
+    def limit_excursions(self) -> list[list[tuple[int, int]]]:
+        """Per joint, its excursions off a limit it is clamped at, from the limit back to it
+        (:func:`mdm.limit_excursions`; frames, inclusive)."""
+        c = self.config
+        q = self.rotations
+        speed = np.radians(c.frozen_speed_deg_s / self.fps)
+        still = rot.quat_angle(q[:-1], q[1:]) < speed if len(q) > 1 else np.zeros((0, q.shape[1]))
+        args = (
+            self.frames(c.limit_hold_seconds, 2),
+            c.limit_holds,
+            np.radians(c.limit_tol_deg),
+        )
+        if c.limit_holds <= 0 or len(q) < 3:
+            return [[] for _ in range(q.shape[1])]
+        return [mdm_mod.limit_excursions(q[:, j], still[:, j], *args) for j in range(q.shape[1])]
+
+    @cached_property
     def roughness(self) -> np.ndarray:
         """(F, J) radians: second difference of angular velocity (:func:`mdm.burst_roughness`)."""
         return mdm_mod.burst_roughness(self.rotations)

@@ -16,6 +16,7 @@ from mocapkit.clean.detect.extend import ExtendToSteps
 from mocapkit.clean.detect.flags import Flags
 from mocapkit.clean.detect.frozen import FrozenJoints
 from mocapkit.clean.detect.hinges import WrongWayHinges
+from mocapkit.clean.detect.limit_release import LimitReleaseVeto
 from mocapkit.clean.detect.mdm_threshold import MDMHysteresis, PaperThreshold
 from mocapkit.clean.detect.noise_bursts import NoiseBursts
 from mocapkit.clean.detect.recurring import RecurringVeto
@@ -46,26 +47,31 @@ the extension 0.988/0.983; without the smooth veto as well 0.988/0.977, so the s
 stays. Kept importable for explanations and ablations, not run by default. The spike rule came
 back in session 19 at a higher threshold and after the signal rules (:data:`PIPELINE`)."""
 
+ADDED: tuple[type, ...] = (LimitReleaseVeto,)
+"""Rules added after the ablation that retired :data:`RETIRED` (chosen on the Bandai-1 tuning
+half, then checked on the validation half, Bandai-2 and CMU without retuning)."""
+
 PIPELINE: tuple[type, ...] = (
     MDMHysteresis,
     CancellingJumps,
     FrozenJoints,
     SmoothVeto,
     RecurringVeto,
+    LimitReleaseVeto,
     NoiseBursts,
     WrongWayHinges,
     Spikes,
     BridgeHoles,
 )
 """The rules of ``detect="hysteresis"``, in the order they run: the MDM threshold with seeds,
-the cancelling jumps, frozen joints, the smooth and recurring vetoes (they clear what the rules
-before them flagged; the smooth veto spares frozen runs), then the signal rules (noise bursts,
-wrong-way hinges: they need no KNN evidence, so no veto applies to them), the spikes (after
-every other rule, so that a spike beside a run already flagged is left to that run: a spike
-read off the frames next to a wrong-way bend was a false alarm), and last the holes of a frame
-or two between two flagged runs of a joint closed (:class:`BridgeHoles`, added in session 10:
-on the Bandai-1 halves it changes no unit; on raw CMU takes it joins a glitch reported in
-pieces).
+the cancelling jumps, frozen joints, the smooth, recurring and limit-release vetoes (they clear
+what the rules before them flagged; the smooth veto spares frozen runs), then the signal rules
+(noise bursts, wrong-way hinges: they need no KNN evidence, so no veto applies to them), the
+spikes (after every other rule, so that a spike beside a run already flagged is left to that
+run: a spike read off the frames next to a wrong-way bend was a false alarm), and last the
+holes of a frame or two between two flagged runs of a joint closed (:class:`BridgeHoles`,
+added in session 10: on the Bandai-1 halves it changes no unit; on raw CMU takes it joins a
+glitch reported in pieces).
 
 The spike rule catches a one-frame spike whose entry and exit jumps fall on consecutive
 frames, of which the cancelling jumps keep only one (the local maxima of the jump size). On the
