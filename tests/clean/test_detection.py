@@ -251,6 +251,32 @@ def test_cancelling_steps_never_pair_an_exit_with_a_later_entry() -> None:
     assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 31)[30:60, 0].all()
 
 
+def test_cancelling_steps_pair_an_error_cut_off_by_the_take_with_its_end() -> None:
+    """An offset running off the take's end (or in from its start) has one jump: unpaired, it
+    flags to that end where most of the frames there digress, and not where they do not."""
+    q = _turning(120, J=1, seed=4)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([0.7, 0.0, 0.0]))
+    bad[95:, 0] = rot.quat_mul(q[95:, 0], d)  # to the end
+    bad[:12, 0] = rot.quat_mul(q[:12, 0], d)  # from the start
+    peaks = np.zeros((120, 1), dtype=bool)
+    peaks[[12, 95], 0] = True
+    sides = np.zeros((120, 1), dtype=np.int8)
+    sides[12, 0], sides[95, 0] = -1, 1  # an exit, an entry
+    devs = [mdm_mod.step_deviations(bad, "body")]
+    digress = np.zeros((120, 1), dtype=bool)
+    digress[:12], digress[100:] = True, True
+    out = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15, cut_off=digress)
+    assert out[95:, 0].all() and out[:12, 0].all() and not out[12:95, 0].any()
+    # without the digression, or with the take going on past max_frames: nothing
+    calm = np.zeros_like(digress)
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15, cut_off=calm).any()
+    assert not mdm_mod.cancelling_steps(peaks, devs, 20, 0.35, sides, 15, cut_off=digress)[
+        95:
+    ].any()
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15).any()
+
+
 def test_extend_to_steps_reaches_the_error_edges() -> None:
     F = 120
     q = _turning(F, J=2, seed=6)

@@ -563,6 +563,7 @@ def cancelling_steps(
     tol: float,
     sides: np.ndarray | None = None,
     sided_frames: int = 0,
+    cut_off: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -587,8 +588,15 @@ def cancelling_steps(
     cancelled the entry of the second better (Bandai-1 tuning half, gestures, bends: precision
     0.929 / 0.975 local, 0.951 / 1.000 small context, without / with). Closer than a source
     word the words' digression blurs the two sides, and a short spike's ends were misjudged
-    (a first version without ``sided_frames`` lost spike recall on the validation half)."""
+    (a first version without ``sided_frames`` lost spike recall on the validation half).
+
+    With ``cut_off`` ((F, J) bool: cells that digress) and ``sides``, a peak left unpaired
+    that enters an error less than ``max_frames`` before the take's last frame flags the
+    frames from it to the end when most of them digress (and one that leaves an error as
+    near the take's first frame, those before it): an error cut off by the take's end has no
+    second jump to pair with."""
     out = np.zeros(peaks.shape, dtype=bool)
+    F = peaks.shape[0]
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j])
         pairs = []
@@ -616,6 +624,12 @@ def cancelling_steps(
             if a not in used and e not in used:
                 used.update((a, e))
                 out[a:e, j] = True
+        if cut_off is not None and sides is not None:
+            for p in (int(x) for x in ps if int(x) not in used):
+                if sides[p, j] > 0 and F - p <= max_frames and cut_off[p:, j].mean() > 0.5:
+                    out[p:, j] = True
+                elif sides[p, j] < 0 and p <= max_frames and cut_off[:p, j].mean() > 0.5:
+                    out[:p, j] = True
     return out
 
 

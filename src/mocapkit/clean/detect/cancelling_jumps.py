@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from mocapkit.clean.detect._runs import deg
+from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
@@ -23,7 +23,9 @@ class CancellingJumps:
     and left with opposite jumps; natural motion that jumps seldom jumps back by the same
     rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is never
     paired with a later one entering another (the frames between are clean), where the
-    digression tells the two sides of each jump apart."""
+    digression tells the two sides of each jump apart. An error cut off by the take's end (or
+    start) has one jump: unpaired, near that end, it flags to the end where most of those
+    frames digress (``DetectConfig.pair_cut_off``)."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
@@ -51,6 +53,15 @@ class CancellingJumps:
             )
         if len(after):
             parts.append(f"next jump peak frame {after[0]} ({deg(ev.jump_size[after[0], joint])})")
-        inside = bool(ev.cancelling[frame, joint])
-        parts.append("between two that cancel" if inside else "not between two that cancel")
+        # a pair's frames lie between two jumps, so a run reaching the take's first or last
+        # frame is an error cut off there (jumps are undefined on the two frames at each end)
+        run = run_around(ev.cancelling[:, joint], frame)
+        if run is None:
+            parts.append("not between two that cancel")
+        elif run[1] == ev.shape[0] - 1:
+            parts.append("from a jump to the take's last frame (an error cut off by its end)")
+        elif run[0] == 0:
+            parts.append("from the take's first frame to a jump (an error cut off by its start)")
+        else:
+            parts.append("between two that cancel")
         return "; ".join(parts)

@@ -135,6 +135,14 @@ class DetectConfig:
     pair_ratio: float = 1.45
     #: Percentile of the joint's jumps the pair ratio is measured against.
     pair_quantile: float = 97.0
+    #: A jump entering an error within ``pair_seconds`` of the take's end (or leaving one as
+    #: near its start) that pairs with no other flags the frames to that end where most of
+    #: them digress (MDM above ``threshold``): an error cut off by the take has one jump only.
+    #: Bandai-1 tuning half, 8 errors of each kind run off the end of each class's 4 takes:
+    #: the locomotion offsets' units found 36 of 38 without, 38 with, nothing else changed;
+    #: on its 86 clean takes, whole, it flags nothing (without the MDM condition it flagged 42
+    #: natural stretches, foot strikes near the ends of 3 s dashes).
+    pair_cut_off: bool = True
 
     # ------------------------------------------------------------------ spikes
     #: A short stretch that leaves the joint's smooth path (the cubic through the frames

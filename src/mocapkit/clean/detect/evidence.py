@@ -244,8 +244,9 @@ class Evidence:
         )
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
         return mdm_mod.cancelling_steps(
-            self.jump_peaks, devs, span, self.config.pair_tol, sides, word
-        )
+            self.jump_peaks, devs, span, self.config.pair_tol, sides, word,
+            (self.mdm > self.config.threshold) if self.config.pair_cut_off else None,
+        )  # fmt: skip
 
     @cached_property
     def spike_size(self) -> np.ndarray:
