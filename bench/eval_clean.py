@@ -8,7 +8,8 @@ per ~2 s, seeded) are injected into the clean take (for CMU: the raw take, whose
 are listed blind in tests/clean/fixtures/cmu_glitches.json from four signals independent of
 the cleaner, :func:`find_glitches`, :func:`find_excursions`, :func:`find_holds` and
 :func:`find_jitter`, their events judged by eye; a flag on one of them is neither a hit nor a
-false alarm), and the take is analysed with a local context (the take alone) and a small-scale
+false alarm, nor is one on a frame an error rewrote by under a degree, ``Corrupted.rewritten``),
+and the take is analysed with a local context (the take alone) and a small-scale
 context (other takes of the same class and split). Units: (joint, source word)
 (mocapkit.clean.evaluate), on the joints that rotate. With ``--raw`` the
 uninjected CMU takes are analysed too: flagged segments off the glitch list per minute, and the

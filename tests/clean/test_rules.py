@@ -135,6 +135,20 @@ def test_cancelling_jumps() -> None:
     fl = Flags((300, 2))
     CancellingJumps().apply(evidence(turn(smooth(300), slice(40, 300), 1, 40.0)), fl)
     assert not fl.mask[:, 1].any()
+    # ... unless the take ends within pair_seconds of it and the frames after it digress: an
+    # error cut off by the take's end
+    cut = turn(smooth(300), slice(270, 300), 1, 40.0)
+    mdm = np.zeros((300, 2))
+    mdm[275:, 1] = 0.9
+    for digress, found in ((mdm, True), (np.zeros((300, 2)), False)):
+        fl = Flags((300, 2))
+        ev = evidence(cut, mdm=digress)
+        CancellingJumps().apply(ev, fl)
+        assert fl.mask[270:, 1].all() == found and not fl.mask[:270].any()
+    assert "cut off by its end" in CancellingJumps().describe(evidence(cut, mdm=mdm), 280, 1)
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(cut, mdm=mdm, config=DetectConfig(pair_cut_off=False)), fl)
+    assert not fl.mask.any()
 
 
 def test_cancelling_jumps_three_errors_on_one_joint_do_not_hide_each_other() -> None:
