@@ -375,9 +375,17 @@ def test_recurring_runs_spare_a_random_error_and_drop_a_repeated_motif() -> None
     assert not mdm_mod.recurring_runs(mask, q, dig, 1, np.radians(8.0), 0.5).any()
 
 
-@pytest.mark.parametrize("kwargs", [{"abrupt_deg": -1.0}, {"recur_deg": -0.5}])
-def test_veto_parameters_are_checked(kwargs) -> None:
-    with pytest.raises(ValueError, match="abrupt_deg and recur_deg"):
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"abrupt_deg": -1.0}, "abrupt_deg and recur_deg"),
+        ({"recur_deg": -0.5}, "abrupt_deg and recur_deg"),
+        ({"limit_holds": -1}, "limit_holds must be >= 0"),
+        ({"limit_move_deg": -1.0}, "limit_move_deg must be >= 0"),
+    ],
+)
+def test_veto_parameters_are_checked(kwargs, message) -> None:
+    with pytest.raises(ValueError, match=message):
         SelfSimilarityCleaner(**kwargs)
 
 
