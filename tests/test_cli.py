@@ -298,8 +298,14 @@ def test_info_reports_every_file_and_each_failure(walk_bvh: Path, tmp_path: Path
     assert isinstance(json.loads(run("info", "--json", str(one / "w.bvh"))[1]), dict)
     assert isinstance(json.loads(run("info", "--json", str(one))[1]), list)
     assert isinstance(json.loads(run("info", "--json", str(one / "*.bvh"))[1]), list)
-    code, out, err = run("info", "--json", str(bad))  # one bad file: no JSON, one error line
-    assert code == 2 and out == "" and err.count("\n") == 1
+    # one bad file: its error object on stdout (a script reads JSON whatever failed), one
+    # error line on stderr, status 2
+    code, out, err = run("info", "--json", str(bad))
+    assert code == 2 and err.count("\n") == 1
+    assert json.loads(out) == {
+        "path": str(bad),
+        "error": err.strip().removeprefix("mocapkit: error: "),
+    }
 
 
 def test_info_json_fps_offsets_and_extreme_values(walk_bvh: Path, tmp_path: Path) -> None:

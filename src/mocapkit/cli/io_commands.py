@@ -177,8 +177,8 @@ def info(
     Takes files, folders (their .bvh, .npz and .amc files) and quoted glob patterns; an .amc
     needs its subject's .asf beside it. Every file that can be read is reported; each one that
     cannot is one error line on stderr, and the exit status is then 2. With --json: one object
-    for exactly one FILE argument, else a list (also for one folder or pattern) in which a file
-    that cannot be read is {"path": ..., "error": ...}; the objects are
+    for exactly one FILE argument, else a list (also for one folder or pattern); a file that
+    cannot be read is {"path": ..., "error": ...} there (a single one too); the objects are
     mocapkit.summary.summarize(...).to_json() (fps is the integer n when the frame time is a
     rounded 1/n; frame_time is kept exactly as read).
 
@@ -214,12 +214,8 @@ def info(
                 failed += 1
                 click.echo(f"mocapkit: error: {out['error']}", err=True)
             results.append(out)
-    if as_json:
-        if single:
-            if failed == 0:
-                echo_json(results[0])
-        else:
-            echo_json(results)
+    if as_json:  # stdout is JSON whatever failed: a script reads the error from it too
+        echo_json(results[0] if single else results)
     else:
         for i in results:
             if "error" in i:
