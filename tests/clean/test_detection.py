@@ -251,9 +251,10 @@ def test_cancelling_steps_never_pair_an_exit_with_a_later_entry() -> None:
     assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 31)[30:60, 0].all()
 
 
-def test_cancelling_steps_pair_an_error_cut_off_by_the_take_with_its_end() -> None:
+def test_cut_off_steps_reach_the_takes_end_from_an_unpaired_jump() -> None:
     """An offset running off the take's end (or in from its start) has one jump: unpaired, it
-    flags to that end where most of the frames there digress, and not where they do not."""
+    marks the frames to that end, but not past a later jump that leaves an error, not from a
+    jump that paired, and not further than max_frames."""
     q = _turning(120, J=1, seed=4)
     bad = q.copy()
     d = rot.rotvec_to_quat(np.array([0.7, 0.0, 0.0]))
@@ -264,17 +265,23 @@ def test_cancelling_steps_pair_an_error_cut_off_by_the_take_with_its_end() -> No
     sides = np.zeros((120, 1), dtype=np.int8)
     sides[12, 0], sides[95, 0] = -1, 1  # an exit, an entry
     devs = [mdm_mod.step_deviations(bad, "body")]
-    digress = np.zeros((120, 1), dtype=bool)
-    digress[:12], digress[100:] = True, True
-    out = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15, cut_off=digress)
-    assert out[95:, 0].all() and out[:12, 0].all() and not out[12:95, 0].any()
-    # without the digression, or with the take going on past max_frames: nothing
-    calm = np.zeros_like(digress)
-    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15, cut_off=calm).any()
-    assert not mdm_mod.cancelling_steps(peaks, devs, 20, 0.35, sides, 15, cut_off=digress)[
-        95:
-    ].any()
-    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15).any()
+    used = np.zeros((120, 1), dtype=bool)
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15, used).any()
+    assert not used.any()  # neither jump pairs
+    out = mdm_mod.cut_off_steps(peaks, used, sides, 45)
+    assert np.array_equal(np.flatnonzero(out[:, 0]), np.r_[0:12, 95:120])
+    assert not mdm_mod.cut_off_steps(peaks, used, sides, 20)[95:].any()  # 25 frames to the end
+    assert mdm_mod.cut_off_steps(peaks, used, sides, 20)[:12].all()  # 12 from the start
+    # a later jump that leaves an error (it did not pair): the entry's error ends there
+    later = peaks.copy()
+    later[110, 0] = True
+    sides2 = sides.copy()
+    sides2[110, 0] = -1
+    assert not mdm_mod.cut_off_steps(later, used, sides2, 45)[95:, 0].any()
+    # a jump that paired is no cut-off
+    paired = used.copy()
+    paired[95, 0] = True
+    assert not mdm_mod.cut_off_steps(peaks, paired, sides, 45)[95:, 0].any()
 
 
 def test_extend_to_steps_reaches_the_error_edges() -> None:
@@ -380,7 +387,8 @@ def test_recurring_runs_spare_a_random_error_and_drop_a_repeated_motif() -> None
     [
         ({"abrupt_deg": -1.0}, "abrupt_deg and recur_deg"),
         ({"recur_deg": -0.5}, "abrupt_deg and recur_deg"),
-        ({"limit_holds": -1}, "limit_holds must be >= 0"),
+        ({"limit_holds": -1}, "limit_holds must be 0"),
+        ({"limit_holds": 1}, "limit_holds must be 0"),
         ({"limit_move_deg": -1.0}, "limit_move_deg must be >= 0"),
     ],
 )

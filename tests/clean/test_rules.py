@@ -140,15 +140,30 @@ def test_cancelling_jumps() -> None:
     cut = turn(smooth(300), slice(270, 300), 1, 40.0)
     mdm = np.zeros((300, 2))
     mdm[275:, 1] = 0.9
-    for digress, found in ((mdm, True), (np.zeros((300, 2)), False)):
-        fl = Flags((300, 2))
-        ev = evidence(cut, mdm=digress)
-        CancellingJumps().apply(ev, fl)
-        assert fl.mask[270:, 1].all() == found and not fl.mask[:270].any()
-    assert "cut off by its end" in CancellingJumps().describe(evidence(cut, mdm=mdm), 280, 1)
     fl = Flags((300, 2))
-    CancellingJumps().apply(evidence(cut, mdm=mdm, config=DetectConfig(pair_cut_off=False)), fl)
-    assert not fl.mask.any()
+    CancellingJumps().apply(evidence(cut, mdm=mdm), fl)
+    assert fl.mask[270:, 1].all() and not fl.mask[:270].any()
+    text = CancellingJumps().describe(evidence(cut, mdm=mdm), 280, 1)
+    assert "jump at frame 270" in text and "cut off by its end" in text
+    for ev in (
+        evidence(cut),  # the frames after it do not digress
+        evidence(cut, mdm=mdm, config=DetectConfig(pair_cut_off=False)),
+    ):
+        fl = Flags((300, 2))
+        CancellingJumps().from_config(ev.config).apply(ev, fl)
+        assert not fl.mask.any()
+    # the MDM condition reads the pipeline's threshold, an override included
+    assert run_pipeline(evidence(cut, mdm=mdm)).added["cancelling-jumps"][270:, 1].all()
+    over = run_pipeline(evidence(cut, mdm=mdm), threshold=0.95).added["cancelling-jumps"]
+    assert not over[:, 1].any()
+    # the same in from the take's start: the jump at frame 30 leaves the error
+    start = turn(smooth(300), slice(0, 30), 1, 40.0)
+    mdm0 = np.zeros((300, 2))
+    mdm0[:30, 1] = 0.9
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(start, mdm=mdm0), fl)
+    assert fl.mask[:30, 1].all() and not fl.mask[30:].any()
+    assert "cut off by its start" in CancellingJumps().describe(evidence(start, mdm=mdm0), 5, 1)
 
 
 def test_cancelling_jumps_three_errors_on_one_joint_do_not_hide_each_other() -> None:
@@ -333,6 +348,31 @@ def test_limit_release_veto() -> None:
     fl = flagged(600, 1, [(160, 176, 0)])
     LimitReleaseVeto().apply(evidence(bad), fl)
     assert fl.mask[160:176, 0].all()
+    # a foreign jump on one side only: the run is still reached from the other by motion
+    one = turn(q, slice(85, 100), 0, 15.0, axis=(0.0, 1.0, 0.0))  # jumps at 85 (and 100)
+    ev1 = evidence(one)
+    assert ev1.jump_peaks[85, 0]
+    fl = flagged(600, 1, [(45, 70, 0)])
+    LimitReleaseVeto().apply(ev1, fl)
+    assert not fl.mask.any()  # from the release at 40, no jump between
+    assert "reached from the release" in LimitReleaseVeto().describe(ev1, 50, 0)
+    # the same run with a foreign jump on each side (at 43 and at 85): kept
+    two = turn(one, slice(43, 100), 0, 15.0, axis=(0.0, 0.0, 1.0))
+    fl = flagged(600, 1, [(45, 70, 0)])
+    LimitReleaseVeto().apply(evidence(two), fl)
+    assert fl.mask[45:70, 0].all()
+    assert "neither" in LimitReleaseVeto().describe(evidence(two), 50, 0)
+    # a run holding a frozen cell is a hold, not motion: spared
+    fl = Flags((600, 1))
+    held = np.zeros((600, 1), dtype=bool)
+    held[50:70] = True
+    fl.flag("frozen", held)
+    LimitReleaseVeto().apply(ev, fl)
+    assert fl.mask[50:70, 0].all()
+    # an excursion reaching the take's first or last frame has no release or catch in the take
+    starts_off = evidence(q[50:]).limit_excursions[0]  # the take opens inside one
+    ends_off = evidence(q[:250]).limit_excursions[0]  # and ends inside one
+    assert starts_off[0][0] > 0 and (40, 99) in ends_off and ends_off[-1][1] < 240
     # a joint that never rests at one value twice has no limit
     live = smooth(600, 1)
     live[40:100, 0] = rot.quat_mul(live[40:100, 0], q[40:100, 0])

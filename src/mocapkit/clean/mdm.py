@@ -563,7 +563,7 @@ def cancelling_steps(
     tol: float,
     sides: np.ndarray | None = None,
     sided_frames: int = 0,
-    cut_off: np.ndarray | None = None,
+    used_out: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -590,13 +590,8 @@ def cancelling_steps(
     word the words' digression blurs the two sides, and a short spike's ends were misjudged
     (a first version without ``sided_frames`` lost spike recall on the validation half).
 
-    With ``cut_off`` ((F, J) bool: cells that digress) and ``sides``, a peak left unpaired
-    that enters an error less than ``max_frames`` before the take's last frame flags the
-    frames from it to the end when most of them digress (and one that leaves an error as
-    near the take's first frame, those before it): an error cut off by the take's end has no
-    second jump to pair with."""
+    ``used_out`` ((F, J) bool, optional) receives the peaks that paired."""
     out = np.zeros(peaks.shape, dtype=bool)
-    F = peaks.shape[0]
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j])
         pairs = []
@@ -624,12 +619,31 @@ def cancelling_steps(
             if a not in used and e not in used:
                 used.update((a, e))
                 out[a:e, j] = True
-        if cut_off is not None and sides is not None:
-            for p in (int(x) for x in ps if int(x) not in used):
-                if sides[p, j] > 0 and F - p <= max_frames and cut_off[p:, j].mean() > 0.5:
-                    out[p:, j] = True
-                elif sides[p, j] < 0 and p <= max_frames and cut_off[:p, j].mean() > 0.5:
-                    out[:p, j] = True
+        if used_out is not None:
+            used_out[sorted(used), j] = True
+    return out
+
+
+def cut_off_steps(
+    peaks: np.ndarray, paired: np.ndarray, sides: np.ndarray, max_frames: int
+) -> np.ndarray:
+    """(F, J) bool: the stretches an error cut off by the take's end or start may hold. A
+    peak of ``peaks`` that did not pair (``paired``, :func:`cancelling_steps`' ``used_out``)
+    and enters an error (``sides`` +1) at most ``max_frames`` frames from the take's end, with
+    no peak leaving an error after it, marks the frames from it to the last; one that leaves an
+    error (-1) at most ``max_frames`` frames into the take, with no peak entering one before
+    it, marks the frames before it. Such an error has one jump only, so nothing pairs it."""
+    peaks = np.asarray(peaks, dtype=bool)
+    F = peaks.shape[0]
+    out = np.zeros(peaks.shape, dtype=bool)
+    for j in np.flatnonzero(peaks.any(axis=0)):
+        ps = np.flatnonzero(peaks[:, j])
+        for p in ps[~paired[ps, j]]:
+            later, earlier = ps[ps > p], ps[ps < p]
+            if sides[p, j] > 0 and F - p <= max_frames and not (sides[later, j] < 0).any():
+                out[p:, j] = True
+            elif sides[p, j] < 0 and p <= max_frames and not (sides[earlier, j] > 0).any():
+                out[:p, j] = True
     return out
 
 

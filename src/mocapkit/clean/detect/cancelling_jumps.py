@@ -11,6 +11,7 @@ from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
+from mocapkit.core.runs import true_runs
 
 
 @dataclass(frozen=True)
@@ -24,21 +25,35 @@ class CancellingJumps:
     rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is never
     paired with a later one entering another (the frames between are clean), where the
     digression tells the two sides of each jump apart. An error cut off by the take's end (or
-    start) has one jump: unpaired, near that end, it flags to the end where most of those
-    frames digress (``DetectConfig.pair_cut_off``)."""
+    start) has one jump: unpaired, entering (leaving) an error at most ``max_seconds`` from
+    that end with no jump leaving (entering) one beyond it, it flags to the end where most of
+    those frames have MDM above the threshold (``DetectConfig.pair_cut_off``)."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
     signal: ClassVar[bool] = False
     max_seconds: float = 1.5
+    cut_off: bool = True
+    threshold: float = 0.5
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> CancellingJumps:
-        return cls(config.pair_seconds)
+        return cls(config.pair_seconds, config.pair_cut_off, config.threshold)
+
+    def cells(self, ev: Evidence) -> np.ndarray:
+        """(F, J) bool: the cancelling stretches, and with ``cut_off`` the stretches cut off
+        by the take's end or start whose frames mostly have MDM above ``threshold``."""
+        out = ev.cancelling.copy()
+        if self.cut_off and ev.cut_off.any():
+            for j in np.flatnonzero(ev.cut_off.any(axis=0)):
+                for a, b in true_runs(ev.cut_off[:, j]):
+                    if (ev.mdm[a : b + 1, j] > self.threshold).mean() > 0.5:
+                        out[a : b + 1, j] = True
+        return out
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.max_seconds > 0:
-            flags.flag(self.name, ev.cancelling)
+            flags.flag(self.name, self.cells(ev))
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         pk = np.flatnonzero(ev.jump_peaks[:, joint])
@@ -55,13 +70,19 @@ class CancellingJumps:
             parts.append(f"next jump peak frame {after[0]} ({deg(ev.jump_size[after[0], joint])})")
         # a pair's frames lie between two jumps, so a run reaching the take's first or last
         # frame is an error cut off there (jumps are undefined on the two frames at each end)
-        run = run_around(ev.cancelling[:, joint], frame)
+        run = run_around(self.cells(ev)[:, joint], frame)
         if run is None:
             parts.append("not between two that cancel")
         elif run[1] == ev.shape[0] - 1:
-            parts.append("from a jump to the take's last frame (an error cut off by its end)")
+            parts.append(
+                f"from the jump at frame {run[0]} to the take's last frame: an error cut off by "
+                f"its end (most of those frames have MDM above {self.threshold:g})"
+            )
         elif run[0] == 0:
-            parts.append("from the take's first frame to a jump (an error cut off by its start)")
+            parts.append(
+                f"from the take's first frame to the jump at frame {run[1] + 1}: an error cut "
+                f"off by its start (most of those frames have MDM above {self.threshold:g})"
+            )
         else:
             parts.append("between two that cancel")
         return "; ".join(parts)

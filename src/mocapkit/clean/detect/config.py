@@ -331,9 +331,10 @@ class DetectConfig:
             raise ValueError(f"noise_hold_ratio must lie in (0, 1], got {self.noise_hold_ratio!r}")
         if not 0.0 < self.noise_edge_ratio < 1.0:
             raise ValueError(f"noise_edge_ratio must lie in (0, 1), got {self.noise_edge_ratio!r}")
-        if self.limit_holds < 0:
+        if self.limit_holds < 0 or self.limit_holds == 1:
+            # one rest is no limit: every pause would be one
             raise ValueError(
-                f"limit_holds must be >= 0 (0 turns the veto off), got {self.limit_holds}"
+                f"limit_holds must be 0 (the veto off) or >= 2, got {self.limit_holds}"
             )
         if self.abrupt_deg < 0 or self.recur_deg < 0:
             raise ValueError("abrupt_deg and recur_deg must be >= 0 (0 turns the veto off)")

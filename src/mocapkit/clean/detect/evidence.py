@@ -231,9 +231,8 @@ class Evidence:
         )
 
     @cached_property
-    def cancelling(self) -> np.ndarray:
-        """(F, J) bool: stretches between two jumps that cancel (:func:`mdm.cancelling_steps`),
-        never from a jump that leaves an error to one that enters another (needs the maps)."""
+    def _pairing(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The cancelling stretches, the peaks that paired, and each peak's side."""
         self._need_maps()
         span = round(self.config.pair_seconds * self.fps)
         devs = [self.body_deviations, self.parent_deviations]
@@ -243,10 +242,26 @@ class Evidence:
             self.jump_peaks, self.z, self.frames(self.config.step_side_seconds)
         )
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
-        return mdm_mod.cancelling_steps(
-            self.jump_peaks, devs, span, self.config.pair_tol, sides, word,
-            (self.mdm > self.config.threshold) if self.config.pair_cut_off else None,
-        )  # fmt: skip
+        used = np.zeros(self.shape, dtype=bool)
+        cells = mdm_mod.cancelling_steps(
+            self.jump_peaks, devs, span, self.config.pair_tol, sides, word, used
+        )
+        return cells, used, sides
+
+    @cached_property
+    def cancelling(self) -> np.ndarray:
+        """(F, J) bool: stretches between two jumps that cancel (:func:`mdm.cancelling_steps`),
+        never from a jump that leaves an error to one that enters another (needs the maps)."""
+        return self._pairing[0]
+
+    @cached_property
+    def cut_off(self) -> np.ndarray:
+        """(F, J) bool: stretches from an unpaired jump to the take's end or start that an error
+        cut off by the take may hold (:func:`mdm.cut_off_steps`; the cancelling-jumps rule
+        keeps those whose frames mostly digress)."""
+        _, used, sides = self._pairing
+        span = round(self.config.pair_seconds * self.fps)
+        return mdm_mod.cut_off_steps(self.jump_peaks, used, sides, span)
 
     @cached_property
     def spike_size(self) -> np.ndarray:

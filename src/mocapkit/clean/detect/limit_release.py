@@ -22,6 +22,9 @@ class LimitReleaseVeto:
     between the run and one end of the excursion but within ``edge_seconds`` of that end: the
     run is reached from the limit's release, or reaches its catch, by motion alone.
 
+    Any joint with such a limit is judged (toes flat, and knees or elbows parked straight:
+    on dance-short the lower legs and arms have limits too, and no run of theirs was cleared).
+
     Relies on: a solver that clamps a joint at a limit (toes flat) lets go of it in one step
     when the markers pull the joint off and catches it the same way on its return, so the
     measured motion between is abrupt at those two ends, by the clamp, not by an error; a
@@ -34,10 +37,11 @@ class LimitReleaseVeto:
     name: ClassVar[str] = "limit-release"
     veto: ClassVar[bool] = True
     signal: ClassVar[bool] = False
-    spares: ClassVar[tuple[str, ...]] = ("cancelling-jumps",)
+    spares: ClassVar[tuple[str, ...]] = ("cancelling-jumps", "frozen")
     """Rules whose runs this veto never clears: two jumps that cancel turned the stretch
     between them by one rotation, which a clamp letting go does not (it leaves the limit for
-    motion and comes back from elsewhere)."""
+    motion and comes back from elsewhere); a frozen run is a hold, not motion (a dropout
+    that starts off the limit ends with a jump back to it, like a catch)."""
     holds: int = 3
     move_deg: float = 3.0
     edge_seconds: float = 1.0 / 30.0
@@ -53,18 +57,35 @@ class LimitReleaseVeto:
         span = max(rot.quat_angle(q, q[:1]).max(), rot.quat_angle(q, q[-1:]).max())
         if span <= np.radians(self.move_deg):
             return None
+        span = self._excursion(ev, j, a, b)
+        if span is None:
+            return None
+        from_release, to_catch = self._clear_sides(ev, j, a, b, *span)
+        return span if from_release or to_catch else None
+
+    def _excursion(self, ev: Evidence, j: int, a: int, b: int) -> tuple[int, int] | None:
         edge = ev.frames(self.edge_seconds, 0)
         for s, e in ev.limit_excursions[j]:
-            if not (s - edge <= a and b <= e + edge):
-                continue
-            # the jumps that are not the clamp's own (within ``edge`` of the excursion's ends)
-            peaks = np.flatnonzero(ev.jump_peaks[:, j])
-            foreign = peaks[(np.abs(peaks - s) > edge) & (np.abs(peaks - (e + 1)) > edge)]
-            # a run's own jumps are at a and b + 1: none foreign between the run and one end
-            from_release = not np.any((foreign >= s) & (foreign <= b + 1))
-            to_catch = not np.any((foreign >= a) & (foreign <= e + 1))
-            return (s, e) if from_release or to_catch else None
+            if s - edge <= a and b <= e + edge:
+                return s, e
         return None
+
+    def _foreign(self, ev: Evidence, j: int, s: int, e: int) -> np.ndarray:
+        """The jumps of joint ``j`` that are not the clamp's own (further than
+        ``edge_seconds`` from the excursion's release at ``s`` and catch at ``e + 1``)."""
+        edge = ev.frames(self.edge_seconds, 0)
+        peaks = np.flatnonzero(ev.jump_peaks[:, j])
+        return peaks[(np.abs(peaks - s) > edge) & (np.abs(peaks - (e + 1)) > edge)]
+
+    def _clear_sides(
+        self, ev: Evidence, j: int, a: int, b: int, s: int, e: int
+    ) -> tuple[bool, bool]:
+        """Whether no foreign jump lies between the run ``a .. b`` (its own jumps at ``a`` and
+        ``b + 1`` included) and the release, and between it and the catch."""
+        foreign = self._foreign(ev, j, s, e)
+        from_release = not np.any((foreign >= s) & (foreign <= b + 1))
+        to_catch = not np.any((foreign >= a) & (foreign <= e + 1))
+        return from_release, to_catch
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.holds <= 0:
@@ -83,15 +104,25 @@ class LimitReleaseVeto:
         flags.veto(self.name, out)
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
-        edge = ev.frames(self.edge_seconds, 0)
-        for s, e in ev.limit_excursions[joint]:
-            if s - edge <= frame <= e + edge:
-                peaks = np.flatnonzero(ev.jump_peaks[s : e + 2, joint]) + s
-                inside = [int(p) for p in peaks if min(abs(p - s), abs(p - e - 1)) > edge]
-                jumps = (
-                    f"jumps of its own inside at frames {', '.join(map(str, inside))}"
-                    if inside
-                    else "no jump inside but where the clamp lets go and catches"
-                )
-                return f"in an excursion {s}:{e + 1} off a limit the joint is clamped at; {jumps}"
-        return "not in an excursion off a limit the joint is clamped at"
+        span = self._excursion(ev, joint, frame, frame)
+        if span is None:
+            return "not in an excursion off a limit the joint is clamped at"
+        s, e = span
+        foreign = self._foreign(ev, joint, s, e)
+        release, catch = self._clear_sides(ev, joint, frame, frame, s, e)
+        other = (
+            "jumps not the clamp's at frames " + ", ".join(map(str, foreign[foreign <= e + 1]))
+            if np.any((foreign >= s) & (foreign <= e + 1))
+            else "no jump but the clamp's"
+        )
+        if release:
+            reach = "reached from the release by motion alone"
+        elif catch:
+            reach = "reaching the catch by motion alone"
+        else:
+            reach = "neither reached from the release nor reaching the catch by motion alone"
+        return (
+            f"in an excursion {s}:{e + 1} off a limit the joint is clamped at (release at {s}, "
+            f"catch at {e + 1}); {other}; a run here is {reach} (cleared when it also moves "
+            f"over {self.move_deg:g} deg and holds no {' or '.join(self.spares)} cell)"
+        )
