@@ -33,6 +33,14 @@ class Flags:
         self.removed[rule] = gone if prev is None else (prev | gone)
         self.mask &= ~cells
 
+    def cells_of(self, rules: tuple[str, ...]) -> np.ndarray:
+        """(F, J) bool: every cell any of ``rules`` flagged (a veto's ``spares``)."""
+        out = np.zeros(self.mask.shape, dtype=bool)
+        for rule in rules:
+            if rule in self.added:
+                out |= self.added[rule]
+        return out
+
     def reasons_at(self, frames: slice | np.ndarray, joint: int) -> list[str]:
         """The rules that flagged any of ``frames`` of ``joint`` and whose cells are still
         flagged there, in the order they ran."""

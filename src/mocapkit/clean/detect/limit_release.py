@@ -90,9 +90,7 @@ class LimitReleaseVeto:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.holds <= 0:
             return
-        keep = np.zeros(flags.mask.shape, dtype=bool)
-        for rule in self.spares:
-            keep |= flags.added.get(rule, keep)
+        keep = flags.cells_of(self.spares)
         out = np.zeros(ev.shape, dtype=bool)
         for j, spans in enumerate(ev.limit_excursions):
             if spans:

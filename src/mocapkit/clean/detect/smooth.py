@@ -125,9 +125,7 @@ class SmoothVeto:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.min_deg <= 0:
             return
-        keep = np.zeros(flags.mask.shape, dtype=bool)
-        for rule in self.spares:
-            keep |= flags.added.get(rule, keep)
+        keep = flags.cells_of(self.spares)
         pad = ev.frames(self.pad_seconds)
         if self.nearest:
             cells = unowned_runs(
