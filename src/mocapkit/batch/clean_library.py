@@ -31,6 +31,7 @@ from typing import Any
 from mocapkit.batch.manifest import Manifest, file_sha256, input_key
 from mocapkit.batch.runner import Runner
 from mocapkit.io import files_under
+from mocapkit.summary import nominal_fps
 from mocapkit.viz.reasons import REASON_TEXT, reason_colour
 
 __all__ = [
@@ -193,7 +194,7 @@ def _record(report: Any, task: TakeTask) -> dict[str, Any]:
     return {
         "take": task.name,
         "frames": int(report.frames),
-        "fps": fps,
+        "fps": nominal_fps(1.0 / fps),  # 30, as info and the take's report give it
         "seconds": round(report.frames / fps, 4),
         "flagged_seconds": round(float(any_f.sum()) / fps, 4),
         "flagged_cells": int(js.get("flagged_cells", int(mask.sum()))),

@@ -198,7 +198,8 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     default=None,
     help="Folder mode: each take's related takes are the same folder (CMU's subject folders), "
     "the same folder and the longest name prefix up to a '_' that three other takes share "
-    "(the default: Bandai's content_style_NNN, or every style of the content), or every take.",
+    "(the default: Bandai's content_style_NNN, or every style of the content; a take sharing "
+    "no prefix with three others is compared with the whole folder), or every take.",
 )
 @click.option(
     "--context-max",
@@ -240,17 +241,21 @@ def clean_command(
 
     Every short window of each joint group ("motion-word") is compared by constrained DTW with
     every window of the context; joints whose rotation digresses from their nearest neighbours'
-    mean are flagged (stretches with MDM > threshold that hold a near-certain, abrupt or frozen
-    cell), and so, whatever their MDM, are pops (a jump away and back by the same turn:
-    cancelling-jumps), noise bursts, joints held still while their neighbours move on (frozen; a
+    mean are flagged (rule "mdm": stretches with MDM > threshold, or abrupt cells, that hold a
+    near-certain or abrupt cell; an abrupt cell may lie below the threshold), and so,
+    whatever their MDM, are pops (a jump away and back by the same turn: cancelling-jumps),
+    noise bursts, joints held still while their neighbours move on (frozen; a
     dropout repeats one value bit for bit), knees or elbows bent the wrong way, and spikes (a
-    joint off its own smooth path by 40 deg for at most 1/15 s); --explain
-    JOINT:FRAME says which rule decided a cell and why. With --out, flagged cells are replaced
-    by the neighbours' median, blended at the edges, and where a repaired joint moves a planted
-    foot (a hip, knee or ankle, or the pelvis, under a foot on the ground) IK on that leg holds
-    the foot where it was planted. All other joints and frames keep their rotations bit for bit
-    (the written file's angles are derived from them again, to 1e-12 deg and 12 significant
-    digits, so an unchanged angle reads as the input file had it).
+    joint off its own smooth path by 40 deg for at most 1/15 s). Vetoes clear mdm,
+    cancelling-jumps and frozen stretches where the motion is natural: no step near the
+    stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit its solver
+    clamps it at (limit-release). --explain JOINT:FRAME says which rule decided a cell and why.
+    With --out, flagged cells are replaced by the neighbours' median, blended at the edges,
+    and where a repaired joint moves a planted foot (a hip, knee or ankle, or the pelvis,
+    under a foot on the ground) IK on that leg holds the foot where it was planted. All other
+    joints and frames keep their rotations bit for bit (the written file's angles are derived
+    from them again, to 1e-12 deg and 12 significant digits, so an unchanged angle reads as
+    the input file had it).
 
     \b
     Examples:
@@ -315,7 +320,8 @@ def clean_command(
     motion = load(input_path, lenient)
     context = load_all(ctx_paths, lenient, "loading context", show=not quiet)
     contacts = [parse_contact(c, motion) for c in contact_specs]
-    cells = [parse_explain(e, motion) for e in explain_specs]
+    # one explanation per cell, however often or however spelt (ltoes:180, ltoes:1.5s)
+    cells = list(dict.fromkeys(parse_explain(e, motion) for e in explain_specs))
     with (
         naming(input_path, *ctx_paths),
         all_or_nothing(),
@@ -355,7 +361,7 @@ def clean_command(
     )
     segments = report.segments
     if not segments:
-        say("  no erroneous segment above the threshold")
+        say("  no flagged segment")
     for s in segments[:50]:
         say(
             f"  {s.joint:>16s}  frames {s.start:5d}:{s.end + 1:<5d}  MDM peak {s.peak:.2f}  "

@@ -179,7 +179,7 @@ def info(
     cannot is one error line on stderr, and the exit status is then 2. With --json: one object
     for exactly one FILE argument, else a list (also for one folder or pattern); a file that
     cannot be read is {"path": ..., "error": ...} there (a single one too); the objects are
-    mocapkit.summary.summarize(...).to_json() (fps is the integer n when the frame time is a
+    mocapkit.summary.summarize(...).to_json() (fps is n exactly, 30.0, when the frame time is a
     rounded 1/n; frame_time is kept exactly as read).
 
     \b

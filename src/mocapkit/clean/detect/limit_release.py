@@ -121,6 +121,6 @@ class LimitReleaseVeto:
             reach = "neither reached from the release nor reaching the catch by motion alone"
         return (
             f"in an excursion {s}:{e + 1} off a limit the joint is clamped at (release at {s}, "
-            f"catch at {e + 1}); {other}; a run here is {reach} (cleared when it also moves "
-            f"over {self.move_deg:g} deg and holds no {' or '.join(self.spares)} cell)"
+            f"catch at {e + 1}); {other}; a run here is {reach} (the veto also needs the run "
+            f"to move over {self.move_deg:g} deg and to hold no {' or '.join(self.spares)} cell)"
         )

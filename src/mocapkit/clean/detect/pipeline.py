@@ -175,8 +175,9 @@ class Explanation:
             )
             return "\n".join(out)
         w = max((len(r) for r, _, _ in self.lines), default=0)
+        vw = max((len(v) for _, v, _ in self.lines), default=0)  # the measurements line up
         for r, v, m in self.lines:
-            out.append(f"  {r:<{w}s}  {v:<22s} {m}")
+            out.append(f"  {r:<{w}s}  {v:<{vw}s}  {m}")
         return "\n".join(out)
 
 
