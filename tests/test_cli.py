@@ -125,6 +125,11 @@ def test_lenient_reports_repairs(walk_bvh: Path, tmp_path: Path) -> None:
     assert run("info", str(broken))[0] == 2
     code, _, err = run("info", "--lenient", str(broken))
     assert code == 0 and "repaired" in err
+    # a script reading --json sees the repair too, not only stderr; a clean read has no key
+    code, out, err = run("info", "--lenient", "--json", str(broken))
+    notes = json.loads(out)["warnings"]
+    assert code == 0 and notes and all(str(broken) in n for n in notes)
+    assert "warnings" not in json.loads(run("info", "--json", str(walk_bvh))[1])
 
 
 def test_every_subcommand_has_an_example() -> None:

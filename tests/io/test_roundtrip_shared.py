@@ -72,7 +72,7 @@ def test_invalid_corpus_files_get_clear_errors(shared_path) -> None:
     expected = {
         "Woosub-Won__BVHViewer__Coda02(Woman).bvh": (
             327,
-            "has 65 values; the hierarchy declares 66 channels",
+            "frame 189 has 65 values; the hierarchy declares 66 channels",
         ),
         "ESJIAN__TRAM_DATA_TO_BVH__temp.bvh": (None, "blank line inside the motion data"),
         "kjangsy__DHNKinect__kinect.bvh": (None, "expected 'MOTION'"),

@@ -107,17 +107,22 @@ def print_info(info: dict[str, Any]) -> None:
 
 def _info_one(path: Path, up: str | None, units: str | None, lenient: bool) -> dict[str, Any]:
     """``summarize_file(path).to_json()`` as strict JSON values (non-finite -> None, with a
-    warning naming the file), or a one-line CLIError naming the file."""
+    warning naming the file), with ``warnings`` (the lines warned while reading, e.g. what
+    --lenient repaired) when there are any, or a one-line CLIError naming the file."""
     from mocapkit.jsonio import to_jsonable
 
     with naming(path), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         out = to_jsonable(summarize_file(path, up=up, units=units, lenient=lenient).to_json())
+    notes = []
     for w in caught:  # to the command's own catcher, naming the file where they do not
         msg = str(w.message)
         if str(path) not in msg and issubclass(w.category, NonFiniteWarning):
             msg = f"{path}: {msg}"
         warnings.warn_explicit(msg, w.category, w.filename, w.lineno)
+        notes.append(msg)
+    if notes:  # what a lenient read repaired, or a value it could not keep: scripts see it too
+        out["warnings"] = notes
     return out
 
 

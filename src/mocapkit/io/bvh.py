@@ -551,7 +551,8 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
             raise BVHError(
                 source,
                 line,
-                f"motion row {res.values.shape[0] + 1} has {res.err_count} values; "
+                # frames count from 0, as every frame option and report does
+                f"frame {res.values.shape[0]} has {res.err_count} values; "
                 f"the hierarchy declares {ncols} channels{why}",
             )
         elif res.status == _numparse.OVERFLOW:
