@@ -39,6 +39,10 @@ def test_edit_runs_every_edit_in_order_and_writes_provenance(walk, tmp_path) -> 
     assert [s["edit"] for s in rep["steps"]] == ["trim", "mirror", "in-place", "drop", "speed",
                                                  "rename"]  # fmt: skip
     assert rep["steps"][0]["frames"] == [15, 75]
+    assert rep["order"] == [s["edit"] for s in rep["steps"]]
+    # only the edits asked for are listed (all six were, whatever ran)
+    code, stdout, _ = run("edit", str(walk), str(tmp_path / "t.bvh"), "--trim", "0:30", "--json")
+    assert code == 0 and json.loads(stdout)["order"] == ["trim"]
     src = read_motion(walk)
     expected = change_speed(drop_joints(in_place(mirror(trim_frames(src, 15, 75)).motion),
                                         ".*Toe.*"), 1.25)  # fmt: skip

@@ -54,7 +54,7 @@ class EditResult:
                 "duration_s": m.duration,
                 "joints": m.num_joints,
             },
-            "order": list(EDIT_ORDER),
+            "order": [s["edit"] for s in self.steps],  # the edits done, in the order run
             "steps": self.steps,
         }
 
