@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mocapkit.clean import SelfSimilarityCleaner
+from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.detect import (
     ADDED,
     ORIGINAL_ORDER,
@@ -404,6 +405,36 @@ def test_noise_bursts() -> None:
     f = int(np.flatnonzero(ev.noise_bursts[:, 1])[0])
     assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}:")
     assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
+
+
+def test_noise_bursts_leave_a_fast_wave_about_one_axis() -> None:
+    """An angry wave (a forearm swinging 60 deg at 5 Hz, 6 frames a cycle at 30 fps) is as
+    rough as noise, but its jerk lies along one axis; noise turns the joint every way."""
+    q = smooth()
+    t = np.arange(30, 60)
+    rv = np.zeros((30, 3))
+    rv[:, 0] = np.radians(30.0) * np.sin(2 * np.pi * 5.0 * t / FPS)
+    rv[:, 1] = np.radians(4.0) * np.sin(2 * np.pi * 5.0 * t / FPS + 0.5)  # not quite planar
+    wave = q.copy()
+    wave[30:60, 1] = rot.quat_mul(q[30:60, 1], rot.rotvec_to_quat(rv))
+    assert mdm_mod.axis_share(wave[:, 1], 31, 58) > 0.95
+    fl = Flags((90, 2))
+    NoiseBursts().apply(evidence(wave), fl)
+    assert not fl.mask.any()
+    assert "fast wave or shake, not noise" in NoiseBursts().describe(evidence(wave), 45, 1)
+    # without the axis test the wave is a burst
+    off = evidence(wave, config=DetectConfig(noise_axis_share=0.0))
+    assert off.noise_bursts[35:55, 1].any()
+    # noise of the same size in every direction is kept (its share near 1/3 to 0.6)
+    rng = np.random.default_rng(1)
+    bad = q.copy()
+    bad[30:60, 1] = rot.quat_mul(
+        q[30:60, 1], rot.rotvec_to_quat(rng.normal(scale=np.radians(10), size=(30, 3)))
+    )
+    assert mdm_mod.axis_share(bad[:, 1], 31, 58) < 0.7
+    fl = Flags((90, 2))
+    NoiseBursts().apply(evidence(bad), fl)
+    assert fl.mask[32:58, 1].all()
 
 
 def test_wrong_way_hinges() -> None:

@@ -839,6 +839,23 @@ def noise_bursts(
     return out
 
 
+def axis_share(rotations: np.ndarray, a: int, b: int) -> float:
+    """How much of one joint's jerk over frames ``a .. b`` lies along one axis: the largest
+    eigenvalue's share of the second moment of its step changes (the differences of
+    consecutive body-frame steps, rotation vectors), from 1/3 for a change of turn equally
+    likely in every direction to 1 for one about a single axis; NaN under three changes."""
+    q = np.asarray(rotations, dtype=np.float64)
+    if len(q) < 3:
+        return float("nan")
+    d = np.diff(_body_steps(q[:, None])[:, 0], axis=0)  # d[k]: the change at frame k + 1
+    seg = d[max(a - 1, 0) : max(b, 0)]
+    if len(seg) < 3:
+        return float("nan")
+    ev = np.linalg.svd(seg, compute_uv=False) ** 2
+    total = float(ev.sum())
+    return float(ev[0] / total) if total > 0 else float("nan")
+
+
 def wrong_way_bends(
     rotations: np.ndarray,
     hinges: Sequence[int],

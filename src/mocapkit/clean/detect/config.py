@@ -256,6 +256,9 @@ class DetectConfig:
     #: frames or more inside a burst (1: no hysteresis). Tuning half, 8 takes x 2 seeds: noise
     #: units missed 12 (1), 3 (0.7), 2 (0.5) of 844, no other false alarm at either.
     noise_hold_ratio: float = 0.5
+    #: A burst whose jerk lies along one axis for more than this share (of its second moment)
+    #: is a fast wave or shake, not noise: noise turns the joint every which way (0: off).
+    noise_axis_share: float = 0.88
 
     # ------------------------------------------------------------------ holes
     #: A joint's unflagged hole between two flagged runs at most this long (seconds) is

@@ -293,13 +293,28 @@ class Evidence:
         return mdm_mod.burst_roughness(self.rotations)
 
     @cached_property
-    def noise_bursts(self) -> np.ndarray:
-        """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`)."""
+    def rough_runs(self) -> np.ndarray:
+        """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`), waves included."""
         c = self.config
         return mdm_mod.noise_bursts(
             self.roughness, self.noise_level, self.frames(c.noise_seconds, 2), c.noise_edge_ratio,
             c.noise_hold_ratio,
         )  # fmt: skip
+
+    @cached_property
+    def noise_bursts(self) -> np.ndarray:
+        """(F, J) bool: the rough runs (:attr:`rough_runs`) whose jerk does not lie along one
+        axis (:func:`mdm.axis_share` at most ``noise_axis_share``)."""
+        c = self.config
+        out = self.rough_runs.copy()
+        if 0 < c.noise_axis_share < 1:
+            # noise turns the joint every which way; a fast wave or shake, back and forth
+            # about one axis
+            for j in np.flatnonzero(out.any(axis=0)):
+                for a, b in true_runs(out[:, j]):
+                    if mdm_mod.axis_share(self.rotations[:, j], a, b) > c.noise_axis_share:
+                        out[a : b + 1, j] = False
+        return out
 
     @cached_property
     def noise_level(self) -> np.ndarray:
