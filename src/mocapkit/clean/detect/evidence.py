@@ -276,16 +276,21 @@ class Evidence:
         (:func:`mdm.limit_excursions`; frames, inclusive)."""
         c = self.config
         q = self.rotations
-        speed = np.radians(c.frozen_speed_deg_s / self.fps)
-        still = rot.quat_angle(q[:-1], q[1:]) < speed if len(q) > 1 else np.zeros((0, q.shape[1]))
-        args = (
-            self.frames(c.limit_hold_seconds, 2),
-            c.limit_holds,
-            np.radians(c.limit_tol_deg),
-        )
         if c.limit_holds <= 0 or len(q) < 3:
             return [[] for _ in range(q.shape[1])]
-        return [mdm_mod.limit_excursions(q[:, j], still[:, j], *args) for j in range(q.shape[1])]
+        args = (self.frames(c.limit_hold_seconds, 2), c.limit_holds, np.radians(c.limit_tol_deg))
+        return [
+            mdm_mod.limit_excursions(q[:, j], self.still[:, j], *args) for j in range(q.shape[1])
+        ]
+
+    @cached_property
+    def still(self) -> np.ndarray:
+        """(F-1, J) bool: the steps (frame f -> f + 1) turning slower than
+        ``frozen_speed_deg_s``: where a joint is held (the frozen rule's "held")."""
+        q = self.rotations
+        if len(q) < 2:
+            return np.zeros((0, q.shape[1]), dtype=bool)
+        return rot.quat_angle(q[:-1], q[1:]) < np.radians(self.config.frozen_speed_deg_s / self.fps)
 
     @cached_property
     def roughness(self) -> np.ndarray:
@@ -426,7 +431,7 @@ class Evidence:
         self._need_maps()
         p = self._frozen_params()
         q = self.rotations[:, joint]
-        still = rot.quat_angle(q[:-1], q[1:]) < p["speed"]
+        still = self.still[:, joint]
         f = frame if frame < len(still) and still[frame] else frame - 1
         if f < 0 or not still[f]:
             return "moving", frame, frame, 0.0

@@ -54,8 +54,8 @@ class LimitReleaseVeto:
         """The excursion of joint ``j`` whose release (or catch) the run ``a .. b`` belongs
         to, or None."""
         q = ev.rotations[a : b + 1, j]
-        span = max(rot.quat_angle(q, q[:1]).max(), rot.quat_angle(q, q[-1:]).max())
-        if span <= np.radians(self.move_deg):
+        moved = max(rot.quat_angle(q, q[:1]).max(), rot.quat_angle(q, q[-1:]).max())
+        if moved <= np.radians(self.move_deg):
             return None
         span = self._excursion(ev, j, a, b)
         if span is None:
