@@ -251,6 +251,55 @@ def test_cancelling_steps_never_pair_an_exit_with_a_later_entry() -> None:
     assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 31)[30:60, 0].all()
 
 
+def test_cancelling_steps_pair_a_misread_error_that_nothing_flanks() -> None:
+    """Where the words match the turned stretch, the digression is lower inside an error than
+    around it and the sides read its entry as an exit (and its exit as an entry). Two wrong-way
+    bends are flanked by their own outer ends (an entry before, an exit after); a lone error
+    is not, and pairs whatever its sides say."""
+    q = _turning(120, J=1, seed=5)
+    bad = q.copy()
+    bad[40:70, 0] = rot.quat_mul(q[40:70, 0], rot.rotvec_to_quat(np.array([0.6, 0.2, 0.0])))
+    peaks = np.zeros((120, 1), dtype=bool)
+    peaks[[40, 70], 0] = True
+    devs = [mdm_mod.step_deviations(bad, "body")]
+    sides = np.zeros((120, 1), dtype=np.int8)
+    sides[40, 0], sides[70, 0] = -1, 1  # misread
+    lone = mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15)
+    assert np.array_equal(np.flatnonzero(lone[:, 0]), np.r_[40:70])
+    # one flank only (an entry 10 frames before): still paired
+    peaks[30, 0], sides[30, 0] = True, 1
+    assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15)[40:70, 0].all()
+    # flanked on both sides (an exit 10 frames after too): refused
+    peaks[80, 0], sides[80, 0] = True, -1
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 15)[40:70, 0].any()
+    # an exit after it only (and the take's start more than max_frames before): paired
+    peaks[30, 0], sides[30, 0] = False, 0
+    assert mdm_mod.cancelling_steps(peaks, devs, 35, 0.35, sides, 15)[40:70, 0].all()
+    # the flanks count within max_frames (here 30) of the pair, not one frame further
+    for entry, exit_, paired in ((10, 100, False), (9, 100, True), (10, 101, True)):
+        pk, sd = peaks.copy(), sides.copy()
+        pk[80, 0], sd[80, 0] = False, 0
+        pk[[entry, exit_], 0], sd[entry, 0], sd[exit_, 0] = True, 1, -1
+        got = mdm_mod.cancelling_steps(pk, devs, 30, 0.35, sd, 15)[40:70, 0]
+        assert got.all() if paired else not got.any(), (entry, exit_)
+
+
+def test_cancelling_steps_take_the_takes_start_for_a_flank() -> None:
+    """An error cut off by the take's start has an exit and no entry: its exit and the entry
+    of a later error are not paired across the clean frames between them."""
+    q = _turning(80, J=1, seed=7)
+    bad = q.copy()
+    d = rot.rotvec_to_quat(np.array([0.7, 0.0, 0.0]))
+    bad[:12, 0] = rot.quat_mul(q[:12, 0], d)
+    bad[40:, 0] = rot.quat_mul(q[40:, 0], d)
+    peaks = np.zeros((80, 1), dtype=bool)
+    peaks[[12, 40], 0] = True
+    sides = np.zeros((80, 1), dtype=np.int8)
+    sides[12, 0], sides[40, 0] = -1, 1
+    devs = [mdm_mod.step_deviations(bad, "body")]
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, sides, 15).any()
+
+
 def test_cut_off_steps_reach_the_takes_end_from_an_unpaired_jump() -> None:
     """An offset running off the take's end (or in from its start) has one jump: unpaired, it
     marks the frames to that end, but not past a later jump that leaves an error, not from a
@@ -615,6 +664,26 @@ def test_noise_bursts_map_back_to_the_bursts_own_frames() -> None:
         exact += off == (0, 0)
         worst = max(worst, *map(abs, off))
     assert worst <= 1 and exact >= 32
+
+
+def test_noise_burst_edges_lose_a_frame_no_more_often_than_they_gain_one() -> None:
+    """Noise is random, so the outermost frame's share of the next one's roughness spreads
+    around both cases' means: the edge ratio sits where a burst's edge is cut short about as
+    often as it is overrun (2/3, the midpoint of the two means, cut 34 edges and overran 8)."""
+    lost = extra = 0
+    for seed in range(400):
+        q = _turning(60, J=1, seed=seed)
+        rng = np.random.default_rng(seed)
+        a, b = 15, 15 + int(rng.integers(10, 25)) - 1
+        noise = rng.normal(scale=np.radians(rng.uniform(5, 15)), size=(b - a + 1, 3))
+        bad = q.copy()
+        bad[a : b + 1, 0] = rot.quat_mul(q[a : b + 1, 0], rot.rotvec_to_quat(noise))
+        f = np.flatnonzero(
+            mdm_mod.noise_bursts(mdm_mod.burst_roughness(bad), np.radians(5.0), 6)[:, 0]
+        )
+        lost += (f[0] > a) + (f[-1] < b)
+        extra += (f[0] < a) + (f[-1] > b)
+    assert abs(lost - extra) <= 0.25 * max(lost, extra) and lost + extra <= 60
 
 
 def test_noise_bursts_go_on_over_a_dip_of_the_roughness_inside_the_burst() -> None:

@@ -569,6 +569,46 @@ def test_explain_says_the_smooth_veto_spares_a_frozen_run() -> None:
     assert line["smooth"] == "veto: not applied (it spares frozen cells)"
 
 
+def test_smooth_veto_gives_a_holds_exit_step_to_the_hold() -> None:
+    """A dropout ends with a snap back to the live motion. The words overlapping the hold
+    digress a word's length past it, so the MDM flags the frames after the snap, where the
+    snap's step (and its half-size echo a frame on) vouched for them: that step is the hold's
+    exit, and the run beyond it is cleared. A step one frame further on is not the hold's."""
+    q = smooth()
+    bad = q.copy()
+    bad[30:50, 0] = q[29, 0]  # frames 30..49 repeat frame 29: a hold, the snap into 50
+    mdm = np.zeros((90, 2))
+    mdm[30:70, 0] = 0.9
+    ev = evidence(bad, mdm=mdm, dig=rot.quat_angle(bad, q))
+    fl = Flags((90, 2))
+    FrozenJoints.from_config(ev.config).apply(ev, fl)
+    assert fl.mask[30:50, 0].all() and not fl.mask[50:, 0].any()
+    after = np.zeros((90, 2), dtype=bool)
+    after[50:70, 0] = True
+    fl.flag("mdm", after)
+    SmoothVeto().apply(ev, fl)
+    assert fl.mask[30:50, 0].all() and not fl.mask[50:, 0].any()
+    # an offset entered three frames after the hold ends owns its own step: kept
+    bad2 = turn(bad, slice(53, 70), 0, 30.0)
+    ev2 = evidence(bad2, mdm=mdm, dig=rot.quat_angle(bad2, q))
+    fl = Flags((90, 2))
+    FrozenJoints.from_config(ev2.config).apply(ev2, fl)
+    late = np.zeros((90, 2), dtype=bool)
+    late[53:70, 0] = True
+    fl.flag("mdm", late)
+    SmoothVeto().apply(ev2, fl)
+    assert fl.mask[53:68, 0].all()
+    # nor is a step three frames after it: a run entered there keeps it
+    bad3 = turn(bad, slice(52, 70), 0, 30.0)
+    ev3 = evidence(bad3, mdm=mdm, dig=rot.quat_angle(bad3, q))
+    fl = Flags((90, 2))
+    FrozenJoints.from_config(ev3.config).apply(ev3, fl)
+    late[52, 0] = True
+    fl.flag("mdm", late)
+    SmoothVeto().apply(ev3, fl)
+    assert fl.mask[52:68, 0].all()
+
+
 def test_wrong_way_hinge_axis_is_the_takes_own() -> None:
     F = 90
     rv = np.zeros((F, 1, 3))

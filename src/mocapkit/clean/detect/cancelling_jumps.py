@@ -22,12 +22,14 @@ class CancellingJumps:
 
     Relies on: a spike, an offset or a flip turns a stretch by one constant rotation, entered
     and left with opposite jumps; natural motion that jumps seldom jumps back by the same
-    rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is never
+    rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is not
     paired with a later one entering another (the frames between are clean), where the
-    digression tells the two sides of each jump apart. An error cut off by the take's end (or
-    start) has one jump: unpaired, entering (leaving) an error at most ``max_seconds`` from
-    that end with no jump leaving (entering) one beyond it, it flags to the end where most of
-    those frames have MDM above the threshold (``DetectConfig.pair_cut_off``)."""
+    digression tells the two sides of each jump apart and an entry before and an exit after them
+    (or the take's ends) flank the two: a lone error whose sides were misread pairs. An error
+    cut off by the take's end (or start) has one jump: unpaired, entering (leaving) an error at
+    most ``max_seconds`` from that end with no jump leaving (entering) one beyond it, it flags
+    to the end where most of those frames have MDM above the threshold
+    (``DetectConfig.pair_cut_off``)."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False

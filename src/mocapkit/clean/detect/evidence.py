@@ -251,7 +251,8 @@ class Evidence:
     @cached_property
     def cancelling(self) -> np.ndarray:
         """(F, J) bool: stretches between two jumps that cancel (:func:`mdm.cancelling_steps`),
-        never from a jump that leaves an error to one that enters another (needs the maps)."""
+        not from a jump that leaves an error to one that enters another where jumps flank
+        them (needs the maps)."""
         return self._pairing[0]
 
     @cached_property
