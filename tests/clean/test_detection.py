@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from mocapkit import datasets
 from mocapkit.clean import SelfSimilarityCleaner, inject
 from mocapkit.clean import mdm as mdm_mod
+from mocapkit.clean.detect import DetectConfig
 from mocapkit.clean.inject import hinge_joints
 from mocapkit.core import rotations as rot
 
@@ -746,8 +747,11 @@ def test_an_exact_hold_that_does_not_come_back_is_judged_as_any_still_run() -> N
     st.integers(min_value=0, max_value=2**32 - 1),
     st.sampled_from([0.3, 0.5, 1.0]),
     st.integers(min_value=2, max_value=8),
+    st.sampled_from([DetectConfig().noise_edge_ratio, 2.0 / 3.0]),
 )
-def test_noise_bursts_match_the_readable_reference(seed: int, hold: float, min_frames: int) -> None:
+def test_noise_bursts_match_the_readable_reference(
+    seed: int, hold: float, min_frames: int, edge: float
+) -> None:
     from clean.naive import noise_bursts as naive_noise_bursts
 
     rng = np.random.default_rng(seed)
@@ -755,5 +759,5 @@ def test_noise_bursts_match_the_readable_reference(seed: int, hold: float, min_f
     r = np.abs(rng.normal(size=(F, J))) * rng.uniform(0.1, 3.0, size=J)
     r[rng.random((F, J)) < 0.3] *= 5.0  # bursty
     level = rng.uniform(0.5, 3.0, size=J)
-    fast = mdm_mod.noise_bursts(r, level, min_frames, 2.0 / 3.0, hold)
-    assert np.array_equal(fast, naive_noise_bursts(r, level, min_frames, 2.0 / 3.0, hold))
+    fast = mdm_mod.noise_bursts(r, level, min_frames, edge, hold)
+    assert np.array_equal(fast, naive_noise_bursts(r, level, min_frames, edge, hold))

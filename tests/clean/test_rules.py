@@ -405,6 +405,9 @@ def test_noise_bursts() -> None:
     f = int(np.flatnonzero(ev.noise_bursts[:, 1])[0])
     assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}:")
     assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
+    # the frame before a burst is rough from the burst's first step, but not noisy itself
+    assert f"beside the burst on frames {f}:" in NoiseBursts().describe(ev, f - 1, 1)
+    assert "beside" not in NoiseBursts().describe(ev, f - 3, 1)
 
 
 def test_noise_bursts_leave_a_fast_wave_about_one_axis() -> None:

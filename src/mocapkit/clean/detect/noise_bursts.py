@@ -68,6 +68,16 @@ class NoiseBursts:
             )
         if run is None:
             here = f"roughness {deg(ev.roughness[frame, joint])} here"
+            # a burst's roughness spreads to the two frames before it and the one after it
+            F = ev.noise_bursts.shape[0]
+            for f in (frame + 1, frame + 2, frame - 1):
+                edge = run_around(ev.noise_bursts[:, joint], f) if 0 <= f < F else None
+                if edge is not None and (edge[0] > frame or edge[1] < frame):
+                    return (
+                        f"{here}, beside the burst on frames {edge[0]}:{edge[1] + 1}: a burst's "
+                        "roughness spreads to the two frames before it and the one after, whose "
+                        "own rotations are not noisy, so the flags end where the noisy frames do"
+                    )
             above = run_around(ev.roughness[:, joint] > ev.noise_level[joint], frame)
             if above is None:
                 return f"{here}, not a burst: a burst is {need}"
