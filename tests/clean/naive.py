@@ -207,13 +207,31 @@ def burst_roughness(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def turn_change(q: np.ndarray) -> np.ndarray:
+    """Loop version of mdm.turn_change."""
+    F, J = q.shape[:2]
+    out = np.zeros((F, J))
+    for j in range(J):
+        w = _steps(q, j)
+        for f in range(1, F - 1):
+            out[f, j] = np.linalg.norm(w[f] - w[f - 1])
+    return out
+
+
 def noise_bursts(
-    r: np.ndarray, level: np.ndarray, min_frames: int, edge_ratio: float, hold_ratio: float
+    r: np.ndarray,
+    change: np.ndarray,
+    level: np.ndarray,
+    min_frames: int,
+    edge_share: float,
+    edge_jump: float,
+    hold_ratio: float,
 ) -> np.ndarray:
     """Frame-by-frame version of mdm.noise_bursts, per joint: a frame is rough when above the
     level (weakly rough above ``hold_ratio`` times it), or when its two neighbours are; a
     burst is a stretch of weakly rough frames holding a stretch of more than ``min_frames``
-    rough ones; each end is moved to the burst's own frames (``edge_ratio``)."""
+    rough ones; each end is moved in by one frame where the step change there carries noise
+    (``edge_share``, ``edge_jump``), by two where it does not."""
     F, J = r.shape
     out = np.zeros((F, J), dtype=bool)
 
@@ -238,8 +256,15 @@ def noise_bursts(
                 cur = cur + 1 if strong[g] else 0
                 longest = max(longest, cur)
             if longest - 1 >= min_frames:
-                first = a + 2 if r[a, j] < edge_ratio * r[a + 1, j] else a + 1
-                last = b - 1 if r[b, j] < edge_ratio * r[b - 1, j] else b
+                col = change[:, j]
+
+                def ch(g: int, col: np.ndarray = col) -> float:
+                    return float(col[g]) if 0 <= g < F else 0.0
+
+                noisy_in = ch(a) > edge_share * r[a, j] and ch(a) > edge_jump * ch(a - 1)
+                noisy_out = ch(b + 1) > edge_share * r[b, j] and ch(b + 1) > edge_jump * ch(b + 2)
+                first = a + 1 if noisy_in else a + 2
+                last = b if noisy_out else b - 1
                 out[first : last + 1, j] = True
     return out
 

@@ -571,12 +571,13 @@ def test_burst_roughness_matches_the_reference_and_finds_a_burst_not_its_edges()
     bad[45:48, 0] = rot.quat_mul(q[45:48, 0], rot.rotvec_to_quat(np.array([0.6, 0.0, 0.0])))
     r = mdm_mod.burst_roughness(bad)
     assert np.allclose(r, naive_burst_roughness(bad), atol=1e-9)
-    m = mdm_mod.noise_bursts(r, np.radians(20.0), 6)
+    m = mdm_mod.noise_bursts(r, mdm_mod.turn_change(bad), np.radians(20.0), 6)
     assert not m[:, 0].any()  # a 34 deg spike raises the roughness on a few frames only
     assert not m[:18, 1].any() and not m[34:, 1].any()
     # the burst; its edge frames weigh little in the third difference and may fall short
     assert m[20:32, 1].sum() >= 8
-    assert not mdm_mod.noise_bursts(mdm_mod.burst_roughness(q), np.radians(20.0), 6).any()
+    calm = (mdm_mod.burst_roughness(q), mdm_mod.turn_change(q))
+    assert not mdm_mod.noise_bursts(*calm, np.radians(20.0), 6).any()
 
 
 def test_wrong_way_bends_flag_a_knee_bent_backwards_only() -> None:
@@ -658,7 +659,9 @@ def test_noise_bursts_map_back_to_the_bursts_own_frames() -> None:
         bad = q.copy()
         bad[a : b + 1, 0] = rot.quat_mul(q[a : b + 1, 0], rot.rotvec_to_quat(noise))
         f = np.flatnonzero(
-            mdm_mod.noise_bursts(mdm_mod.burst_roughness(bad), np.radians(5.0), 6)[:, 0]
+            mdm_mod.noise_bursts(
+                mdm_mod.burst_roughness(bad), mdm_mod.turn_change(bad), np.radians(5.0), 6
+            )[:, 0]
         )
         assert len(f) and np.all(np.diff(f) == 1)  # one run
         off = (int(f[0]) - a, int(f[-1]) - b)
@@ -667,10 +670,11 @@ def test_noise_bursts_map_back_to_the_bursts_own_frames() -> None:
     assert worst <= 1 and exact >= 32
 
 
-def test_noise_burst_edges_lose_a_frame_no_more_often_than_they_gain_one() -> None:
-    """Noise is random, so the outermost frame's share of the next one's roughness spreads
-    around both cases' means: the edge ratio sits where a burst's edge is cut short about as
-    often as it is overrun (2/3, the midpoint of the two means, cut 34 edges and overran 8)."""
+def test_noise_burst_edges_are_told_by_the_step_into_the_noise() -> None:
+    """Where a burst's roughness run starts one frame before the burst, the step out of that
+    frame enters the noise and differs from the step before it; two frames before, both steps
+    are the clean motion's. Of 800 edges, the step test misplaces a handful; the run's
+    outermost roughness against the next frame's misplaced 51 (ratio 0.5) or 42 (2/3)."""
     lost = extra = 0
     for seed in range(400):
         q = _turning(60, J=1, seed=seed)
@@ -680,11 +684,13 @@ def test_noise_burst_edges_lose_a_frame_no_more_often_than_they_gain_one() -> No
         bad = q.copy()
         bad[a : b + 1, 0] = rot.quat_mul(q[a : b + 1, 0], rot.rotvec_to_quat(noise))
         f = np.flatnonzero(
-            mdm_mod.noise_bursts(mdm_mod.burst_roughness(bad), np.radians(5.0), 6)[:, 0]
+            mdm_mod.noise_bursts(
+                mdm_mod.burst_roughness(bad), mdm_mod.turn_change(bad), np.radians(5.0), 6
+            )[:, 0]
         )
         lost += (f[0] > a) + (f[-1] < b)
         extra += (f[0] < a) + (f[-1] > b)
-    assert abs(lost - extra) <= 0.25 * max(lost, extra) and lost + extra <= 60
+    assert lost + extra <= 10
 
 
 def test_noise_bursts_go_on_over_a_dip_of_the_roughness_inside_the_burst() -> None:
@@ -699,8 +705,10 @@ def test_noise_bursts_go_on_over_a_dip_of_the_roughness_inside_the_burst() -> No
     r[17:30] = np.radians(30.0)
     r[50:54] = np.radians(30.0)  # an error's edge: rough for a few frames only ...
     r[54:62] = np.radians(15.0)  # ... then fast natural motion above half the level
-    held = mdm_mod.noise_bursts(r, level, 6, hold_ratio=0.5)[:, 0]
-    cut = mdm_mod.noise_bursts(r, level, 6, hold_ratio=1.0)[:, 0]
+    change = np.zeros((80, 1))
+    change[[10, 17, 30], 0] = 1.0  # the steps into and out of the noise (see the edge tests)
+    held = mdm_mod.noise_bursts(r, change, level, 6, hold_ratio=0.5)[:, 0]
+    cut = mdm_mod.noise_bursts(r, change, level, 6, hold_ratio=1.0)[:, 0]
     assert held[11:30].all() and not held[:10].any() and not held[31:].any()
     assert cut[18:30].all() and not cut[:17].any() and not cut[31:].any()
 
@@ -747,10 +755,12 @@ def test_an_exact_hold_that_does_not_come_back_is_judged_as_any_still_run() -> N
     st.integers(min_value=0, max_value=2**32 - 1),
     st.sampled_from([0.3, 0.5, 1.0]),
     st.integers(min_value=2, max_value=8),
-    st.sampled_from([DetectConfig().noise_edge_ratio, 2.0 / 3.0]),
+    st.sampled_from(
+        [(DetectConfig().noise_edge_share, DetectConfig().noise_edge_jump), (0.5, 0.0)]
+    ),
 )
 def test_noise_bursts_match_the_readable_reference(
-    seed: int, hold: float, min_frames: int, edge: float
+    seed: int, hold: float, min_frames: int, edge: tuple[float, float]
 ) -> None:
     from clean.naive import noise_bursts as naive_noise_bursts
 
@@ -759,5 +769,13 @@ def test_noise_bursts_match_the_readable_reference(
     r = np.abs(rng.normal(size=(F, J))) * rng.uniform(0.1, 3.0, size=J)
     r[rng.random((F, J)) < 0.3] *= 5.0  # bursty
     level = rng.uniform(0.5, 3.0, size=J)
-    fast = mdm_mod.noise_bursts(r, level, min_frames, edge, hold)
-    assert np.array_equal(fast, naive_noise_bursts(r, level, min_frames, edge, hold))
+    change = np.abs(rng.normal(size=(F, J))) * rng.uniform(0.1, 3.0, size=J)
+    fast = mdm_mod.noise_bursts(r, change, level, min_frames, *edge, hold)
+    assert np.array_equal(fast, naive_noise_bursts(r, change, level, min_frames, *edge, hold))
+
+
+def test_turn_change_matches_the_readable_reference() -> None:
+    from clean.naive import turn_change as naive_turn_change
+
+    q = _turning(40, J=3, seed=11)
+    assert np.allclose(mdm_mod.turn_change(q), naive_turn_change(q), atol=1e-9)

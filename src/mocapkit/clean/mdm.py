@@ -816,11 +816,26 @@ def burst_roughness(rotations: np.ndarray) -> np.ndarray:
     return out
 
 
+def turn_change(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: ``|w[f] - w[f-1]|`` with ``w[i]`` the rotation vector of the body-frame
+    step from frame ``i`` to ``i + 1``: how much the step out of frame ``f`` differs from the
+    step into it (0 where undefined, ``f < 1`` or ``f > F - 2``)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
+    if q.shape[0] < 3:
+        return out
+    w = _body_steps(q)
+    out[1 : q.shape[0] - 1] = np.linalg.norm(w[1:] - w[:-1], axis=-1)
+    return out
+
+
 def noise_bursts(
     roughness: np.ndarray,
+    change: np.ndarray,
     min_step: float,
     min_frames: int,
-    edge_ratio: float = 0.5,
+    edge_share: float = 0.15,
+    edge_jump: float = 2.0,
     hold_ratio: float = 1.0,
 ) -> np.ndarray:
     """(F, J) bool: runs of at least ``min_frames`` frames of :func:`burst_roughness` above
@@ -828,22 +843,36 @@ def noise_bursts(
     edge or a limb stopping at once raises the roughness for a few frames only.
 
     A burst on frames ``a .. b`` raises the roughness on ``a - 2 .. b + 1``, but its outermost
-    frames ``a - 2`` and ``b + 1`` see one noisy step only (``|w|`` against about ``2.2 |w|``
-    one frame in, ``2.4 |w|`` inside), so they often stay under the threshold. A run whose
-    first frame is under ``edge_ratio`` times the next one's roughness starts at that
-    outermost frame (the burst two frames later), else one frame before the burst; likewise at
-    its end (the last frame against the one before: the outermost frame, or the burst's last).
+    frames ``a - 2`` and ``b + 1`` see one noisy step only, so they often stay under the
+    threshold: a run starts two frames before its burst or one. Which, the step out of its
+    first frame ``s`` says (``change``: :func:`turn_change`): one frame before, that step
+    enters the burst, so it differs from the step before it by the first frame's noise, more
+    than ``edge_share`` of the roughness at ``s`` and more than ``edge_jump`` times the
+    change a frame earlier; two frames before, both steps are the clean motion's. Likewise at
+    the run's end ``e``: the burst ends at ``e`` when the step out of ``e + 1`` differs from
+    the one into it that much, else at ``e - 1``.
 
     Noise is random, so a few of a burst's frames may deviate little and leave the roughness
     under ``min_step`` for two frames or more, cutting the burst: a run of at least
     ``min_frames`` goes on, either way, over the frames whose roughness stays above
     ``hold_ratio`` times ``min_step`` (one-frame gaps filled; hysteresis)."""
     r = np.asarray(roughness, dtype=np.float64)
+    c = np.asarray(change, dtype=np.float64)
+    F = r.shape[0]
 
     def filled(m: np.ndarray) -> np.ndarray:
         out = m.copy()
         out[1:-1] |= m[:-2] & m[2:]
         return out
+
+    def noisy(j: int, f: int, before: int, edge: int) -> bool:
+        """Whether the step change at ``f`` carries noise: over ``edge_share`` of the
+        roughness at the run's ``edge`` frame and ``edge_jump`` times the change at
+        ``before``, a frame further out."""
+        if not 0 <= f < F:
+            return False
+        ref = c[before, j] if 0 <= before < F else 0.0
+        return bool(c[f, j] > edge_share * r[edge, j] and c[f, j] > edge_jump * ref)
 
     strong = filled(r > min_step)
     long = np.zeros(r.shape, dtype=bool)  # the strong runs of at least min_frames frames
@@ -855,8 +884,8 @@ def noise_bursts(
     out = np.zeros(r.shape, dtype=bool)
     for j in np.flatnonzero(runs.any(axis=0)):
         for a, b in true_runs(runs[:, j]):
-            first = a + 2 if r[a, j] < edge_ratio * r[a + 1, j] else a + 1
-            last = b - 1 if r[b, j] < edge_ratio * r[b - 1, j] else b
+            first = a + 1 if noisy(j, a, a - 1, a) else a + 2
+            last = b if noisy(j, b + 1, b + 2, b) else b - 1
             out[first : last + 1, j] = True
     return out
 

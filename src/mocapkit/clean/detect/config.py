@@ -247,14 +247,16 @@ class DetectConfig:
     #: at 30 fps is rough all the time (each joint is judged against its own, as steps are);
     #: injected or marker noise stands tens of times above it (0: the fixed level alone).
     noise_ratio: float = 4.0
-    #: A burst's roughness run starts (ends) at its outermost frame, which sees one noisy step
-    #: (~0.45 x the next frame's roughness), when that frame is under this fraction of the next
-    #: one's; else one frame before (at) the burst (~0.9 x): the flags are the burst's frames.
-    #: Noise is random, so both ratios spread: at 2/3 the tuning half's bursts (seeds 0-3, 182)
-    #: lost an edge frame 58 times and gained one 6 times, at 0.5 29 and 9 (validation half,
-    #: seeds 0-2: noise recall 0.983 -> 0.991 locomotion, 0.993 -> 1.000 dance/fight, no
-    #: precision lost).
-    noise_edge_ratio: float = 0.5
+    #: A burst's roughness run starts two frames before the burst or one (its outermost
+    #: frame sees one noisy step). One frame before, the step out of the run's first frame
+    #: enters the burst: it differs from the step into that frame by more than this share of
+    #: the roughness there ... (likewise at the end; ``mdm.noise_bursts``)
+    noise_edge_share: float = 0.15
+    #: ... and by more than this many times the change a frame further out. Tuning half,
+    #: seeds 0-6, 581 run ends: the ends misplaced 65 times by the earlier rule (the run's
+    #: outermost roughness against the next frame's, at 0.5; 98 at 2/3), 35 by the share
+    #: alone, 19 by both.
+    noise_edge_jump: float = 2.0
     #: A burst goes on over the frames beside it whose roughness stays above this fraction of
     #: the level: random noise deviates little on some frames, which dips the roughness for two
     #: frames or more inside a burst (1: no hysteresis). Tuning half, 8 takes x 2 seeds: noise
@@ -336,8 +338,10 @@ class DetectConfig:
             )
         if not 0.0 < self.noise_hold_ratio <= 1.0:
             raise ValueError(f"noise_hold_ratio must lie in (0, 1], got {self.noise_hold_ratio!r}")
-        if not 0.0 < self.noise_edge_ratio < 1.0:
-            raise ValueError(f"noise_edge_ratio must lie in (0, 1), got {self.noise_edge_ratio!r}")
+        if not 0.0 <= self.noise_edge_share < 1.0:
+            raise ValueError(f"noise_edge_share must lie in [0, 1), got {self.noise_edge_share!r}")
+        if not self.noise_edge_jump >= 0.0:
+            raise ValueError(f"noise_edge_jump must be 0 or more, got {self.noise_edge_jump!r}")
         if self.limit_holds < 0 or self.limit_holds == 1:
             # one rest is no limit: every pause would be one
             raise ValueError(

@@ -303,9 +303,14 @@ class Evidence:
         """(F, J) bool: sustained roughness (:func:`mdm.noise_bursts`), waves included."""
         c = self.config
         return mdm_mod.noise_bursts(
-            self.roughness, self.noise_level, self.frames(c.noise_seconds, 2), c.noise_edge_ratio,
+            self.roughness,
+            mdm_mod.turn_change(self.rotations),
+            self.noise_level,
+            self.frames(c.noise_seconds, 2),
+            c.noise_edge_share,
+            c.noise_edge_jump,
             c.noise_hold_ratio,
-        )  # fmt: skip
+        )
 
     @cached_property
     def noise_bursts(self) -> np.ndarray:
