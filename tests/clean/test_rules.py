@@ -146,8 +146,25 @@ def test_cancelling_jumps() -> None:
     assert fl.mask[270:, 1].all() and not fl.mask[:270].any()
     text = CancellingJumps().describe(evidence(cut, mdm=mdm), 280, 1)
     assert "jump at frame 270" in text and "cut off by its end" in text
+    # frames that do not digress are flagged where the jump is far above the joint's own
+    # (a slow joint's error need not digress), not where it is of the joint's usual size
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(cut), fl)
+    assert fl.mask[270:, 1].all() and not fl.mask[:270].any()
+    assert "times the joint's ordinary one" in CancellingJumps().describe(evidence(cut), 280, 1)
+    # a one- or two-frame spike near the end (its tied jumps leave one unpaired, read as an
+    # error running to the end) jumps back: the frames after it are not flagged
+    for spike in (slice(285, 286), slice(285, 287)):
+        ev = evidence(turn(smooth(300), spike, 1, 40.0))
+        assert ev.cut_off[spike.stop :, 1].all()  # the candidate the rule must refuse
+        assert not CancellingJumps().cells(ev)[spike.stop :, 1].any()
+    # nor after an error whose jumps do not cancel (a wrong-way bend's exit, read as an entry)
+    bent = turn(turn(smooth(300), slice(250, 300), 1, 60.0), slice(275, 300), 1, -30.0)
+    ev = evidence(bent)
+    assert ev.cut_off[275:, 1].all() and not CancellingJumps().cells(ev)[275:, 1].any()
     for ev in (
-        evidence(cut),  # the frames after it do not digress
+        evidence(cut, config=DetectConfig(pair_cut_jump_ratio=1e6)),
+        evidence(cut, config=DetectConfig(pair_cut_jump_ratio=0)),
         evidence(cut, mdm=mdm, config=DetectConfig(pair_cut_off=False)),
     ):
         fl = Flags((300, 2))
@@ -155,7 +172,9 @@ def test_cancelling_jumps() -> None:
         assert not fl.mask.any()
     # the MDM condition reads the pipeline's threshold, an override included
     assert run_pipeline(evidence(cut, mdm=mdm)).added["cancelling-jumps"][270:, 1].all()
-    over = run_pipeline(evidence(cut, mdm=mdm), threshold=0.95).added["cancelling-jumps"]
+    strict = DetectConfig(pair_cut_jump_ratio=0)
+    over = run_pipeline(evidence(cut, mdm=mdm, config=strict), threshold=0.95)
+    over = over.added["cancelling-jumps"]
     assert not over[:, 1].any()
     # the same in from the take's start: the jump at frame 30 leaves the error
     start = turn(smooth(300), slice(0, 30), 1, 40.0)
@@ -194,8 +213,30 @@ def test_spikes() -> None:
     fl = Flags((90, 2))  # longer than spike_seconds (two frames at 30 fps): not this rule's
     Spikes().apply(evidence(turn(smooth(), slice(40, 43), 0, 50.0)), fl)
     assert not fl.mask.any()
-    fl = Flags((90, 2))  # under 40 deg: an impact's wobble, not a spike
-    Spikes().apply(evidence(turn(smooth(), slice(40, 41), 0, 30.0)), fl)
+    # under 40 deg: a spike where the joint's own jumps are small ...
+    fl = Flags((90, 2))
+    Spikes().apply(evidence(turn(smooth(), slice(40, 41), 0, 25.0)), fl)
+    assert np.flatnonzero(fl.mask[:, 0]).tolist() == [40] and not fl.mask[:, 1].any()
+    fl = Flags((90, 2))  # ... never under the floor (20 deg)
+    Spikes().apply(evidence(turn(smooth(), slice(40, 41), 0, 15.0)), fl)
+    assert not fl.mask.any()
+    # ... and a wobble where they are large: a joint whipping to and fro at 2.5 Hz (its jumps
+    # some 15 deg) wobbling 30 deg off its path for a frame is not flagged, 45 deg is
+    t = np.arange(90) / FPS
+    rv = np.zeros((90, 2, 3))
+    rv[:, 0, 0] = 1.0 * np.sin(2 * np.pi * 2.5 * t)
+    rv[:, 1, 0] = 0.3 * np.sin(2 * np.pi * t / 3.0)
+    whip = rot.rotvec_to_quat(rv)
+    ev = evidence(turn(whip, slice(40, 41), 0, 30.0))
+    assert np.degrees(Spikes().bar(ev)[0]) > 30.0 > np.degrees(Spikes().bar(ev)[1])
+    fl = Flags((90, 2))
+    Spikes().apply(ev, fl)
+    assert not fl.mask.any()
+    fl = Flags((90, 2))
+    Spikes().apply(evidence(turn(whip, slice(40, 41), 0, 45.0)), fl)
+    assert np.flatnonzero(fl.mask[:, 0]).tolist() == [40]
+    fl = Flags((90, 2))  # with the floor at 40 deg the bar is 40 deg for every joint
+    Spikes(floor_deg=40.0).apply(evidence(turn(smooth(), slice(40, 41), 0, 30.0)), fl)
     assert not fl.mask.any()
     fl = flagged(90, 2, [(43, 46, 0)])  # already flagged next to it: left to that run
     Spikes().apply(evidence(bad), fl)

@@ -29,7 +29,10 @@ class CancellingJumps:
     cut off by the take's end (or start) has one jump: unpaired, entering (leaving) an error at
     most ``max_seconds`` from that end with no jump leaving (entering) one beyond it, it flags
     to the end where most of those frames have MDM above the threshold
-    (``DetectConfig.pair_cut_off``)."""
+    (``DetectConfig.pair_cut_off``) or where its jump exceeds ``cut_jump_ratio`` times the
+    joint's ordinary jump (:attr:`Evidence.jump_scale`) and no other within ``max_seconds``
+    does: a joint's natural jumps near a take's end (a foot strike) are of its usual size, an
+    error's need not digress to be far above it."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
@@ -37,21 +40,41 @@ class CancellingJumps:
     max_seconds: float = 1.5
     cut_off: bool = True
     threshold: float = 0.5
+    cut_jump_ratio: float = 4.0
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> CancellingJumps:
-        return cls(config.pair_seconds, config.pair_cut_off, config.threshold)
+        return cls(
+            config.pair_seconds, config.pair_cut_off, config.threshold, config.pair_cut_jump_ratio
+        )
 
     def cells(self, ev: Evidence) -> np.ndarray:
         """(F, J) bool: the cancelling stretches, and with ``cut_off`` the stretches cut off
-        by the take's end or start whose frames mostly have MDM above ``threshold``."""
+        by the take's end or start whose frames mostly have MDM above ``threshold`` or whose
+        jump is ``cut_jump_ratio`` times the joint's ordinary one."""
         out = ev.cancelling.copy()
         if self.cut_off and ev.cut_off.any():
             for j in np.flatnonzero(ev.cut_off.any(axis=0)):
                 for a, b in true_runs(ev.cut_off[:, j]):
-                    if (ev.mdm[a : b + 1, j] > self.threshold).mean() > 0.5:
+                    if (ev.mdm[a : b + 1, j] > self.threshold).mean() > 0.5 or self._one_jump(
+                        ev, a, b, j
+                    ):
                         out[a : b + 1, j] = True
         return out
+
+    def _one_jump(self, ev: Evidence, a: int, b: int, j: int) -> bool:
+        """The stretch ``a..b`` cut off by the take's end (start) is entered (left) by a jump
+        over ``cut_jump_ratio`` times the joint's ordinary jump, the only one within
+        ``max_seconds`` of it: a spike near the end jumps back, the exit of an error just
+        before (a wrong-way bend, whose jumps do not cancel) follows its entry."""
+        if self.cut_jump_ratio <= 0:
+            return False
+        bar = self.cut_jump_ratio * ev.jump_scale[j]
+        p = a if b == ev.shape[0] - 1 else b + 1
+        span = round(self.max_seconds * ev.fps)
+        near = ev.jump_size[max(0, p - span) : p + span + 1, j].copy()
+        near[p - max(0, p - span)] = 0.0
+        return bool(ev.jump_size[p, j] > bar and near.max() <= bar)
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
         if self.max_seconds > 0:
@@ -78,13 +101,23 @@ class CancellingJumps:
         elif run[1] == ev.shape[0] - 1:
             parts.append(
                 f"from the jump at frame {run[0]} to the take's last frame: an error cut off by "
-                f"its end (most of those frames have MDM above {self.threshold:g})"
+                f"its end ({self._why_cut(ev, run, run[0], joint)})"
             )
         elif run[0] == 0:
             parts.append(
                 f"from the take's first frame to the jump at frame {run[1] + 1}: an error cut "
-                f"off by its start (most of those frames have MDM above {self.threshold:g})"
+                f"off by its start ({self._why_cut(ev, run, run[1] + 1, joint)})"
             )
         else:
             parts.append("between two that cancel")
         return "; ".join(parts)
+
+    def _why_cut(self, ev: Evidence, run: tuple[int, int], jump: int, joint: int) -> str:
+        share = (ev.mdm[run[0] : run[1] + 1, joint] > self.threshold).mean()
+        if share > 0.5:
+            return f"most of those frames have MDM above {self.threshold:g}"
+        ratio = ev.jump_size[jump, joint] / max(ev.jump_scale[joint], 1e-12)
+        return (
+            f"its jump is {ratio:.0f} times the joint's ordinary one "
+            f"{deg(ev.jump_scale[joint])}, over {self.cut_jump_ratio:g}, the only one near it"
+        )

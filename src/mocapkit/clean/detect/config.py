@@ -143,6 +143,15 @@ class DetectConfig:
     #: on its 86 clean takes, whole, it flags nothing (without the MDM condition it flagged 42
     #: natural stretches, foot strikes near the ends of 3 s dashes).
     pair_cut_off: bool = True
+    #: ... or, whatever their MDM, where its one jump exceeds this many times the joint's
+    #: ``pair_quantile`` of jumps: a slow joint's error (a hand turned 39 deg at the end of a
+    #: bow) need not digress. Tuning half, 20 s of each clean take: the 32 stretches that look
+    #: cut off (foot strikes, an arm's swing) jump at most 2.3 times; of 50 offsets injected to
+    #: run off the end, 3 whose frames do not digress jump 20-31 times. The jump must be the
+    #: only one over the bar within ``pair_seconds``: a spike near the end jumps back, and a
+    #: wrong-way bend's exit (its jumps do not cancel) follows its entry. Seeds 0-6: locomotion
+    #: offset recall 0.994 -> 1.000, nothing lost; validation half, seeds 0-2: no change.
+    pair_cut_jump_ratio: float = 4.0
 
     # ------------------------------------------------------------------ spikes
     #: A short stretch that leaves the joint's smooth path (the cubic through the frames
@@ -152,7 +161,21 @@ class DetectConfig:
     #: alarm) 30 deg over 1/6 s flagged 24 stretches (a wave, a dance, a dash's foot strikes:
     #: the cubic around five frames cannot follow an impact); 40 deg over 1/15 s or 1/30 s
     #: none, at 30 and at 120 fps, and still caught the tuning half's missed one-frame spike.
+    #: The bar a joint's spike must clear is at most this (see ``spike_jump_ratio``).
     spike_deg: float = 40.0
+    #: A joint whose own jumps are small clears a lower bar: ``spike_jump_ratio`` times its
+    #: ``pair_quantile`` of jumps, at least ``spike_floor_deg`` (the smallest error a spike
+    #: is: injected ones turn 20-90 deg). Tuning half, 20 s of every clean take (1,845 joints)
+    #: and 215 injected spikes of one or two frames: 2.5 times flags no natural stretch the
+    #: 40 deg bar does not (2 times flags one, a dash's toe) and catches 207 of the spikes
+    #: against 148; at 120 fps none and all 215.
+    spike_jump_ratio: float = 2.5
+    #: ... see ``spike_jump_ratio``.
+    spike_floor_deg: float = 20.0
+    #: A spike's frames lie off the path by the whole jump into them (one constant turn): at
+    #: least this share of the largest jump within ``spike_seconds``. Beside the jump into a
+    #: longer error (an offset, a 3-frame spike) the cubic runs halfway: a half share.
+    spike_jump_share: float = 0.75
     #: Longest spike (seconds): two frames at 30 fps (see ``spike_deg``).
     spike_seconds: float = 1.0 / 15.0
     #: A spike within this long (seconds) of a run already flagged is left to that run: the run's
@@ -342,6 +365,14 @@ class DetectConfig:
             raise ValueError(f"noise_edge_share must lie in [0, 1), got {self.noise_edge_share!r}")
         if not self.noise_edge_jump >= 0.0:
             raise ValueError(f"noise_edge_jump must be 0 or more, got {self.noise_edge_jump!r}")
+        if not self.pair_cut_jump_ratio >= 0.0:
+            raise ValueError(
+                f"pair_cut_jump_ratio must be 0 or more, got {self.pair_cut_jump_ratio!r}"
+            )
+        if not 0.0 <= self.spike_jump_share <= 1.0:
+            raise ValueError(f"spike_jump_share must lie in [0, 1], got {self.spike_jump_share!r}")
+        if not self.spike_jump_ratio >= 0.0:
+            raise ValueError(f"spike_jump_ratio must be 0 or more, got {self.spike_jump_ratio!r}")
         if self.limit_holds < 0 or self.limit_holds == 1:
             # one rest is no limit: every pause would be one
             raise ValueError(

@@ -223,6 +223,14 @@ class Evidence:
         return mdm_mod.jump_size(self.rotations)
 
     @cached_property
+    def jump_scale(self) -> np.ndarray:
+        """(J,) radians: the joint's ordinary jump, its ``pair_quantile`` of jumps in the take
+        (an error's few jumps stay above it)."""
+        if self.jump_size.shape[0] == 0:
+            return np.zeros(self.jump_size.shape[1])
+        return np.percentile(self.jump_size, self.config.pair_quantile, axis=0)
+
+    @cached_property
     def jump_peaks(self) -> np.ndarray:
         """(F, J) bool: jumps far above the joint's own."""
         c = self.config
@@ -266,9 +274,9 @@ class Evidence:
 
     @cached_property
     def spike_size(self) -> np.ndarray:
-        """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`), exact above half
-        of ``spike_deg`` (a bound below it)."""
-        floor = np.radians(0.5 * self.config.spike_deg)
+        """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`), exact above
+        ``spike_floor_deg`` (a bound below it)."""
+        floor = np.radians(min(self.config.spike_floor_deg, self.config.spike_deg))
         return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
 
     @cached_property

@@ -16,33 +16,58 @@ from mocapkit.clean.detect.flags import Flags
 
 @dataclass(frozen=True)
 class Spikes:
-    """Flag stretches of at most ``spike_seconds`` (set in the evidence) lying more than
-    ``min_deg`` off the cubic through the two frames either side, at every frame
+    """Flag stretches of at most ``spike_seconds`` (set in the evidence) lying off the cubic
+    through the two frames either side by more than the joint's bar at every frame
     (:func:`~mocapkit.clean.mdm.spike_size`), unless within ``pad_seconds`` of a run already
-    flagged (its wrong frames spoil the cubic).
+    flagged (its wrong frames spoil the cubic). The bar is ``jump_ratio`` times the joint's
+    ordinary jump in the take (:attr:`Evidence.jump_scale`), kept between ``floor_deg`` and
+    ``max_deg``; and the stretch must lie off by ``jump_share`` of the largest jump within
+    ``spike_seconds`` of it or more (a constant turn's frames lie off by the whole jump into
+    them, the frames beside the jump into a longer error by half of it).
 
     Relies on: a joint's rotation is smooth at the capture rate; it does not leave its own path
     by 40 deg and come back within a fifteenth of a second, whatever the context holds (a
     punch's impact wobble is 12-15 deg; over longer stretches an impact does leave the cubic
-    through the frames around it, so a spike is short)."""
+    through the frames around it, so a spike is short). A joint leaves its path by about as much
+    as its steps change from one frame to the next: one whose steps barely change (an elbow in
+    a bow) does not leave it by 20 deg for a frame or two, while one that whips (a waving
+    hand, a dash's toe) may, and its own jumps raise its bar."""
 
     name: ClassVar[str] = "spike"
     veto: ClassVar[bool] = False
     signal: ClassVar[bool] = False
-    min_deg: float = 40.0
+    max_deg: float = 40.0
     pad_seconds: float = 0.2
+    jump_ratio: float = 2.5
+    floor_deg: float = 20.0
+    jump_share: float = 0.75
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> Spikes:
-        return cls(config.spike_deg, config.spike_pad_seconds)
+        return cls(
+            config.spike_deg,
+            config.spike_pad_seconds,
+            config.spike_jump_ratio,
+            config.spike_floor_deg,
+            config.spike_jump_share,
+        )
+
+    def bar(self, ev: Evidence) -> np.ndarray:
+        """(J,) radians: how far off its path a joint must be to spike."""
+        lo, hi = np.radians(min(self.floor_deg, self.max_deg)), np.radians(self.max_deg)
+        return np.clip(self.jump_ratio * ev.jump_scale, lo, hi)
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
         pad = ev.frames(self.pad_seconds)
         near = ndimage.binary_dilation(flags.mask, structure=np.ones((2 * pad + 1, 1), dtype=bool))
-        flags.flag(self.name, (ev.spike_size > np.radians(self.min_deg)) & ~near)
+        span = ev.frames(ev.config.spike_seconds)
+        jumps = ndimage.maximum_filter1d(ev.jump_size, 2 * span + 1, axis=0, mode="nearest")
+        whole = ev.spike_size >= self.jump_share * jumps
+        flags.flag(self.name, (ev.spike_size > self.bar(ev)) & whole & ~near)
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         return (
-            f"off its smooth path by {deg(ev.spike_size[frame, joint])} "
-            f"(spike above {self.min_deg:g} deg)"
+            f"off its smooth path by {deg(ev.spike_size[frame, joint])} (spike above "
+            f"{deg(self.bar(ev)[joint])}: {self.jump_ratio:g} times its ordinary jump "
+            f"{deg(ev.jump_scale[joint])}, between {self.floor_deg:g} and {self.max_deg:g} deg)"
         )
