@@ -150,7 +150,9 @@ class DetectConfig:
     #: run off the end, 3 whose frames do not digress jump 20-31 times. The jump must be the
     #: only one over the bar within ``pair_seconds``: a spike near the end jumps back, and a
     #: wrong-way bend's exit (its jumps do not cancel) follows its entry. Seeds 0-6: locomotion
-    #: offset recall 0.994 -> 1.000, nothing lost; validation half, seeds 0-2: no change.
+    #: offset recall 0.994 -> 1.000, nothing lost; validation half, seeds 0-2: no change,
+    #: seeds 3-5: dance/fight offset recall 0.928 -> 0.975, gestures frozen 0.964 -> 1.000
+    #: (a hold cut off by the end), precision unchanged.
     pair_cut_jump_ratio: float = 4.0
 
     # ------------------------------------------------------------------ spikes
