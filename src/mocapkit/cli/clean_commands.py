@@ -244,18 +244,18 @@ def clean_command(
     mean are flagged (rule "mdm": stretches with MDM > threshold, or abrupt cells, that hold a
     near-certain or abrupt cell; an abrupt cell may lie below the threshold), and so,
     whatever their MDM, are pops (a jump away and back by the same turn: cancelling-jumps),
-    noise bursts, joints held still while their neighbours move on (frozen; a
-    dropout repeats one value bit for bit), knees or elbows bent the wrong way, and spikes (a
-    joint off its own smooth path by 40 deg for at most 1/15 s). Vetoes clear mdm,
-    cancelling-jumps and frozen stretches where the motion is natural: no step near the
-    stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit its solver
-    clamps it at (limit-release). --explain JOINT:FRAME says which rule decided a cell and why.
-    With --out, flagged cells are replaced by the neighbours' median, blended at the edges,
-    and where a repaired joint moves a planted foot (a hip, knee or ankle, or the pelvis,
-    under a foot on the ground) IK on that leg holds the foot where it was planted. All other
-    joints and frames keep their rotations bit for bit (the written file's angles are derived
-    from them again, to 1e-12 deg and 12 significant digits, so an unchanged angle reads as
-    the input file had it).
+    noise bursts, joints held still while their neighbours move on (frozen; a dropout repeats
+    one value bit for bit), knees or elbows bent the wrong way, and spikes (a joint off its own
+    smooth path for at most 1/15 s by 20 to 40 deg, more the more the joint itself jumps).
+    Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is natural: no step
+    near the stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit
+    its solver clamps it at (limit-release). --explain JOINT:FRAME says which rule decided a
+    cell and why. With --out, flagged cells are replaced by the neighbours' median, blended at
+    the edges, and where a repaired joint moves a planted foot (a hip, knee or ankle, or the
+    pelvis, under a foot on the ground) IK on that leg holds the foot where it was planted. All
+    other joints and frames keep their rotations bit for bit (the written file's angles are
+    derived from them again, to 1e-12 deg and 12 significant digits, so an unchanged angle reads
+    as the input file had it).
 
     \b
     Examples:
