@@ -235,6 +235,14 @@ def test_spikes() -> None:
     fl = Flags((90, 2))
     Spikes().apply(evidence(turn(whip, slice(40, 41), 0, 45.0)), fl)
     assert np.flatnonzero(fl.mask[:, 0]).tolist() == [40]
+    # beside the jump into a longer error the frames lie off the cubic by half that jump: 30
+    # deg off for a 60 deg offset, over the bar, yet not a spike
+    long = evidence(turn(smooth(), slice(40, 50), 0, 60.0))
+    fl = Flags((90, 2))
+    Spikes().apply(long, fl)
+    assert np.degrees(long.spike_size[39, 0]) > 25.0 and not fl.mask.any()
+    assert "beside the jump into a longer stretch" in Spikes().describe(long, 39, 0)
+    assert "this joint's bar 20.0 deg" in Spikes().describe(long, 20, 0)
     fl = Flags((90, 2))  # with the floor at 40 deg the bar is 40 deg for every joint
     Spikes(floor_deg=40.0).apply(evidence(turn(smooth(), slice(40, 41), 0, 30.0)), fl)
     assert not fl.mask.any()

@@ -57,17 +57,29 @@ class Spikes:
         lo, hi = np.radians(min(self.floor_deg, self.max_deg)), np.radians(self.max_deg)
         return np.clip(self.jump_ratio * ev.jump_scale, lo, hi)
 
+    def whole(self, ev: Evidence) -> np.ndarray:
+        """(F, J) bool: off the path by ``jump_share`` of the largest jump within
+        ``spike_seconds`` or more (a constant turn's own frames, not those beside the jump
+        into a longer error)."""
+        span = ev.frames(ev.config.spike_seconds)
+        jumps = ndimage.maximum_filter1d(ev.jump_size, 2 * span + 1, axis=0, mode="nearest")
+        return ev.spike_size >= self.jump_share * jumps
+
     def apply(self, ev: Evidence, flags: Flags) -> None:
         pad = ev.frames(self.pad_seconds)
         near = ndimage.binary_dilation(flags.mask, structure=np.ones((2 * pad + 1, 1), dtype=bool))
-        span = ev.frames(ev.config.spike_seconds)
-        jumps = ndimage.maximum_filter1d(ev.jump_size, 2 * span + 1, axis=0, mode="nearest")
-        whole = ev.spike_size >= self.jump_share * jumps
-        flags.flag(self.name, (ev.spike_size > self.bar(ev)) & whole & ~near)
+        flags.flag(self.name, (ev.spike_size > self.bar(ev)) & self.whole(ev) & ~near)
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
-        return (
-            f"off its smooth path by {deg(ev.spike_size[frame, joint])} (spike above "
-            f"{deg(self.bar(ev)[joint])}: {self.jump_ratio:g} times its ordinary jump "
-            f"{deg(ev.jump_scale[joint])}, between {self.floor_deg:g} and {self.max_deg:g} deg)"
+        size = ev.spike_size[frame, joint]
+        text = (
+            f"off its smooth path by {deg(size)}; this joint's bar {deg(self.bar(ev)[joint])} "
+            f"({self.jump_ratio:g} times its ordinary jump of {deg(ev.jump_scale[joint])}, kept "
+            f"between {self.floor_deg:g} and {self.max_deg:g} deg)"
         )
+        if size > self.bar(ev)[joint] and not self.whole(ev)[frame, joint]:
+            text += (
+                f", but under {self.jump_share:g} of a jump near it: beside the jump into a "
+                "longer stretch, not a spike"
+            )
+        return text
