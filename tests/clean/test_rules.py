@@ -184,6 +184,15 @@ def test_cancelling_jumps() -> None:
     CancellingJumps().apply(evidence(start, mdm=mdm0), fl)
     assert fl.mask[:30, 1].all() and not fl.mask[30:].any()
     assert "cut off by its start" in CancellingJumps().describe(evidence(start, mdm=mdm0), 5, 1)
+    # ... and there too by its one jump where the frames digress too little for the MDM rule
+    mild = np.zeros((300, 2))
+    mild[:30, 1] = 0.3
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(start, mdm=mild), fl)
+    assert fl.mask[:30, 1].all() and not fl.mask[30:].any()
+    fl = Flags((300, 2))
+    CancellingJumps(cut_jump_ratio=0).apply(evidence(start, mdm=mild), fl)
+    assert not fl.mask.any()
 
 
 def test_cancelling_jumps_three_errors_on_one_joint_do_not_hide_each_other() -> None:
@@ -243,6 +252,10 @@ def test_spikes() -> None:
     assert np.degrees(long.spike_size[39, 0]) > 25.0 and not fl.mask.any()
     assert "beside the jump into a longer stretch" in Spikes().describe(long, 39, 0)
     assert "this joint's bar 20.0 deg" in Spikes().describe(long, 20, 0)
+    for big in (100.0, 150.0):  # the frames whose cubic runs through a big spike's frame
+        fl = Flags((90, 2))
+        Spikes().apply(evidence(turn(smooth(), slice(40, 41), 0, big)), fl)
+        assert np.flatnonzero(fl.mask[:, 0]).tolist() == [40]
     fl = Flags((90, 2))  # with the floor at 40 deg the bar is 40 deg for every joint
     Spikes(floor_deg=40.0).apply(evidence(turn(smooth(), slice(40, 41), 0, 30.0)), fl)
     assert not fl.mask.any()

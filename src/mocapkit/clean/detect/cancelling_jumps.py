@@ -31,8 +31,10 @@ class CancellingJumps:
     to the end where most of those frames have MDM above the threshold
     (``DetectConfig.pair_cut_off``) or where its jump exceeds ``cut_jump_ratio`` times the
     joint's ordinary jump (:attr:`Evidence.jump_scale`) and no other within ``max_seconds``
-    does: a joint's natural jumps near a take's end (a foot strike) are of its usual size, an
-    error's need not digress to be far above it."""
+    does: a joint's natural jumps near a take's end (a foot strike) are of its usual size,
+    while an error's jump is far above it even where its frames do not digress. (A jump is a
+    candidate only where the digression reads its side: near the take's start, where a tie
+    reads as an entry, a cut-off error's frames must digress somewhat.)"""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
@@ -116,8 +118,13 @@ class CancellingJumps:
         share = (ev.mdm[run[0] : run[1] + 1, joint] > self.threshold).mean()
         if share > 0.5:
             return f"most of those frames have MDM above {self.threshold:g}"
-        ratio = ev.jump_size[jump, joint] / max(ev.jump_scale[joint], 1e-12)
+        scale = ev.jump_scale[joint]
+        if scale < np.radians(1e-3):
+            return (
+                f"its jump of {deg(ev.jump_size[jump, joint])} on a joint that otherwise does "
+                "not jump, the only one near it"
+            )
         return (
-            f"its jump is {ratio:.0f} times the joint's ordinary one "
-            f"{deg(ev.jump_scale[joint])}, over {self.cut_jump_ratio:g}, the only one near it"
+            f"its jump is {ev.jump_size[jump, joint] / scale:.1f} times the joint's ordinary "
+            f"one of {deg(scale)}, over {self.cut_jump_ratio:g}, the only one near it"
         )

@@ -267,7 +267,8 @@ class Evidence:
     def cut_off(self) -> np.ndarray:
         """(F, J) bool: stretches from an unpaired jump to the take's end or start that an error
         cut off by the take may hold (:func:`mdm.cut_off_steps`; the cancelling-jumps rule
-        keeps those whose frames mostly digress)."""
+        keeps those whose frames mostly digress or whose one jump is far above the joint's
+        own)."""
         _, used, sides = self._pairing
         span = round(self.config.pair_seconds * self.fps)
         return mdm_mod.cut_off_steps(self.jump_peaks, used, sides, span)
@@ -275,7 +276,8 @@ class Evidence:
     @cached_property
     def spike_size(self) -> np.ndarray:
         """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`), exact above
-        ``spike_floor_deg`` (a bound below it)."""
+        the smaller of ``spike_floor_deg`` and ``spike_deg`` (a bound below it: the
+        :class:`Spikes` rule never reads lower)."""
         floor = np.radians(min(self.config.spike_floor_deg, self.config.spike_deg))
         return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
 

@@ -59,10 +59,12 @@ class Spikes:
 
     def whole(self, ev: Evidence) -> np.ndarray:
         """(F, J) bool: off the path by ``jump_share`` of the largest jump within
-        ``spike_seconds`` or more (a constant turn's own frames, not those beside the jump
-        into a longer error)."""
-        span = ev.frames(ev.config.spike_seconds)
-        jumps = ndimage.maximum_filter1d(ev.jump_size, 2 * span + 1, axis=0, mode="nearest")
+        ``spike_seconds`` (and the two frames the cubic is fitted through) or more: a constant
+        turn's own frames, not those beside the jump into a longer error or a big spike."""
+        # the cubic of a gap is fitted through two frames either side of it: a gap up to two
+        # frames away from a jump still sees it
+        reach = ev.frames(ev.config.spike_seconds) + 2
+        jumps = ndimage.maximum_filter1d(ev.jump_size, 2 * reach + 1, axis=0, mode="nearest")
         return ev.spike_size >= self.jump_share * jumps
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
@@ -72,12 +74,13 @@ class Spikes:
 
     def describe(self, ev: Evidence, frame: int, joint: int) -> str:
         size = ev.spike_size[frame, joint]
+        bar = self.bar(ev)[joint]
         text = (
-            f"off its smooth path by {deg(size)}; this joint's bar {deg(self.bar(ev)[joint])} "
+            f"off its smooth path by {deg(size)}; this joint's bar {deg(bar)} "
             f"({self.jump_ratio:g} times its ordinary jump of {deg(ev.jump_scale[joint])}, kept "
             f"between {self.floor_deg:g} and {self.max_deg:g} deg)"
         )
-        if size > self.bar(ev)[joint] and not self.whole(ev)[frame, joint]:
+        if size > bar and not self.whole(ev)[frame, joint]:
             text += (
                 f", but under {self.jump_share:g} of a jump near it: beside the jump into a "
                 "longer stretch, not a spike"
