@@ -58,11 +58,13 @@ class CancellingJumps:
         if self.cut_off and ev.cut_off.any():
             for j in np.flatnonzero(ev.cut_off.any(axis=0)):
                 for a, b in true_runs(ev.cut_off[:, j]):
-                    if (ev.mdm[a : b + 1, j] > self.threshold).mean() > 0.5 or self._one_jump(
-                        ev, a, b, j
-                    ):
+                    if self._digresses(ev, a, b, j) or self._one_jump(ev, a, b, j):
                         out[a : b + 1, j] = True
         return out
+
+    def _digresses(self, ev: Evidence, a: int, b: int, j: int) -> bool:
+        """Most frames of ``a..b`` have MDM above ``threshold``."""
+        return bool((ev.mdm[a : b + 1, j] > self.threshold).mean() > 0.5)
 
     def _one_jump(self, ev: Evidence, a: int, b: int, j: int) -> bool:
         """The stretch ``a..b`` cut off by the take's end (start) is entered (left) by a jump
@@ -115,8 +117,7 @@ class CancellingJumps:
         return "; ".join(parts)
 
     def _why_cut(self, ev: Evidence, run: tuple[int, int], jump: int, joint: int) -> str:
-        share = (ev.mdm[run[0] : run[1] + 1, joint] > self.threshold).mean()
-        if share > 0.5:
+        if self._digresses(ev, run[0], run[1], joint):
             return f"most of those frames have MDM above {self.threshold:g}"
         scale = ev.jump_scale[joint]
         if scale < np.radians(1e-3):

@@ -175,8 +175,9 @@ class DetectConfig:
     #: ... see ``spike_jump_ratio``.
     spike_floor_deg: float = 20.0
     #: A spike's frames lie off the path by the whole jump into them (one constant turn): at
-    #: least this share of the largest jump within ``spike_seconds``. Beside the jump into a
-    #: longer error (an offset, a 3-frame spike) the cubic runs halfway: a half share.
+    #: least this share of the largest jump within ``spike_seconds`` and the cubic's two anchor
+    #: frames. Beside the jump into a longer error (an offset, a 3-frame spike) the cubic runs
+    #: halfway: a half share.
     spike_jump_share: float = 0.75
     #: Longest spike (seconds): two frames at 30 fps (see ``spike_deg``).
     spike_seconds: float = 1.0 / 15.0

@@ -22,8 +22,9 @@ class Spikes:
     flagged (its wrong frames spoil the cubic). The bar is ``jump_ratio`` times the joint's
     ordinary jump in the take (:attr:`Evidence.jump_scale`), kept between ``floor_deg`` and
     ``max_deg``; and the stretch must lie off by ``jump_share`` of the largest jump within
-    ``spike_seconds`` of it or more (a constant turn's frames lie off by the whole jump into
-    them, the frames beside the jump into a longer error by half of it).
+    ``spike_seconds`` and the cubic's two anchor frames of it or more (a constant turn's frames
+    lie off by the whole jump into them, the frames beside the jump into a longer error by
+    about half of it).
 
     Relies on: a joint's rotation is smooth at the capture rate; it does not leave its own path
     by 40 deg and come back within a fifteenth of a second, whatever the context holds (a
