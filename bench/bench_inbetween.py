@@ -12,10 +12,15 @@ benchmark code for LaFAN1), on Bandai-Namco data (30 fps, cm, Y up):
   ``bandai1`` — no test take is in the library. ``--tune`` instead evaluates on the tuning
   tenth's walks and runs, which is what the defaults of
   :class:`mocapkit.stitch.inbetween.InbetweenConfig` are chosen on. With ``--tune`` the
-  library leaves out every take of the tuning take's style (``--same-style`` keeps them): the
-  test takes' people and styles are not in the library either, and a rule chosen with the
-  test's own style at hand does not carry over (session 7: 0.26 on the tuning tenth with its
-  style in the library, 0.75 on the test split).
+  library leaves out every take of the tuning take's style (``--holdout style``, the default),
+  or every take of its person (``--holdout person``: Bandai-2's three actors, told apart by
+  their pelvis offsets), or nothing (``--holdout none``): the test takes' people and styles
+  are not in the library either, and a rule chosen with the test's own style at hand does not
+  carry over (session 7: 0.26 on the tuning tenth with its style in the library, 0.75 on the
+  test split). Leaving the person out is the closer stand-in for the test split (its people
+  are Bandai-1's): L2P over interpolation at 15 / 30 frames 0.47 / 0.53 with the person out,
+  0.42 / 0.45 with the style out (session 25, in one run), against 0.56 / 0.61 on the test
+  split's forward walks and 0.53 / 0.63 on its runs.
 * **Windows** of 65 frames every 40 frames; context = the 10 past frames and the first future
   frame (frame 10 + n); transition lengths n = 5, 15, 30, 45 (frames 10 .. 10+n-1 replaced).
 * **Metrics** on the n transition frames, over the 21 body joints (the static ``joint_Root``
@@ -275,6 +280,22 @@ def take_style(path: Path) -> str:
     return path.stem.split("_")[2]
 
 
+def person_of(files: list[Path], motions=None):
+    """A function naming the person of a take in ``files`` (``Path`` or its name as a string):
+    its pelvis' offset in the file (``motions``: the files read, where at hand). Bandai's takes
+    share one skeleton but each actor's hips sit at their own offset from the root, so takes
+    with the same offset are one person's."""
+    from mocapkit.body import body_of
+    from mocapkit.io import read_motion
+
+    motions = motions or [None] * len(files)
+    key = {}
+    for f, m in zip(files, motions, strict=True):
+        sk = (m if m is not None else read_motion(f)).skeleton
+        key[str(f)] = tuple(np.round(sk.offsets[body_of(sk).pelvis], 1))
+    return lambda f: key[str(f)]
+
+
 def library_without(lib, drop: set[int]):
     """``lib`` (an InbetweenLibrary) searching only the clips not in ``drop`` (indices into
     its motions, which stay as they are, so candidates keep their clip numbers)."""
@@ -306,7 +327,8 @@ def evaluate(
     max_takes=None,
     log=print,
     nearest=None,
-    holdout_style=False,
+    holdout=None,
+    person_of=None,
 ):
     """Per (class, method, n): lists of per-window L2Q, L2P and the quaternion sequences."""
     from mocapkit.core.kinematics import forward_kinematics
@@ -328,10 +350,11 @@ def evaluate(
     for ti, f in enumerate(files):
         take = read_motion(f)
         cls = take_class(f)
-        if holdout_style:  # the library (and the baseline's) without the take's style
-            st = take_style(f)
+        if holdout:  # the library (and the baseline's) without the take's style or person
+            group = take_style if holdout == "style" else person_of
+            st = group(f)
             if st not in by_style:
-                drop = {i for i, n in enumerate(full_lib.names) if take_style(Path(n)) == st}
+                drop = {i for i, n in enumerate(full_lib.names) if group(Path(n)) == st}
                 sub = library_without(full_lib, drop)
                 by_style[st] = (sub, NearestSegment(full_lib, body_idx, drop))
             lib, nearest = by_style[st]
@@ -481,9 +504,11 @@ def main(argv=None) -> int:
     ap.add_argument("--shared", type=Path, default=None)
     ap.add_argument("--tune", action="store_true", help="evaluate on the tuning takes")
     ap.add_argument(
-        "--same-style",
-        action="store_true",
-        help="with --tune: keep the tuning take's own style in the library",
+        "--holdout",
+        choices=("style", "person", "none"),
+        default="style",
+        help="with --tune: leave out of the library every take of the tuning take's style "
+        "(default) or of its person, or none",
     )
     ap.add_argument("--max-takes", type=int, default=None, help="per class")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
@@ -533,7 +558,8 @@ def main(argv=None) -> int:
     rec, fallbacks, times = evaluate(
         test_files, lib, stats, body_idx, feet_idx, config, args.max_takes,
         log=lambda s: print(s, file=sys.stderr), nearest=NearestSegment(lib, body_idx),
-        holdout_style=args.tune and not args.same_style,
+        holdout=args.holdout if args.tune and args.holdout != "none" else None,
+        person_of=person_of(lib_files + tune_files, lib_motions + [None] * len(tune_files)),
     )  # fmt: skip
     rows = summarise(rec, fallbacks, classes)
     print_table([r for r in rows if r["class"] == "all"], "All classes")

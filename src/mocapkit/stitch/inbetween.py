@@ -153,7 +153,7 @@ class InbetweenConfig:
     frame time). Tuned on the held-out tenth of bandai2 (bench/bench_inbetween.py --tune).
     The figures quoted for ``backwards`` and ``blend_max_speed_deg`` were measured with the
     tuning take's style left out of the library (``--tune``, as the test's people and styles
-    are not in it); the older ones with it in (``--tune --same-style``)."""
+    are not in it); the older ones with it in (``--tune --holdout none``)."""
 
     window_seconds: float = 1 / 6
     """L-score half window w (5 frames at 30 fps, stitching's default): enough frames for the
