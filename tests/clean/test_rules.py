@@ -195,6 +195,32 @@ def test_cancelling_jumps() -> None:
     assert not fl.mask.any()
 
 
+def test_cancelling_jumps_leave_a_clean_end_frame_out_of_a_cut_off_error() -> None:
+    """An error entered at frame 1 (left at the next-to-last frame) has its entry where jumps
+    are not measured, so it looks cut off by the take: the step out of frame 0 (into the last
+    frame) cancels its one jump, so that end frame is clean; where that step is the joint's
+    own (the error does run from frame 0), the end frame stays flagged."""
+    F = 300
+    for stretch, clean in ((slice(1, 2), 0), (slice(1, 4), 0), (slice(F - 2, F - 1), F - 1),
+                           (slice(F - 4, F - 1), F - 1)):  # fmt: skip
+        q = turn(smooth(F), stretch, 1, 60.0, axis=(0.6, 0.0, 0.8))
+        mdm = np.zeros((F, 2))
+        mdm[stretch, 1] = 0.9  # the error's frames digress: the jump's side is read
+        ev = evidence(q, mdm=mdm)
+        assert ev.cut_off[clean, 1]  # read as cut off by the take: the candidate to trim
+        cells = CancellingJumps().cells(ev)
+        assert cells[stretch, 1].all() and not cells[clean, 1]
+        assert cells[:, 1].sum() == stretch.stop - stretch.start
+        text = CancellingJumps().describe(ev, stretch.start, 1)
+        assert ("frame 0 is clean" if clean == 0 else "the last frame is clean") in text
+    # the same errors running from the take's first frame (to its last) keep that frame
+    for stretch in (slice(0, 4), slice(F - 4, F)):
+        mdm = np.zeros((F, 2))
+        mdm[stretch, 1] = 0.9
+        cells = CancellingJumps().cells(evidence(turn(smooth(F), stretch, 1, 60.0), mdm=mdm))
+        assert cells[stretch, 1].all() and cells[:, 1].sum() == 4
+
+
 def test_cancelling_jumps_three_errors_on_one_joint_do_not_hide_each_other() -> None:
     """Three offsets of 20-30 deg on one joint of a 10 s take make 6 jumps, the top 2% of its
     frames: measured against its 99th percentile (one of the errors' own jumps) two of them

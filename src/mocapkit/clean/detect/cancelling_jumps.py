@@ -11,6 +11,7 @@ from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
+from mocapkit.core import rotations as rot
 from mocapkit.core.runs import true_runs
 
 
@@ -34,7 +35,10 @@ class CancellingJumps:
     does: a joint's natural jumps near a take's end (a foot strike) are of its usual size,
     while an error's jump is far above it even where its frames do not digress. (A jump is a
     candidate only where the digression reads its side: near the take's start, where a tie
-    reads as an entry, a cut-off error's frames must digress somewhat.)"""
+    reads as an entry, a cut-off error's frames must digress somewhat.) Jumps are not measured
+    on a take's first and last two frames, so an error entered at frame 1 looks cut off too:
+    where the step out of frame 0 cancels the stretch's jump, frame 0 is left out (the same at
+    the end)."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
@@ -43,11 +47,16 @@ class CancellingJumps:
     cut_off: bool = True
     threshold: float = 0.5
     cut_jump_ratio: float = 4.0
+    tol: float = 0.45
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> CancellingJumps:
         return cls(
-            config.pair_seconds, config.pair_cut_off, config.threshold, config.pair_cut_jump_ratio
+            config.pair_seconds,
+            config.pair_cut_off,
+            config.threshold,
+            config.pair_cut_jump_ratio,
+            config.pair_tol,
         )
 
     def cells(self, ev: Evidence) -> np.ndarray:
@@ -59,8 +68,27 @@ class CancellingJumps:
             for j in np.flatnonzero(ev.cut_off.any(axis=0)):
                 for a, b in true_runs(ev.cut_off[:, j]):
                     if self._digresses(ev, a, b, j) or self._one_jump(ev, a, b, j):
+                        a, b = self._without_clean_end(ev, a, b, j)
                         out[a : b + 1, j] = True
         return out
+
+    def _without_clean_end(self, ev: Evidence, a: int, b: int, j: int) -> tuple[int, int]:
+        """The cut-off stretch ``a..b`` less the take's first (last) frame where the step from
+        it into the stretch (out of the stretch into it) cancels the stretch's own jump, as two
+        jumps of a pair do: the error was entered at frame 1 (left at the next-to-last frame),
+        where jumps are undefined, so the take's end frame is clean (a one-frame spike on frame
+        1 flagged frame 0 too)."""
+        F = ev.shape[0]
+        if b - a < 1 or not (a == 0 or b == F - 1) or (a == 0 and b == F - 1):
+            return a, b
+        q = ev.rotations[:, j]
+        # steps i -> i + 1: the outer one at the take's end, the inner one at the stretch's jump
+        outer, inner = (0, b) if a == 0 else (F - 2, a - 1)
+        for step in (_body_step, _parent_step):
+            u, v = step(q, outer), step(q, inner)
+            if np.linalg.norm(u + v) < self.tol * min(np.linalg.norm(u), np.linalg.norm(v)):
+                return (1, b) if a == 0 else (a, F - 2)
+        return a, b
 
     def _digresses(self, ev: Evidence, a: int, b: int, j: int) -> bool:
         """Most frames of ``a..b`` have MDM above ``threshold``."""
@@ -112,6 +140,20 @@ class CancellingJumps:
                 f"from the take's first frame to the jump at frame {run[1] + 1}: an error cut "
                 f"off by its start ({self._why_cut(ev, run, run[1] + 1, joint)})"
             )
+        elif run[1] == ev.shape[0] - 2 and ev.cut_off[-1, joint]:
+            parts.append(
+                f"from the jump at frame {run[0]} to the next-to-last frame: an error left by the "
+                "step into the take's last frame, where jumps are not measured; that step "
+                f"cancels the jump at frame {run[0]}, so the last frame is clean "
+                f"({self._why_cut(ev, run, run[0], joint)})"
+            )
+        elif run[0] == 1 and ev.cut_off[0, joint]:
+            parts.append(
+                f"from frame 1 to the jump at frame {run[1] + 1}: an error entered by the step "
+                "out of the take's first frame, where jumps are not measured; that step cancels "
+                f"the jump at frame {run[1] + 1}, so frame 0 is clean "
+                f"({self._why_cut(ev, run, run[1] + 1, joint)})"
+            )
         else:
             parts.append("between two that cancel")
         return "; ".join(parts)
@@ -129,3 +171,13 @@ class CancellingJumps:
             f"its jump is {ev.jump_size[jump, joint] / scale:.1f} times the joint's ordinary "
             f"one of {deg(scale)}, over {self.cut_jump_ratio:g}, the only one near it"
         )
+
+
+def _body_step(q: np.ndarray, i: int) -> np.ndarray:
+    """Rotation vector of the step from frame ``i`` to ``i + 1`` in the joint's own frame."""
+    return rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[i]), q[i + 1]))
+
+
+def _parent_step(q: np.ndarray, i: int) -> np.ndarray:
+    """The same step in the parent's frame."""
+    return rot.quat_to_rotvec(rot.quat_mul(q[i + 1], rot.quat_inv(q[i])))
