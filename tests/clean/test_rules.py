@@ -290,6 +290,30 @@ def test_spikes() -> None:
     assert not fl.added["spike"].any()
 
 
+def test_spikes_on_a_takes_first_and_last_frames() -> None:
+    """A take's end frame has no two frames on its far side for the cubic: it is judged off the
+    constant turn of the two frames beside it. A 25 deg pop there is flagged (the same bar as
+    anywhere), the natural end of a swing (even a fast one) is not."""
+    for end in (0, 89):
+        fl = Flags((90, 2))
+        Spikes().apply(evidence(turn(smooth(), slice(end, end + 1), 0, 25.0)), fl)
+        assert np.argwhere(fl.mask).tolist() == [[end, 0]]
+        assert "off its smooth path by 25" in Spikes().describe(
+            evidence(turn(smooth(), slice(end, end + 1), 0, 25.0)), end, 0
+        )
+    for amp in (0.5, 1.5):
+        fl = Flags((90, 2))
+        Spikes().apply(evidence(smooth(amp=amp)), fl)
+        assert not fl.mask.any()
+    # the extrapolation itself: a constant turn continues exactly; a pop reads as its angle
+    steady = rot.rotvec_to_quat(np.linspace(0, 1.2, 10)[:, None, None] * np.array([[[0, 0, 1.0]]]))
+    assert np.allclose(mdm_mod.end_spike_size(steady), 0.0, atol=1e-9)
+    popped = turn(steady, slice(9, 10), 0, 30.0, axis=(1.0, 0.0, 0.0))
+    size = np.degrees(mdm_mod.end_spike_size(popped))
+    assert np.isclose(size[9, 0], 30.0) and np.allclose(size[:9], 0.0)
+    assert not mdm_mod.end_spike_size(steady[:2]).any()
+
+
 def test_frozen_joints() -> None:
     q = smooth()
     bad = q.copy()

@@ -705,6 +705,23 @@ def spike_size(rotations: np.ndarray, max_frames: int, floor: float = 0.0) -> np
     return out
 
 
+def end_spike_size(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: how far a take's first and last frames lie from the constant turn of the
+    two frames beside them (frame 0 from ``q1 (q1^-1 q2)^-1``, the last frame likewise), 0 on
+    every other frame and on takes under 3 frames. :func:`spike_size` cannot score them (its
+    cubic needs two frames either side); a joint's turn changes per frame by its jump, so a
+    natural end frame lies off by about one ordinary jump, and a pop on it by the pop's angle.
+    """
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
+    if q.shape[0] < 3:
+        return out
+    for end, near, far in ((0, 1, 2), (-1, -2, -3)):
+        ahead = rot.quat_mul(q[near], rot.quat_mul(rot.quat_inv(q[far]), q[near]))
+        out[end] = rot.quat_angle(q[end], ahead)
+    return out
+
+
 @numba.njit(cache=True, nogil=True)
 def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):  # pragma: no cover - compiled
     return (

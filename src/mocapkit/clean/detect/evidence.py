@@ -277,9 +277,11 @@ class Evidence:
     def spike_size(self) -> np.ndarray:
         """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`), exact above
         the smaller of ``spike_floor_deg`` and ``spike_deg`` (a bound below it: the
-        :class:`Spikes` rule never reads lower)."""
+        :class:`Spikes` rule never reads lower); on the take's first and last frames, off the
+        constant turn of the two frames beside them (:func:`mdm.end_spike_size`)."""
         floor = np.radians(min(self.config.spike_floor_deg, self.config.spike_deg))
-        return mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
+        size = mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
+        return np.maximum(size, mdm_mod.end_spike_size(self.rotations))
 
     @cached_property
     def limit_excursions(self) -> list[list[tuple[int, int]]]:

@@ -24,7 +24,8 @@ class Spikes:
     ``max_deg``; and the stretch must lie off by ``jump_share`` of the largest jump within
     ``spike_seconds`` and the cubic's two anchor frames of it or more (a constant turn's frames
     lie off by the whole jump into them, the frames beside the jump into a longer error by
-    about half of it).
+    about half of it). A take's first and last frames, which have no two frames on their far
+    side, are judged off the constant turn of the two frames beside them.
 
     Relies on: a joint's rotation is smooth at the capture rate; it does not leave its own path
     by 40 deg and come back within a fifteenth of a second, whatever the context holds (a
