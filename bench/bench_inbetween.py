@@ -335,7 +335,12 @@ def evaluate(
     from mocapkit.core.motion import concatenate
     from mocapkit.features import ground_root_on_path
     from mocapkit.io import read_motion
-    from mocapkit.stitch.inbetween import _back_to_clip, inbetween, kalman_fill
+    from mocapkit.stitch.inbetween import (
+        _back_to_clip,
+        inbetween,
+        kalman_fill,
+        kalman_max_frames,
+    )
 
     mean, std = stats
     rec: dict = {}
@@ -371,8 +376,10 @@ def evaluate(
                 res_lib = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
                                     future_frames=1, method="library")  # fmt: skip
                 res = res_lib
-                if config.fallback and (
-                    res_lib.library_lscore > config.fallback_margin * res_lib.kalman_lscore
+                if (
+                    config.fallback
+                    and n <= kalman_max_frames(win, config)
+                    and res_lib.library_lscore > config.fallback_margin * res_lib.kalman_lscore
                 ):
                     res = inbetween(win, (N_PAST, N_PAST + n), lib, config=config, up="Y",
                                     future_frames=1, method="kalman")  # fmt: skip

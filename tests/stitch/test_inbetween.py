@@ -253,6 +253,9 @@ def test_fallback_when_kalman_scores_lower(humanoid):
     low = inbetween(walk, (60, 62), idle, up="Y", config=InbetweenConfig(fallback_margin=1e-9))
     assert low.library_lscore > 1e-9 * low.kalman_lscore
     assert low.fell_back and low.method == "kalman"
+    # ... never past kalman_max_seconds, where the Kalman transition strays from the ground
+    long = inbetween(walk, (60, 75), idle, up="Y", config=InbetweenConfig(fallback_margin=1e-9))
+    assert long.method == "library" and not long.fell_back
     assert low.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
     np.testing.assert_array_equal(low.motion.rotations[:60], walk.rotations[:60])
     np.testing.assert_array_equal(low.motion.rotations[62:], walk.rotations[62:])
@@ -341,7 +344,7 @@ def test_report_names_every_segment_and_file_frames(humanoid):
         assert x["source"] == y["source"]
         assert abs(y["source_frames"][0] - 2 * x["source_frames"][0]) <= 2
         assert abs(y["source_frames"][1] - 2 * x["source_frames"][1]) <= 2
-    asked = inbetween(walk, (a, b), lib[:3], up="Y", method="kalman").to_json()
+    asked = inbetween(walk, (a, a + 8), lib[:3], up="Y", method="kalman").to_json()
     assert asked["method"] == "kalman" and asked["requested"] == "kalman"
     assert not asked["fell_back"] and not asked["source_used"] and asked["blended_from"] == []
 
@@ -399,9 +402,9 @@ def test_a_gap_in_seconds_is_read_at_the_clips_frame_rate():
     with pytest.raises(ValueError, match="frame rate is needed"):
         check_gap("2.0s:3.0s", 150)
     walk = datasets.procedural_motion("walk", 4.0, seed=0).motion
-    seconds = inbetween(walk, "1.0s:2.0s", None, method="kalman")
-    frames = inbetween(walk, (30, 60), None, method="kalman")
-    assert seconds.gap == frames.gap == (30, 60)
+    seconds = inbetween(walk, "1.0s:1.2s", None, method="kalman")
+    frames = inbetween(walk, (30, 36), None, method="kalman")
+    assert seconds.gap == frames.gap == (30, 36)
 
 
 def test_prepare_library_rejects_other_skeleton(humanoid):
@@ -537,23 +540,31 @@ def test_cli_goes_past_bad_library_files(files, tmp_path):
 
 def test_gap_longer_than_library(humanoid, tmp_path):
     """No library clip fits the gap: "auto" fills it with the Kalman transition and says why
-    (the longest gap the library can fill); "library" refuses in one line."""
+    (the longest gap the library can fill) where the gap is short enough for that transition,
+    and refuses in one line naming both limits where it is not; "library" refuses in one
+    line."""
     walk, lib = humanoid
-    short = lib[0][:40]
-    res = inbetween(walk, (20, 120), [short], up="Y")
+    short = lib[0][:6]
+    res = inbetween(walk, (20, 28), [short], up="Y")
     assert res.method == "kalman" and res.candidate is None and res.source is None
     assert "no library clip is long enough" in res.note and "fills a gap of" in res.note
     js = res.to_json()
     assert js["source_frames"] is None and js["library_lscore"] is None and js["note"]
     assert res.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
     with pytest.raises(ValueError, match="long enough"):
-        inbetween(walk, (20, 120), [short], up="Y", method="library")
+        inbetween(walk, (20, 28), [short], up="Y", method="library")
+    with pytest.raises(ValueError, match=r"long enough.*Kalman transition fills gaps of up to"):
+        inbetween(walk, (20, 120), [short], up="Y")
     write_motion(walk, tmp_path / "w.bvh")
     write_motion(short, tmp_path / "s.bvh")
-    code, so, se = run("inbetween", tmp_path / "w.bvh", "--gap", "20:120", "--library",
+    code, so, se = run("inbetween", tmp_path / "w.bvh", "--gap", "20:28", "--library",
                        tmp_path / "s.bvh", "--out", tmp_path / "o.bvh")  # fmt: skip
     assert code == 0, se
     assert "with the Kalman transition (no library clip is long enough" in so
+    code, so, se = run("inbetween", tmp_path / "w.bvh", "--gap", "20:120", "--library",
+                       tmp_path / "s.bvh", "--out", tmp_path / "o2.bvh")  # fmt: skip
+    assert code == 2 and not (tmp_path / "o2.bvh").exists()
+    assert "Kalman transition fills gaps of up to 0.3 s" in se and "Traceback" not in se
 
 
 def test_view_marks_filled_frames(files):
@@ -653,13 +664,18 @@ def test_cli_json_dash_prints_json_alone_on_stdout(files, tmp_path):
 
 def test_kalman_needs_no_library(files, tmp_path, humanoid):
     walk, _ = humanoid
-    res = inbetween(walk, (60, 75), None, up="Y", method="kalman")
+    res = inbetween(walk, (60, 68), None, up="Y", method="kalman")
     assert res.method == "kalman" and res.candidate is None and res.library_names == ()
     with pytest.raises(ValueError, match="needs a library"):
         inbetween(walk, (60, 75), [], up="Y")
-    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:68", "--method", "kalman",
                        "--out", tmp_path / "k.bvh")  # fmt: skip
     assert code == 0 and "Kalman transition" in so, se
+    # past kalman_max_seconds it is refused: it carries the ends' accelerations across the gap
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
+                       "--out", tmp_path / "k2.bvh")  # fmt: skip
+    assert code == 2 and "fills gaps of up to 0.3 s (9 frames" in se
+    assert not (tmp_path / "k2.bvh").exists()
     code, _, se = run(
         "inbetween", files / "walk.bvh", "--gap", "60:75", "--out", tmp_path / "x.bvh"
     )

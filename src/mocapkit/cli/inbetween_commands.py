@@ -30,7 +30,7 @@ from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs
-from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS
+from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS, kalman_max_frames
 from mocapkit.stitch.search import check_same_skeleton
 
 
@@ -58,7 +58,9 @@ from mocapkit.stitch.search import check_same_skeleton
     help="auto: the library, or the Kalman transition when the library fill's two-sided "
     f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's (a "
     "library with nothing like the context); "
-    "library: never fall back; kalman: the Kalman transition.",
+    "library: never fall back; kalman: the Kalman transition. The Kalman transition fills "
+    f"gaps of up to {DEFAULT_CONFIG.kalman_max_seconds:g} s (it carries the motion's "
+    "accelerations across the gap, and strays from the ground over a longer one).",
 )
 @up_option()
 @click.option(
@@ -92,12 +94,11 @@ def inbetween_cmd(
     better-scored counting more (a segment matching the context exactly all but alone), so the
     result meets the context poses exactly. The gap needs at least 3 frames of the clip before
     it and 1 after it: a gap that reaches the clip's first 3 frames or its last frame is
-    refused. With --method auto the Kalman transition of stitching fills the gap instead, and
-    says so, when the library fill's two-sided L-score (smoothness at both junctions, lower is
-    better) is more than 4x the Kalman transition's own. A warning says when the best
-    segment's path over the ground misses the clip's by more than 0.5 m: the library then
-    holds nothing like the motion around the gap (--method kalman fills it with the
-    smoother's transition instead).
+    refused. With --method auto the Kalman transition of stitching fills a gap of up to 0.3 s
+    instead, and says so, when the library fill's two-sided L-score (smoothness at both
+    junctions, lower is better) is more than 4x the Kalman transition's own. A warning says
+    when the best segment's path over the ground misses the clip's by more than 0.5 m: the
+    library then holds nothing like the motion around the gap.
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
     OUT`` marks them); --json writes the same with the scores. A library file that cannot be
     read, or has another skeleton, gets one error line and is left out; the gap is still
@@ -192,7 +193,12 @@ def inbetween_cmd(
             "against the best: see --json)"
         )
     if res.warning:
-        hint = " (--method kalman fills it with the smoother's transition instead)"
+        a, b = res.gap
+        hint = (
+            " (--method kalman fills it with the smoother's transition instead)"
+            if b - a <= kalman_max_frames(res.motion)
+            else ""
+        )
         click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     scores = (
