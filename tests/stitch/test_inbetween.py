@@ -550,7 +550,9 @@ def test_gap_longer_than_library(humanoid, tmp_path):
     assert "no library clip is long enough" in res.note and "fills a gap of" in res.note
     js = res.to_json()
     assert js["source_frames"] is None and js["library_lscore"] is None and js["note"]
-    assert res.provenance("x.bvh").to_json()["segments"][1]["kind"] == "generated"
+    prov = res.provenance("x.bvh").to_json()
+    assert prov["segments"][1]["kind"] == "generated"
+    assert prov["parameters"]["note"] == res.note  # the viewer says why, not a guess
     with pytest.raises(ValueError, match="long enough"):
         inbetween(walk, (20, 28), [short], up="Y", method="library")
     with pytest.raises(ValueError, match=r"long enough.*Kalman transition fills gaps of up to"):
@@ -561,6 +563,12 @@ def test_gap_longer_than_library(humanoid, tmp_path):
                        tmp_path / "s.bvh", "--out", tmp_path / "o.bvh")  # fmt: skip
     assert code == 0, se
     assert "with the Kalman transition (no library clip is long enough" in so
+    from mocapkit.provenance import find_provenance
+    from mocapkit.viz.viewer import ViewMotion, page_data
+
+    out = tmp_path / "o.bvh"
+    vm = ViewMotion(read_motion(out), str(out), provenance=find_provenance(out))
+    assert page_data([vm])["stitch"]["note"].startswith("no library clip is long enough")
     code, so, se = run("inbetween", tmp_path / "w.bvh", "--gap", "20:120", "--library",
                        tmp_path / "s.bvh", "--out", tmp_path / "o2.bvh")  # fmt: skip
     assert code == 2 and not (tmp_path / "o2.bvh").exists()

@@ -1440,6 +1440,8 @@ class Inbetween:
         params["requested"] = self.requested
         if self.warning:
             params["warning"] = self.warning
+        if self.note:  # why no library segment filled the gap
+            params["note"] = self.note
         if self.method == "library":
             params["source_backwards"] = self.backwards
             params["blended_from"] = [dict(x) for x in self.blended_from]

@@ -330,6 +330,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         ],
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
+        "note": plan.parameters.get("note"),
     }
 
 

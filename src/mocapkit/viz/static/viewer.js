@@ -657,6 +657,7 @@
     };
     var blended = stitch.blended || [];
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
+        stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by averaging ' + blended.length + ' library segments, weighted by how well they match: ' + blended.map(segText).join('; ') :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
