@@ -887,3 +887,83 @@ def test_context_of_another_rig_is_named_with_the_difference() -> None:
     other.skeleton = dataclasses.replace(other.skeleton, names=tuple(names))
     with pytest.raises(ValueError, match=r"ctx\.bvh: a different skeleton .*missing joints"):
         SelfSimilarityCleaner().fit(walk, [other], names=["ctx.bvh"])
+
+
+class _FlagCell:
+    """Test rules: flag (or, as a veto, clear) cell (5, 0)."""
+
+    veto = False
+    signal = False
+
+    @classmethod
+    def from_config(cls, config):
+        return cls()
+
+    def apply(self, ev, flags):
+        cells = np.zeros(ev.shape, dtype=bool)
+        cells[5, 0] = True
+        (flags.veto if self.veto else flags.flag)(self.name, cells)
+
+    def describe(self, ev, frame, joint, flags=None):
+        return "test"
+
+
+class _First(_FlagCell):
+    name = "first"
+
+
+class _Clear(_FlagCell):
+    name = "clear"
+    veto = True
+
+
+class _Again(_FlagCell):
+    name = "again"
+
+
+def test_a_cell_cleared_and_flagged_again_is_the_later_rules() -> None:
+    """A veto clears a cell an earlier rule flagged, a later rule flags it again: the cell's
+    reasons (report, heat map, --explain) are the later rule's alone, and --explain says a
+    veto cleared the earlier flag, not that the flagged cell was cleared."""
+    from mocapkit.clean.detect import explain
+
+    ev = evidence(smooth(20))
+    fl = run_pipeline(ev, pipeline=(_First, _Clear, _Again))
+    assert fl.mask[5, 0] and fl.reasons_at(slice(5, 6), 0) == ["again"]
+    assert fl.primary(["first", "again"])[5, 0] == 1
+    assert fl.judged["clear"][5, 0]  # the decision the veto judged
+    ex = explain(ev, fl, 0, 5, pipeline=(_First, _Clear, _Again))
+    assert ex.flagged and ex.reasons == ["again"] and ex.cleared_by == ["clear"]
+    assert "FLAGGED by again (after clear cleared the earlier rules' flags)" in str(ex)
+    # without the later rule the veto's clearing stands
+    fl = run_pipeline(ev, pipeline=(_First, _Clear))
+    ex = explain(ev, fl, 0, 5, pipeline=(_First, _Clear))
+    assert not ex.flagged and "not flagged (cleared by clear)" in str(ex)
+
+
+def test_explain_names_the_run_a_veto_judged_and_a_spike_left_to_another_rule() -> None:
+    """The recurring veto's line names the flagged run it looked at (not the digressing run,
+    which a spike's frames need not be); a spike over its bar next to a run another rule
+    flagged first says why the spike rule left it."""
+    q = turn(smooth(90), slice(40, 41), 0, 50.0)
+    ev = evidence(q)
+    fl = Flags((90, 2))
+    fl.flag("other", np.zeros((90, 2), dtype=bool))
+    cells = np.zeros((90, 2), dtype=bool)
+    cells[40, 0] = True
+    fl.flag("spike-ish", cells)
+    RecurringVeto().apply(ev, fl)
+    text = RecurringVeto().describe(ev, 40, 0, fl)
+    assert "closest repeat of run 40:41" in text
+    assert "nothing to match" in RecurringVeto().describe(ev, 10, 0, fl)
+    # a spike beside a run flagged before the spike rule ran
+    near = Flags((90, 2))
+    run = np.zeros((90, 2), dtype=bool)
+    run[41:45, 0] = True
+    near.flag("mdm", run)
+    Spikes().apply(ev, near)
+    assert not near.added["spike"][40, 0]
+    assert "left to that rule" in Spikes().describe(ev, 40, 0, near)
+    alone = run_pipeline(ev, pipeline=(Spikes,))
+    assert alone.added["spike"][40, 0]
+    assert "left to that rule" not in Spikes().describe(ev, 40, 0, alone)

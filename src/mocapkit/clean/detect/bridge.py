@@ -47,7 +47,7 @@ class BridgeHoles:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         flags.flag(self.name, self.cells(ev, flags.mask))
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         n = ev.frames(self.max_seconds, 1)
         # the frames as this take has them: 0.05 s is 2 frames (0.067 s) at 30 fps
         return (

@@ -112,7 +112,7 @@ class CancellingJumps:
         if self.max_seconds > 0:
             flags.flag(self.name, self.cells(ev))
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         pk = np.flatnonzero(ev.jump_peaks[:, joint])
         before = pk[pk <= frame]
         after = pk[pk > frame]

@@ -41,7 +41,7 @@ class DominanceVeto:
             self.name, mdm_mod.dominated_runs(flags.mask, ev.z, abrupt_seeds(ev), self.ratio, pad)
         )
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         pad = ev.frames(self.pad_seconds)
         lo, hi = max(frame - pad, 0), frame + pad + 1
         others = np.delete(ev.z[lo:hi], joint, axis=1)

@@ -38,5 +38,5 @@ class ExtendToSteps:
         out = mdm_mod.extend_to_steps(flags.mask, ev.steps, np.radians(self.min_deg), ext)
         flags.flag(self.name, out & ~flags.mask)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         return f"step into this frame {deg(ev.steps[frame, joint])} (reaches {self.min_deg:g} deg)"

@@ -10,17 +10,23 @@ class Flags:
 
     ``mask`` is the current decision. ``added[name]`` holds the cells rule ``name`` flagged
     (whether or not they were flagged already), ``removed[name]`` the flagged cells veto
-    ``name`` cleared. A cell's reasons are the rules whose ``added`` holds it, in pipeline order.
+    ``name`` cleared, ``judged[name]`` the decision that veto judged (the mask before it ran:
+    ``--explain`` names the run a veto looked at). A cell's reasons are the rules whose
+    ``added`` holds it, in pipeline order.
     """
 
     def __init__(self, shape: tuple[int, int]) -> None:
         self.mask = np.zeros(shape, dtype=bool)
         self.added: dict[str, np.ndarray] = {}
         self.removed: dict[str, np.ndarray] = {}
+        self.judged: dict[str, np.ndarray] = {}
+        self._order: list[tuple[str, bool]] = []  # (rule, is a veto), as they first ran
 
     def flag(self, rule: str, cells: np.ndarray) -> None:
         """Flag ``cells`` ((F, J) bool) on behalf of ``rule``."""
         cells = np.asarray(cells, dtype=bool)
+        if rule not in self.added:
+            self._order.append((rule, False))
         prev = self.added.get(rule)
         self.added[rule] = cells.copy() if prev is None else (prev | cells)
         self.mask |= cells
@@ -28,6 +34,9 @@ class Flags:
     def veto(self, rule: str, cells: np.ndarray) -> None:
         """Clear ``cells`` ((F, J) bool) on behalf of the veto ``rule``."""
         cells = np.asarray(cells, dtype=bool)
+        if rule not in self.judged:
+            self.judged[rule] = self.mask.copy()
+            self._order.append((rule, True))
         gone = cells & self.mask
         prev = self.removed.get(rule)
         self.removed[rule] = gone if prev is None else (prev | gone)
@@ -41,18 +50,29 @@ class Flags:
                 out |= self.added[rule]
         return out
 
+    def live(self, rule: str) -> np.ndarray:
+        """(F, J) bool: the cells ``rule`` flagged that no veto running after it cleared (a
+        cell cleared and flagged again by a later rule is that rule's, not this one's)."""
+        cells = self.added[rule].copy()
+        after = False
+        for name, is_veto in self._order:
+            if name == rule and not is_veto:
+                after = True
+            elif after and is_veto:
+                cells &= ~self.removed[name]
+        return cells
+
     def reasons_at(self, frames: slice | np.ndarray, joint: int) -> list[str]:
-        """The rules that flagged any of ``frames`` of ``joint`` and whose cells are still
-        flagged there, in the order they ran."""
+        """The rules whose flags on any of ``frames`` of ``joint`` stand (:meth:`live`), in
+        the order they ran."""
         m = self.mask[frames, joint]
-        return [r for r, a in self.added.items() if (a[frames, joint] & m).any()]
+        return [r for r in self.added if (self.live(r)[frames, joint] & m).any()]
 
     def primary(self, order: list[str]) -> np.ndarray:
         """(F, J) int8: for each flagged cell the index in ``order`` of the first rule that
         flagged it (-1 where not flagged)."""
         out = np.full(self.mask.shape, -1, dtype=np.int8)
         for i, name in reversed(list(enumerate(order))):
-            a = self.added.get(name)
-            if a is not None:
-                out[a & self.mask] = i
+            if name in self.added:
+                out[self.live(name) & self.mask] = i
         return out

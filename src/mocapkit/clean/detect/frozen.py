@@ -37,7 +37,7 @@ class FrozenJoints:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         flags.flag(self.name, ev.frozen)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         q = ev.rotations[:, joint]
 
         def held(a: int, b: int) -> str:

@@ -43,7 +43,7 @@ class WrongWayHinges:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         flags.flag(self.name, ev.wrong_way)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         f = ev.hinge_flexion[frame, joint]
         if not np.isfinite(f):
             return "not a straight-at-rest knee or elbow"

@@ -101,7 +101,7 @@ class LimitReleaseVeto:
                         out[a : b + 1, j] = True
         flags.veto(self.name, out)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         span = self._excursion(ev, joint, frame, frame)
         if span is None:
             return "not in an excursion off a limit the joint is clamped at"

@@ -46,7 +46,7 @@ class PaperThreshold:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         flags.flag(self.name, ev.mdm > self.threshold)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         v = float(ev.mdm[frame, joint])
         rel = "above" if v > self.threshold else "not above"
         return f"MDM {v:.3f} {rel} the threshold {self.threshold:g}"
@@ -77,7 +77,7 @@ class MDMHysteresis:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         flags.flag(self.name, mdm_mod.hysteresis(ev.mdm > self.threshold, self._strong(ev)))
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         v = float(ev.mdm[frame, joint])
         strong = self._strong(ev)[:, joint]
         run = run_around((ev.mdm[:, joint] > self.threshold) | strong, frame)

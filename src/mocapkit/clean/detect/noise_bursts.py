@@ -52,7 +52,7 @@ class NoiseBursts:
     def apply(self, ev: Evidence, flags: Flags) -> None:
         flags.flag(self.name, ev.noise_bursts)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         need = (
             f"above {deg(ev.noise_level[joint])} (the larger of {self.min_deg:g} deg and "
             f"{self.ratio:g} x the joint's median) for {self.min_seconds:g} s"

@@ -170,7 +170,9 @@ class Explanation:
     def __str__(self) -> str:
         head = "FLAGGED" if self.flagged else "not flagged"
         why = f" by {', '.join(self.reasons)}" if self.flagged else ""
-        if self.cleared_by:
+        if self.cleared_by and self.flagged:  # cleared, then flagged again by a later rule
+            why += f" (after {', '.join(self.cleared_by)} cleared the earlier rules' flags)"
+        elif self.cleared_by:
             why += f" (cleared by {', '.join(self.cleared_by)})"
         out = [f"{self.joint} frame {self.frame} ({self.seconds:.3f} s): {head}{why}"]
         if not self.analysed:  # no rule's verdict applies: say so instead of listing them
@@ -215,16 +217,17 @@ def explain(
             verdict = "veto: cleared it" if hit else "veto: not applied"
             if hit:
                 cleared.append(rule.name)
+                reasons = []  # those flags are gone: a later rule may flag the cell again
             spares = getattr(rule, "spares", ())  # optional: rules whose cells a veto keeps
             spared = [r for r in spares if _holds(flags.added, r, frame, joint)]
             if spared and not hit:
                 verdict += f" (it spares {', '.join(spared)} cells)"
         else:
             verdict = "flagged it" if hit else "did not flag"
-            if hit and flags.mask[frame, joint]:
+            if hit:
                 reasons.append(rule.name)
         try:
-            measured = rule.describe(evidence, frame, joint)
+            measured = rule.describe(evidence, frame, joint, flags)
         except RuntimeError as e:  # a rule that needs maps on bare evidence
             measured = str(e)
         lines.append((rule.name, verdict, measured))
@@ -237,7 +240,7 @@ def explain(
         frame=int(frame),
         seconds=frame / evidence.fps,
         flagged=bool(flags.mask[frame, joint]),
-        reasons=reasons,
+        reasons=reasons if flags.mask[frame, joint] else [],
         cleared_by=cleared,
         mdm=float(evidence.mdm[frame, joint]) if evidence.mdm is not None else float("nan"),
         analysed=bool(evidence.analysed[joint]),

@@ -55,10 +55,16 @@ class RecurringVeto:
             ),
         )
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
-        run = run_around(ev.mdm[:, joint] > 0.5, frame) if ev.mdm is not None else None
-        if run is None:
-            return "no digressing run here to match"
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
+        judged = None if flags is None else flags.judged.get(self.name)
+        if judged is not None:  # the flagged run this veto looked at
+            run = run_around(judged[:, joint], frame)
+            if run is None:
+                return "not in a run flagged before this veto: nothing to match"
+        else:  # no decision at hand: the digressing run
+            run = run_around(ev.mdm[:, joint] > 0.5, frame) if ev.mdm is not None else None
+            if run is None:
+                return "no digressing run here to match"
         a, b = run
         if b - a + 1 > ev.frames(self.max_seconds):
             return f"run {a}:{b + 1} longer than {self.max_seconds:g} s: not a motif"

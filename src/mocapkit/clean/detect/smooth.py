@@ -153,12 +153,13 @@ class SmoothVeto:
             cells = mdm_mod.smooth_runs(flags.mask, ev.steps, keep, np.radians(self.min_deg), pad)
         flags.veto(self.name, cells)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         pad = ev.frames(self.pad_seconds)
         s = ev.steps[max(frame - pad, 0) : frame + pad + 1, joint].max()
         out = (
             f"largest step (change of the turn per frame) within {self.pad_seconds:g} s: "
-            f"{deg(s)} (needs {self.min_deg:g})"
+            f"{deg(s)} (a flagged run with no step of {self.min_deg:g} deg or more near it is "
+            "cleared as natural motion)"
         )
         if self.nearest:
             out += "; a step keeps only the flagged run nearest to it"

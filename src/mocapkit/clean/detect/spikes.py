@@ -74,7 +74,7 @@ class Spikes:
         near = ndimage.binary_dilation(flags.mask, structure=np.ones((2 * pad + 1, 1), dtype=bool))
         flags.flag(self.name, (ev.spike_size > self.bar(ev)) & self.whole(ev) & ~near)
 
-    def describe(self, ev: Evidence, frame: int, joint: int) -> str:
+    def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         size = ev.spike_size[frame, joint]
         bar = self.bar(ev)[joint]
         text = (
@@ -87,4 +87,14 @@ class Spikes:
                 f", but under {self.jump_share:g} of a jump near it: beside the jump into a "
                 "longer stretch, not a spike"
             )
+        elif size > bar and flags is not None and not _holds(flags, self.name, frame, joint):
+            text += (
+                f", but within {self.pad_seconds:g} s of a run another rule flagged first: its "
+                "wrong frames spoil the path through them, so the run is left to that rule"
+            )
         return text
+
+
+def _holds(flags: Flags, rule: str, frame: int, joint: int) -> bool:
+    cells = flags.added.get(rule)
+    return cells is not None and bool(cells[frame, joint])
