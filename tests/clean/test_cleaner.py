@@ -231,6 +231,12 @@ def test_contact_constraint_pins_the_effector(takes, ground_root) -> None:
     (held,) = pinned.contacts
     assert held.pinned and held.max_error == pytest.approx(e_pin.max())
     assert held.joint == "LeftToe" and (held.start, held.end) == (a + 2, b - 2)
+    assert held.held and "held to" in str(held) and held.as_dict()["held"]
+    # a point out of the leg's reach is pinned towards but not held, and says so
+    away = ContactConstraint(toe, a + 2, b - 2, tuple(pos[a + 2, toe] + np.array([0, 2.0, 0])))
+    (missed,) = cl.repair(contacts=[away]).contacts
+    assert missed.pinned and not missed.held and "NOT held" in str(missed)
+    assert missed.max_error > missed.tolerance > 0 and not missed.as_dict()["held"]
     far = ContactConstraint("LeftHand", 5, 8)
     (untouched,) = cl.repair(contacts=[far]).contacts
     assert not untouched.pinned and "not pinned" in str(untouched)

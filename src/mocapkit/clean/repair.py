@@ -15,6 +15,7 @@ cells take the smoothed values.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ from scipy.signal import savgol_filter
 from mocapkit.core import rotations as rot
 from mocapkit.core.checks import whole_number
 from mocapkit.core.motion import Motion
+from mocapkit.features import character_height
 
 
 def default_margin(fps: float) -> int:
@@ -77,6 +79,8 @@ class ContactHeld:
         pinned: whether the repair wrote any joint of the effector's chain there; the pin
             changes only written cells, so a contact where nothing was repaired keeps the
             effector where the take has it (``max_error`` says how far that is).
+        tolerance: how close counts as held (take units): :data:`HELD_FRACTION` of the
+            character's height; ``held`` says whether ``max_error`` is within it.
     """
 
     joint: str
@@ -86,6 +90,11 @@ class ContactHeld:
     max_error: float
     mean_error: float
     pinned: bool
+    tolerance: float = math.inf
+
+    @property
+    def held(self) -> bool:
+        return self.max_error <= self.tolerance
 
     def as_dict(self) -> dict:
         return {
@@ -95,6 +104,8 @@ class ContactHeld:
             "max_error": self.max_error,
             "mean_error": self.mean_error,
             "pinned": self.pinned,
+            "held": self.held,
+            "tolerance": self.tolerance if math.isfinite(self.tolerance) else None,
         }
 
     def __str__(self) -> str:
@@ -103,6 +114,13 @@ class ContactHeld:
             return (
                 f"{where}: not pinned (the repair wrote no joint of its chain there); the "
                 f"effector is {self.max_error:.3g} (take units) from the point at most"
+            )
+        if not self.held:
+            return (
+                f"{where}: NOT held: the effector ends up to {self.max_error:.3g} (take units) "
+                f"from the point ({self.mean_error:.3g} mean), more than the "
+                f"{self.tolerance:.3g} a hold allows ({HELD_FRACTION:.0%} of the character's "
+                "height): is the point within the limb's reach?"
             )
         return (
             f"{where}: held to {self.max_error:.3g} (take units) of the point at most "
@@ -219,6 +237,14 @@ class ContactConstraint:
         return pos[0, self.joint].copy()
 
 
+HELD_FRACTION = 0.03
+"""A contact counts as held where its effector stays within this fraction of the character's
+height of the point (about 5 cm for a person, a hand's or a foot's width): further off, it is
+not on the point. The IK's residual on a point within reach is well under it (a procedural
+walk's pinned toe: 1.9 cm at most, 0.7 cm mean); a point out of reach is far over it (a hand
+pinned for 20 frames of a Bandai walk, 120 cm)."""
+
+
 def chain_of(motion: Motion, joint: int, length: int = 2) -> list[int]:
     """The ``length`` ancestors of ``joint`` that move it (parent first), e.g. elbow, shoulder."""
     return motion.skeleton.ancestors(joint)[:length]
@@ -249,6 +275,7 @@ def contact_held(
         float(err.max()),
         float(err.mean()),
         bool(written[fr][:, chain].any()),
+        HELD_FRACTION * character_height(motion),
     )
 
 
