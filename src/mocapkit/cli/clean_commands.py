@@ -131,9 +131,10 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     type=click.FloatRange(0.0, 1.0),
     default=THRESHOLD,
     show_default=True,
-    help="MDM level a flagged stretch of a joint extends down to (DetectConfig.threshold); "
-    "the rules of mocapkit.clean.detect.PIPELINE decide which stretches are flagged, and "
-    "--explain shows their verdicts on one cell.",
+    help="MDM level of the mdm rule: a flagged stretch of a joint extends down to it "
+    "(DetectConfig.threshold). The other rules of mocapkit.clean.detect.PIPELINE (jumps, "
+    "spikes, holds, noise, wrong-way hinges) do not read it, so it changes little where they "
+    "find the errors; --explain shows every rule's verdict on one cell.",
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
@@ -250,7 +251,9 @@ def clean_command(
     Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is natural: no step
     near the stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit
     its solver clamps it at (limit-release). --explain JOINT:FRAME says which rule decided a
-    cell and why. With --out, flagged cells are replaced by the neighbours' median, blended at
+    cell and why. Joint rotations are judged; translations (the root's path over the ground,
+    animated bone offsets) are not checked. With --out, flagged cells are replaced by the
+    neighbours' median, blended at
     the edges, and where a repaired joint moves a planted foot (a hip, knee or ankle, or the
     pelvis, under a foot on the ground) IK on that leg holds the foot where it was planted. All
     other joints and frames keep their rotations bit for bit (the written file's angles are
