@@ -532,9 +532,17 @@ def write_page(path: str | Path, motions: Sequence[ViewMotion], **kwargs: Any) -
     return p
 
 
+OVERLAY_KEYS = {
+    "stitch result": ("takeoff", "landing", "k"),
+}
+"""Keys an overlay file must have to be what its option says (a check, not a schema): an
+in-betweening result given as a stitch result drew 'take-off 0, injected frames 1-0'."""
+
+
 def read_overlay_json(path: str | Path, what: str) -> dict[str, Any]:
     """A JSON overlay file (cleaning report, stitch result, motion graph) as a dict;
-    FileNotFoundError / ValueError with a one-line message naming ``what``."""
+    FileNotFoundError / ValueError with a one-line message naming ``what`` (also when it
+    lacks the keys :data:`OVERLAY_KEYS` names for ``what``)."""
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -543,6 +551,15 @@ def read_overlay_json(path: str | Path, what: str) -> dict[str, Any]:
         raise ValueError(f"cannot read {what} {path}: {e}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{what} {path}: expected a JSON object")
+    missing = [k for k in OVERLAY_KEYS.get(what, ()) if k not in data]
+    if missing:
+        hint = ""
+        if "gap" in data and "blended_from" in data:
+            hint = (
+                " (it is an in-betweening result: `mocapkit view OUT.bvh` finds the "
+                "in-betweened file's sidecar)"
+            )
+        raise ValueError(f"{path}: not a {what} (no {', '.join(missing)}){hint}")
     return data
 
 
