@@ -396,6 +396,21 @@ def test_check_gap(gap, msg):
         check_gap(gap, 150)
 
 
+def test_a_gap_over_average_max_seconds_is_filled_by_the_best_segment_alone(humanoid):
+    """Averaged segments drift out of step over a long gap (the average foot creeps): past
+    average_max_seconds the best segment fills it alone, as the search ranked it."""
+    from dataclasses import replace
+
+    walk, lib = humanoid
+    short = inbetween(walk, (40, 85), lib[:3], up="Y", method="library")  # 1.5 s at 30 fps
+    assert len(short.blended_from) == DEFAULT_CONFIG.neighbours
+    long = inbetween(walk, (40, 86), lib[:3], up="Y", method="library")
+    assert len(long.blended_from) == 1 and long.blended_from[0]["weight"] == 1.0
+    assert long.blended_from[0]["source"] == long.source  # the search's best
+    more = replace(DEFAULT_CONFIG, average_max_seconds=2.0)
+    assert len(inbetween(walk, (40, 86), lib[:3], up="Y", config=more).blended_from) > 1
+
+
 def test_a_gap_in_seconds_is_read_at_the_clips_frame_rate():
     assert check_gap("2.0s:3.0s", 150, fps=30.0) == (60, 90)
     assert check_gap("60:3.0s", 150, fps=30.0) == (60, 90)

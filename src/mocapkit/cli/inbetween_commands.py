@@ -92,13 +92,15 @@ def inbetween_cmd(
     over the ground across the gap. The best segments (six) are each moved over the
     ground onto both ends, their remaining pose differences blended away, and averaged, the
     better-scored counting more (a segment matching the context exactly all but alone), so the
-    result meets the context poses exactly. The gap needs at least 3 frames of the clip before
-    it and 1 after it: a gap that reaches the clip's first 3 frames or its last frame is
-    refused. With --method auto the Kalman transition of stitching fills a gap of up to 0.3 s
-    instead, and says so, when the library fill's two-sided L-score (smoothness at both
-    junctions, lower is better) is more than 4x the Kalman transition's own. A warning says
-    when the best segment's path over the ground misses the clip's by more than 0.5 m: the
-    library then holds nothing like the motion around the gap.
+    result meets the context poses exactly; a gap over 1.5 s is filled by the best segment
+    alone (averaged segments drift out of step over a few strides, and their feet slide).
+    The gap needs at least 3 frames of the clip before it and 1 after it: a gap that
+    reaches the clip's first 3 frames or its last frame is refused. With --method auto the
+    Kalman transition of stitching fills a gap of up to 0.3 s instead, and says so, when the
+    library fill's two-sided L-score (smoothness at both junctions, lower is better) is more
+    than 4x the Kalman transition's own. A warning says when the best segment's path over
+    the ground misses the clip's by more than 0.5 m: the library then holds nothing like the
+    motion around the gap.
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
     OUT`` marks them); --json writes the same with the scores. A library file that cannot be
     read, or has another skeleton, gets one error line and is left out; the gap is still
