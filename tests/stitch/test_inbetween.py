@@ -500,7 +500,8 @@ def test_cli_writes_motion_and_sidecar(files):
     "gap, msg",
     [("40:20", "reversed"), ("abc", "expected A:B"), ("1:20", "3 <= A < B"),
      ("100:400", "expected 3 <= A < B < 150"), ("100:", "both ends given"),
-     (":70", "both ends given"), ("30:30", "empty")],
+     (":70", "both ends given"), ("30:30", "empty"),
+     ("60:90s", "gap 60:90s (frames 60:2700): expected 3 <= A < B < 150")],
 )  # fmt: skip
 def test_cli_bad_gap(files, gap, msg):
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", gap, "--library",

@@ -144,7 +144,7 @@ def inbetween_cmd(
     with naming(clip):
         try:  # the take's bound is the gap's own rule (check_gap), said in full
             a, b = spec.frames(q.fps, None)
-            check_gap((a, b), q.num_frames, clip)
+            check_gap(gap, q.num_frames, clip, q.fps)
         except RangeError as e:
             raise CLIError(f"{clip}: {e}") from None
     # as every library job: a file that cannot be read, or has another skeleton, is left out

@@ -352,8 +352,14 @@ def check_gap(
             "context frames before the gap, one in it, 1 after it)"
         )
     if not 3 <= a < b < num_frames:
+        # a gap given with a time says which frames that was (60:90s is frames 60:2700)
+        given = (
+            f"gap {gap} (frames {a}:{b})"
+            if isinstance(gap, str) and "s" in gap
+            else (f"gap {a}:{b}")
+        )
         raise ValueError(
-            f"{name}: gap {a}:{b}: expected 3 <= A < B < {num_frames} (it has {num_frames} "
+            f"{name}: {given}: expected 3 <= A < B < {num_frames} (it has {num_frames} "
             "frames; at least 3 context frames are needed before the gap and 1 after it)"
         )
     return a, b
