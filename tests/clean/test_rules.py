@@ -213,6 +213,18 @@ def test_cancelling_jumps_leave_a_clean_end_frame_out_of_a_cut_off_error() -> No
         assert cells[:, 1].sum() == stretch.stop - stretch.start
         text = CancellingJumps().describe(ev, stretch.start, 1)
         assert ("frame 0 is clean" if clean == 0 else "the last frame is clean") in text
+    # ... also where the joint turns fast on its own (10 deg a frame: the raw steps of a 30
+    # deg pop do not cancel, their parts beyond the joint's own turn do)
+    t = np.arange(F)
+    rv = np.zeros((F, 2, 3))
+    rv[:, 1, 1] = np.radians(10.0) * t  # a steady spin about y
+    spin = rot.rotvec_to_quat(rv)
+    for stretch, clean in ((slice(1, 2), 0), (slice(F - 2, F - 1), F - 1)):
+        mdm = np.zeros((F, 2))
+        mdm[stretch, 1] = 0.9
+        ev = evidence(turn(spin, stretch, 1, 30.0), mdm=mdm)
+        cells = CancellingJumps().cells(ev)
+        assert ev.cut_off[clean, 1] and cells[stretch, 1].all() and not cells[clean, 1]
     # the same errors running from the take's first frame (to its last) keep that frame
     for stretch in (slice(0, 4), slice(F - 4, F)):
         mdm = np.zeros((F, 2))
@@ -311,7 +323,12 @@ def test_spikes_on_a_takes_first_and_last_frames() -> None:
     popped = turn(steady, slice(9, 10), 0, 30.0, axis=(1.0, 0.0, 0.0))
     size = np.degrees(mdm_mod.end_spike_size(popped))
     assert np.isclose(size[9, 0], 30.0) and np.allclose(size[:9], 0.0)
-    assert not mdm_mod.end_spike_size(steady[:2]).any()
+    assert not mdm_mod.end_spike_size(steady[:4]).any()  # too short to read a turn apart
+    # a pop on a frame beside the end (or on two) is not blamed on the clean end frame
+    for frames in (slice(1, 2), slice(2, 3), slice(1, 3), slice(7, 8), slice(8, 9)):
+        end = 0 if frames.start < 5 else 9
+        popped = turn(steady, frames, 0, 30.0, axis=(1.0, 0.0, 0.0))
+        assert np.degrees(mdm_mod.end_spike_size(popped)[end, 0]) < 1.0
 
 
 def test_frozen_joints() -> None:

@@ -706,19 +706,27 @@ def spike_size(rotations: np.ndarray, max_frames: int, floor: float = 0.0) -> np
 
 
 def end_spike_size(rotations: np.ndarray) -> np.ndarray:
-    """(F, J) radians: how far a take's first and last frames lie from the constant turn of the
-    two frames beside them (frame 0 from ``q1 (q1^-1 q2)^-1``, the last frame likewise), 0 on
-    every other frame and on takes under 3 frames. :func:`spike_size` cannot score them (its
-    cubic needs two frames either side); a joint's turn changes per frame by its jump, so a
-    natural end frame lies off by about one ordinary jump, and a pop on it by the pop's angle.
-    """
+    """(F, J) radians: how far a take's first and last frames lie from the joint's constant
+    turn through the frames beside them, 0 on every other frame and on takes under 5 frames.
+    :func:`spike_size` cannot score them (its cubic needs two frames either side); a joint's
+    turn changes per frame by its jump, so a natural end frame lies off by about one ordinary
+    jump, and a pop on it by the pop's angle. The turn is read from the frame pairs (1, 2),
+    (1, 3), (2, 3) and (3, 4) counted from the end, and the end frame takes the smallest miss:
+    a pop on one of those frames (or on two neighbours) spoils some pairs, never all, so it is
+    not blamed on the clean end frame beside it."""
     q = np.asarray(rotations, dtype=np.float64)
     out = np.zeros(q.shape[:2])
-    if q.shape[0] < 3:
+    F = q.shape[0]
+    if F < 5:
         return out
-    for end, near, far in ((0, 1, 2), (-1, -2, -3)):
-        ahead = rot.quat_mul(q[near], rot.quat_mul(rot.quat_inv(q[far]), q[near]))
-        out[end] = rot.quat_angle(q[end], ahead)
+    for end, sign in ((0, 1), (F - 1, -1)):
+        best = np.full(q.shape[1], np.inf)
+        for i, j in ((1, 2), (1, 3), (2, 3), (3, 4)):
+            qi, qj = q[end + sign * i], q[end + sign * j]
+            per_frame = rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(qi), qj)) / (j - i)
+            ahead = rot.quat_mul(qi, rot.rotvec_to_quat(-i * per_frame))
+            best = np.minimum(best, rot.quat_angle(q[end], ahead))
+        out[end] = best
     return out
 
 

@@ -79,13 +79,22 @@ class CancellingJumps:
         where jumps are undefined, so the take's end frame is clean (a one-frame spike on frame
         1 flagged frame 0 too)."""
         F = ev.shape[0]
-        if b - a < 1 or not (a == 0 or b == F - 1) or (a == 0 and b == F - 1):
+        if b - a < 1 or not (a == 0 or b == F - 1) or (a == 0 and b == F - 1) or F < 5:
             return a, b
         q = ev.rotations[:, j]
-        # steps i -> i + 1: the outer one at the take's end, the inner one at the stretch's jump
-        outer, inner = (0, b) if a == 0 else (F - 2, a - 1)
+        # steps i -> i + 1: the outer one at the take's end, the inner one at the stretch's
+        # jump, each less the joint's own turn beside it (a knee turning 10 deg a frame would
+        # spoil the cancelling of a 30 deg pop's two steps): the step after the exit / before
+        # the entry, or, for a stretch of two frames or more, its own first / last step
+        if a == 0:
+            outer, inner = 0, b
+            own_outer, own_inner = (1 if b >= 2 else b + 1), min(b + 1, F - 2)
+        else:
+            outer, inner = F - 2, a - 1
+            own_outer, own_inner = (F - 3 if a <= F - 3 else a - 2), max(a - 2, 0)
         for step in (_body_step, _parent_step):
-            u, v = step(q, outer), step(q, inner)
+            u = step(q, outer) - step(q, own_outer)
+            v = step(q, inner) - step(q, own_inner)
             if np.linalg.norm(u + v) < self.tol * min(np.linalg.norm(u), np.linalg.norm(v)):
                 return (1, b) if a == 0 else (a, F - 2)
         return a, b
