@@ -695,6 +695,11 @@ def test_kalman_needs_no_library(files, tmp_path, humanoid):
     code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:68", "--method", "kalman",
                        "--out", tmp_path / "k.bvh")  # fmt: skip
     assert code == 0 and "Kalman transition" in so, se
+    # "auto" past kalman_max_seconds says the fallback was not open, not that it was weighed
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                       files / "lib", "--out", tmp_path / "a.bvh")  # fmt: skip
+    assert code == 0 and "a gap over 0.3 s is not given to the Kalman transition" in so, se
+    assert "is not over" not in so
     # past kalman_max_seconds it is refused: it carries the ends' accelerations across the gap
     code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
                        "--out", tmp_path / "k2.bvh")  # fmt: skip

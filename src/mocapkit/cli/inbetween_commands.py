@@ -218,11 +218,14 @@ def inbetween_cmd(
     else:
         n = len(counted)
         what = res.source if n == 1 else f"{n} library segments averaged (weighted by score)"
-        within = (
-            f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
-            if method == "auto"
-            else ""
-        )
+        within = ""
+        if method == "auto" and b - a > kalman_max_frames(res.motion):
+            within = (
+                f"; a gap over {DEFAULT_CONFIG.kalman_max_seconds:g} s is not given to the "
+                "Kalman transition"
+            )
+        elif method == "auto":
+            within = f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
         say(f"filled frames {a}:{b} from {what} ({scores}{within})")
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():

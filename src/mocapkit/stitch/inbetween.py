@@ -94,7 +94,11 @@ without a margin sent 10, 11, 1 and 0 of the gaps of 5, 15, 30 and 45 frames to 
 transition, which was the better fill on 5, 0, 0 and 0 of them (L2P at 15 frames 4.9 against
 1.55 never falling back). The ratio of the two scores does not tell the better fill (ratios of
 the Kalman's wins 0.6 to 1.3, of the library's 0.1 to 2.3); the margin keeps the fallback for a
-library that has nothing like the context.
+library that has nothing like the context. The Kalman transition fills gaps of up to
+:attr:`InbetweenConfig.kalman_max_seconds` only (its error grows with the square of the gap's
+length): a longer gap keeps the library fill, and is refused where no library segment fits.
+A gap over :attr:`InbetweenConfig.average_max_seconds` is filled by the best segment alone,
+not an average (averaged segments drift out of step and their feet creep).
 
 **Feet.** Finally the feet the filled frames plant are held by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
@@ -215,7 +219,8 @@ class InbetweenConfig:
     so the context frames are untouched and the junctions do not pop."""
     fallback: bool = True
     """Fill with the Kalman transition when the library fill's two-sided L-score is more than
-    ``fallback_margin`` times the Kalman transition's own."""
+    ``fallback_margin`` times the Kalman transition's own (on gaps of up to
+    ``kalman_max_seconds`` only)."""
     fallback_margin: float = 4.0
     """See :attr:`fallback` and the module docstring (Fallback): above every ratio seen on the
     tuning takes where the library fill was the better one."""
@@ -1556,9 +1561,11 @@ def inbetween(
     reuse over many gaps); see the module docstring. ``future_frames`` limits how many frames
     from B on the method may look at (default: the L-score window). Frames before A and from B
     on are returned unchanged. ``method``: "auto" (the library, or the Kalman transition when
-    the best candidate's two-sided L-score is higher than the Kalman transition's own and
-    ``config.fallback``), "library" (never fall back) or "kalman" (the Kalman transition; the
-    search still runs, for the report). Returns :class:`Inbetween`."""
+    the best candidate's two-sided L-score is more than ``config.fallback_margin`` times the
+    Kalman transition's own, ``config.fallback`` is on and the gap is within
+    ``config.kalman_max_seconds``), "library" (never fall back) or "kalman" (the Kalman
+    transition, ValueError past ``config.kalman_max_seconds``; the search still runs, for the
+    report). Returns :class:`Inbetween`."""
     from mocapkit import features
     from mocapkit.stitch.transition import _join
 
