@@ -952,6 +952,22 @@ def test_a_cell_cleared_and_flagged_again_is_the_later_rules() -> None:
     ex = explain(ev, fl, 0, 5, pipeline=(_First, _Clear, _Again))
     assert ex.flagged and ex.reasons == ["again"] and ex.cleared_by == ["clear"]
     assert "FLAGGED by again (after clear cleared the earlier rules' flags)" in str(ex)
+    # a rule that flags again after the veto (two rules of one name), a veto that runs twice
+    again = Flags((20, 2))
+    cell = np.zeros((20, 2), dtype=bool)
+    cell[5, 0] = True
+    again.flag("a", cell)
+    again.veto("v", cell)
+    again.flag("a", cell)
+    assert again.mask[5, 0] and again.reasons_at(slice(5, 6), 0) == ["a"]
+    twice = Flags((20, 2))
+    twice.flag("a", cell)
+    twice.veto("v", cell)
+    twice.flag("b", cell)
+    twice.veto("v", cell)
+    assert not twice.mask[5, 0] and not twice.live("b").any() and not twice.live("a").any()
+    twice.flag("c", cell)
+    assert twice.reasons_at(slice(5, 6), 0) == ["c"]
     # without the later rule the veto's clearing stands
     fl = run_pipeline(ev, pipeline=(_First, _Clear))
     ex = explain(ev, fl, 0, 5, pipeline=(_First, _Clear))

@@ -216,7 +216,7 @@ def run(
         mask = flags.mask.copy()
         segments = tuple(cleaner.segments())
         rules = tuple(cleaner.rule_names())
-        reason_names = tuple(r for r in rules if r in flags.added and (flags.added[r] & mask).any())
+        reason_names = tuple(r for r in rules if r in flags.added and (flags.live(r) & mask).any())
         decision = flags.primary(list(reason_names))
     else:
         mask = RotationBaseline(baseline).fit(list(context)).mask(motion)

@@ -20,13 +20,13 @@ class Flags:
         self.added: dict[str, np.ndarray] = {}
         self.removed: dict[str, np.ndarray] = {}
         self.judged: dict[str, np.ndarray] = {}
-        self._order: list[tuple[str, bool]] = []  # (rule, is a veto), as they first ran
+        # every call in the order made: (rule, is a veto, the cells it flagged / cleared)
+        self._events: list[tuple[str, bool, np.ndarray]] = []
 
     def flag(self, rule: str, cells: np.ndarray) -> None:
         """Flag ``cells`` ((F, J) bool) on behalf of ``rule``."""
         cells = np.asarray(cells, dtype=bool)
-        if rule not in self.added:
-            self._order.append((rule, False))
+        self._events.append((rule, False, cells.copy()))
         prev = self.added.get(rule)
         self.added[rule] = cells.copy() if prev is None else (prev | cells)
         self.mask |= cells
@@ -36,8 +36,8 @@ class Flags:
         cells = np.asarray(cells, dtype=bool)
         if rule not in self.judged:
             self.judged[rule] = self.mask.copy()
-            self._order.append((rule, True))
         gone = cells & self.mask
+        self._events.append((rule, True, gone))
         prev = self.removed.get(rule)
         self.removed[rule] = gone if prev is None else (prev | gone)
         self.mask &= ~cells
@@ -53,13 +53,12 @@ class Flags:
     def live(self, rule: str) -> np.ndarray:
         """(F, J) bool: the cells ``rule`` flagged that no veto running after it cleared (a
         cell cleared and flagged again by a later rule is that rule's, not this one's)."""
-        cells = self.added[rule].copy()
-        after = False
-        for name, is_veto in self._order:
-            if name == rule and not is_veto:
-                after = True
-            elif after and is_veto:
-                cells &= ~self.removed[name]
+        cells = np.zeros(self.mask.shape, dtype=bool)
+        for name, is_veto, changed in self._events:
+            if is_veto:
+                cells &= ~changed
+            elif name == rule:
+                cells |= changed
         return cells
 
     def reasons_at(self, frames: slice | np.ndarray, joint: int) -> list[str]:
