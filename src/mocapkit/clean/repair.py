@@ -80,7 +80,10 @@ class ContactHeld:
             changes only written cells, so a contact where nothing was repaired keeps the
             effector where the take has it (``max_error`` says how far that is).
         tolerance: how close counts as held (take units): :data:`HELD_FRACTION` of the
-            character's height; ``held`` says whether ``max_error`` is within it.
+            character's height.
+        pinned_max_error: the largest distance over the frames where the repair wrote the
+            effector's chain (the frames the pin could move); ``held`` says whether it is
+            within ``tolerance``. Frames the repair did not touch are the take's own.
     """
 
     joint: str
@@ -91,10 +94,11 @@ class ContactHeld:
     mean_error: float
     pinned: bool
     tolerance: float = math.inf
+    pinned_max_error: float = 0.0
 
     @property
     def held(self) -> bool:
-        return self.max_error <= self.tolerance
+        return self.pinned_max_error <= self.tolerance
 
     def as_dict(self) -> dict:
         return {
@@ -106,6 +110,7 @@ class ContactHeld:
             "pinned": self.pinned,
             "held": self.held,
             "tolerance": self.tolerance if math.isfinite(self.tolerance) else None,
+            "pinned_max_error": self.pinned_max_error,
         }
 
     def __str__(self) -> str:
@@ -117,15 +122,22 @@ class ContactHeld:
             )
         if not self.held:
             return (
-                f"{where}: NOT held: the effector ends up to {self.max_error:.3g} (take units) "
-                f"from the point ({self.mean_error:.3g} mean), more than the "
+                f"{where}: NOT held: on the frames the repair wrote the effector ends up to "
+                f"{self.pinned_max_error:.3g} (take units) from the point, more than the "
                 f"{self.tolerance:.3g} a hold allows ({HELD_FRACTION:.0%} of the character's "
                 "height): is the point within the limb's reach?"
             )
-        return (
+        text = (
             f"{where}: held to {self.max_error:.3g} (take units) of the point at most "
             f"({self.mean_error:.3g} mean)"
         )
+        if self.max_error > self.tolerance:  # off where the repair wrote nothing
+            text = (
+                f"{where}: held to {self.pinned_max_error:.3g} (take units) of the point on the "
+                f"frames the repair wrote; the take's own frames are up to "
+                f"{self.max_error:.3g} from it ({self.mean_error:.3g} mean over the contact)"
+            )
+        return text
 
 
 def repair_cells(
@@ -267,6 +279,7 @@ def contact_held(
     err = effector_error(motion, contact, target)
     fr = contact.frames(motion.num_frames)
     chain = chain_of(motion, contact.joint)
+    moved = written[fr][:, chain].any(axis=1)
     return ContactHeld(
         motion.skeleton.names[contact.joint],
         int(fr[0]),
@@ -274,8 +287,9 @@ def contact_held(
         (float(target[0]), float(target[1]), float(target[2])),
         float(err.max()),
         float(err.mean()),
-        bool(written[fr][:, chain].any()),
+        bool(moved.any()),
         HELD_FRACTION * character_height(motion),
+        float(err[moved].max()) if moved.any() else 0.0,
     )
 
 
