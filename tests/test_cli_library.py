@@ -364,3 +364,29 @@ def test_view_of_a_folder_shows_the_files_it_can_read(clips, tmp_path) -> None:
     assert err.count("--up Z, but its body stands along Y") == 2  # each file shown, judged
     code, _, err = run("view", str(lib / "broken.bvh"), "--out", str(tmp_path / "b.html"))
     assert code == 2 and not (tmp_path / "b.html").exists() and err.count("\n") == 1
+
+
+def test_clean_folder_says_when_a_take_is_cleaned_against_itself_alone(tmp_path) -> None:
+    """Newcomer report: in folder mode, takes whose related takes all have another skeleton
+    were cleaned with no context and nothing said so (only their report's "context": [])."""
+    from mocapkit.edit.joints import rename_joints
+
+    walk = datasets.procedural_motion("walk", 6.0, seed=1).motion
+    other = rename_joints(walk, {walk.skeleton.names[1]: "Renamed"})
+    lib = tmp_path / "lib"
+    write_motion(walk, lib / "a.bvh")
+    write_motion(other, lib / "b.bvh")
+    code, out, err = run("clean", str(lib), "--report-dir", str(tmp_path / "rep"),
+                         "--context-by", "all")  # fmt: skip
+    assert code == 0, err
+    assert (
+        "a.bvh: cleaned against itself alone: its related takes were left out (b.bvh: a "
+        "different skeleton" in out
+    )
+    # takes that do have context say nothing of it
+    write_motion(walk, lib / "c.bvh")
+    code, out, err = run("clean", str(lib), "--report-dir", str(tmp_path / "rep2"),
+                         "--context-by", "all")  # fmt: skip
+    assert code == 0, err
+    assert "a.bvh: cleaned against itself alone" not in out
+    assert "b.bvh: cleaned against itself alone" in out

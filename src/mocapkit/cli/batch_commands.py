@@ -124,9 +124,17 @@ def clean_folder(
     def on_take(r: dict[str, Any]) -> None:
         if "error" in r:
             click.echo(f"mocapkit: error: {one_line(r['error'])}", err=True)
-        elif not quiet and r["flagged_seconds"] > 0:
-            worst = ", ".join(w["joint"] for w in r["worst_joints"][:3])
-            click.echo(f"{r['take']}: {r['flagged_seconds']:.2f} s flagged ({worst})")
+        elif not quiet:
+            if r["flagged_seconds"] > 0:
+                worst = ", ".join(w["joint"] for w in r["worst_joints"][:3])
+                click.echo(f"{r['take']}: {r['flagged_seconds']:.2f} s flagged ({worst})")
+            left = r.get("context_skipped") or []
+            if left and not r.get("context"):  # every related take left out: say so
+                more = f" and {len(left) - 1} more" if len(left) > 1 else ""
+                click.echo(
+                    f"{r['take']}: cleaned against itself alone: its related takes were left "
+                    f"out ({one_line(left[0])}{more})"
+                )
 
     t0 = time.perf_counter()
     with (
