@@ -588,7 +588,8 @@ def test_gap_longer_than_library(humanoid, tmp_path):
     code, so, se = run("inbetween", tmp_path / "w.bvh", "--gap", "20:120", "--library",
                        tmp_path / "s.bvh", "--out", tmp_path / "o2.bvh")  # fmt: skip
     assert code == 2 and not (tmp_path / "o2.bvh").exists()
-    assert "Kalman transition fills gaps of up to 0.3 s" in se and "Traceback" not in se
+    assert "Kalman transition fills gaps of up to 9 frames (0.3 s at 30 fps)" in se
+    assert "a library with clips long enough" in se and "Traceback" not in se
 
 
 def test_view_marks_filled_frames(files):
@@ -703,7 +704,8 @@ def test_kalman_needs_no_library(files, tmp_path, humanoid):
     # past kalman_max_seconds it is refused: it carries the ends' accelerations across the gap
     code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
                        "--out", tmp_path / "k2.bvh")  # fmt: skip
-    assert code == 2 and "fills gaps of up to 0.3 s (9 frames" in se
+    assert code == 2 and "fills gaps of up to 9 frames (0.3 s at 30 fps)" in se
+    assert "fill it from a library (none was given)" in se
     assert not (tmp_path / "k2.bvh").exists()
     code, _, se = run(
         "inbetween", files / "walk.bvh", "--gap", "60:75", "--out", tmp_path / "x.bvh"

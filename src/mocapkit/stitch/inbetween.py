@@ -1586,7 +1586,7 @@ def inbetween(
     mpu = features.metres_per_unit(clip, None)
     kalman_ok = b - a <= kalman_max_frames(clip, config)
     if method == "kalman" and not kalman_ok:
-        raise ValueError(_kalman_too_long(clip, a, b, config))
+        raise ValueError(_kalman_too_long(clip, a, b, config, lib is not None))
     t0 = time.perf_counter()
     note = ""
     try:
@@ -1677,14 +1677,16 @@ def kalman_max_frames(clip: Motion, config: InbetweenConfig = DEFAULT_CONFIG) ->
     return clip.seconds_to_frames(config.kalman_max_seconds)
 
 
-def _kalman_too_long(clip: Motion, a: int, b: int, config: InbetweenConfig) -> str:
-    g = b - a
+def _kalman_too_long(
+    clip: Motion, a: int, b: int, config: InbetweenConfig, library: bool = True
+) -> str:
+    g, k = b - a, kalman_max_frames(clip, config)
+    remedy = "a library with clips long enough" if library else "a library (none was given)"
     return (
-        f"the Kalman transition fills gaps of up to {config.kalman_max_seconds:g} s "
-        f"({kalman_max_frames(clip, config)} frames at {clip.fps:.6g} fps), the gap {a}:{b} is "
-        f"{g} frames ({g * clip.frame_time:.3g} s): over a longer gap it carries the motion's "
-        "accelerations across it and strays from the ground; fill it from a library with clips "
-        "long enough, or make the gap shorter"
+        f"the Kalman transition fills gaps of up to {k} frames ({config.kalman_max_seconds:g} s "
+        f"at {clip.fps:.6g} fps), the gap {a}:{b} is {g} frames ({g * clip.frame_time:.3g} s): "
+        "over a longer gap it carries the motion's accelerations across it and strays from the "
+        f"ground; fill it from {remedy}, or make the gap shorter"
     )
 
 
