@@ -468,6 +468,17 @@ def _body_steps(q: np.ndarray) -> np.ndarray:
     return rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[:-1]), q[1:]))
 
 
+def frame_steps(q: np.ndarray, frame: str = "body") -> np.ndarray:
+    """(F - 1, ..., 3) rotation vectors of the steps from frame ``i`` to ``i + 1`` of the
+    rotations ``q`` (F, ..., 4): ``log(q[i]^-1 q[i+1])`` in the joint's own (``"body"``) frame
+    or ``log(q[i+1] q[i]^-1)`` in its parent's (``"parent"``)."""
+    if frame == "body":
+        return _body_steps(q)
+    if frame == "parent":
+        return rot.quat_to_rotvec(rot.quat_mul(q[1:], rot.quat_inv(q[:-1])))
+    raise ValueError(f"frame must be 'body' or 'parent', got {frame!r}")
+
+
 def step_deviations(rotations: np.ndarray, frame: str = "body") -> np.ndarray:
     """(F, J, 3) radians: ``v[f] = w[f-1] - (w[f-2] + w[f]) / 2`` with ``w[i]`` the rotation
     vector of the step from frame ``i`` to ``i + 1``, ``log(q[i]^-1 q[i+1])`` in the joint's own
@@ -480,12 +491,7 @@ def step_deviations(rotations: np.ndarray, frame: str = "body") -> np.ndarray:
     out = np.zeros((*q.shape[:2], 3))
     if q.shape[0] < 4:
         return out
-    if frame == "body":
-        w = _body_steps(q)
-    elif frame == "parent":
-        w = rot.quat_to_rotvec(rot.quat_mul(q[1:], rot.quat_inv(q[:-1])))
-    else:
-        raise ValueError(f"frame must be 'body' or 'parent', got {frame!r}")
+    w = frame_steps(q, frame)
     out[2:-1] = w[1:-1] - 0.5 * (w[:-2] + w[2:])
     return out
 

@@ -7,11 +7,11 @@ from typing import ClassVar
 
 import numpy as np
 
+from mocapkit.clean import mdm as mdm_mod
 from mocapkit.clean.detect._runs import deg, run_around
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
-from mocapkit.core import rotations as rot
 from mocapkit.core.runs import true_runs
 
 
@@ -92,9 +92,9 @@ class CancellingJumps:
         else:
             outer, inner = F - 2, a - 1
             own_outer, own_inner = (F - 3 if a <= F - 3 else a - 2), max(a - 2, 0)
-        for step in (_body_step, _parent_step):
-            u = step(q, outer) - step(q, own_outer)
-            v = step(q, inner) - step(q, own_inner)
+        for frame in ("body", "parent"):  # as the pairs are judged
+            w = mdm_mod.frame_steps(q, frame)
+            u, v = w[outer] - w[own_outer], w[inner] - w[own_inner]
             if np.linalg.norm(u + v) < self.tol * min(np.linalg.norm(u), np.linalg.norm(v)):
                 return (1, b) if a == 0 else (a, F - 2)
         return a, b
@@ -180,13 +180,3 @@ class CancellingJumps:
             f"its jump is {ev.jump_size[jump, joint] / scale:.1f} times the joint's ordinary "
             f"one of {deg(scale)}, over {self.cut_jump_ratio:g}, the only one near it"
         )
-
-
-def _body_step(q: np.ndarray, i: int) -> np.ndarray:
-    """Rotation vector of the step from frame ``i`` to ``i + 1`` in the joint's own frame."""
-    return rot.quat_to_rotvec(rot.quat_mul(rot.quat_inv(q[i]), q[i + 1]))
-
-
-def _parent_step(q: np.ndarray, i: int) -> np.ndarray:
-    """The same step in the parent's frame."""
-    return rot.quat_to_rotvec(rot.quat_mul(q[i + 1], rot.quat_inv(q[i])))

@@ -278,7 +278,7 @@ class Evidence:
         """(F, J) radians off the joint's smooth path (:func:`mdm.spike_size`), exact above
         the smaller of ``spike_floor_deg`` and ``spike_deg`` (a bound below it: the
         :class:`Spikes` rule never reads lower); on the take's first and last frames, off the
-        constant turn of the two frames beside them (:func:`mdm.end_spike_size`)."""
+        joint's constant turn through the frames beside them (:func:`mdm.end_spike_size`)."""
         floor = np.radians(min(self.config.spike_floor_deg, self.config.spike_deg))
         size = mdm_mod.spike_size(self.rotations, self.frames(self.config.spike_seconds), floor)
         return np.maximum(size, mdm_mod.end_spike_size(self.rotations))

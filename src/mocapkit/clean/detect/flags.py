@@ -11,8 +11,8 @@ class Flags:
     ``mask`` is the current decision. ``added[name]`` holds the cells rule ``name`` flagged
     (whether or not they were flagged already), ``removed[name]`` the flagged cells veto
     ``name`` cleared, ``judged[name]`` the decision that veto judged (the mask before it ran:
-    ``--explain`` names the run a veto looked at). A cell's reasons are the rules whose
-    ``added`` holds it, in pipeline order.
+    ``--explain`` names the run a veto looked at). A cell's reasons are the rules whose flags
+    on it stand (:meth:`live`: no veto cleared them after), in pipeline order.
     """
 
     def __init__(self, shape: tuple[int, int]) -> None:
@@ -22,11 +22,13 @@ class Flags:
         self.judged: dict[str, np.ndarray] = {}
         # every call in the order made: (rule, is a veto, the cells it flagged / cleared)
         self._events: list[tuple[str, bool, np.ndarray]] = []
+        self._live: dict[str, np.ndarray] = {}  # live() per rule, until the next call
 
     def flag(self, rule: str, cells: np.ndarray) -> None:
         """Flag ``cells`` ((F, J) bool) on behalf of ``rule``."""
         cells = np.asarray(cells, dtype=bool)
         self._events.append((rule, False, cells.copy()))
+        self._live.clear()
         prev = self.added.get(rule)
         self.added[rule] = cells.copy() if prev is None else (prev | cells)
         self.mask |= cells
@@ -38,6 +40,7 @@ class Flags:
             self.judged[rule] = self.mask.copy()
         gone = cells & self.mask
         self._events.append((rule, True, gone))
+        self._live.clear()
         prev = self.removed.get(rule)
         self.removed[rule] = gone if prev is None else (prev | gone)
         self.mask &= ~cells
@@ -53,12 +56,16 @@ class Flags:
     def live(self, rule: str) -> np.ndarray:
         """(F, J) bool: the cells ``rule`` flagged that no veto running after it cleared (a
         cell cleared and flagged again by a later rule is that rule's, not this one's)."""
-        cells = np.zeros(self.mask.shape, dtype=bool)
-        for name, is_veto, changed in self._events:
-            if is_veto:
-                cells &= ~changed
-            elif name == rule:
-                cells |= changed
+        cells = self._live.get(rule)
+        if cells is None:  # once per rule: reasons_at asks for every segment
+            cells = np.zeros(self.mask.shape, dtype=bool)
+            for name, is_veto, changed in self._events:
+                if is_veto:
+                    cells &= ~changed
+                elif name == rule:
+                    cells |= changed
+            cells.flags.writeable = False
+            self._live[rule] = cells
         return cells
 
     def reasons_at(self, frames: slice | np.ndarray, joint: int) -> list[str]:

@@ -25,7 +25,8 @@ class Spikes:
     ``spike_seconds`` and the cubic's two anchor frames of it or more (a constant turn's frames
     lie off by the whole jump into them, the frames beside the jump into a longer error by
     about half of it). A take's first and last frames, which have no two frames on their far
-    side, are judged off the constant turn of the two frames beside them.
+    side, are judged off the joint's constant turn through the frames beside them
+    (:func:`~mocapkit.clean.mdm.end_spike_size`).
 
     Relies on: a joint's rotation is smooth at the capture rate; it does not leave its own path
     by 40 deg and come back within a fifteenth of a second, whatever the context holds (a
