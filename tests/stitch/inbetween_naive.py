@@ -10,6 +10,10 @@ with the L-scores by the textbook RTS smoother of naive.py (one dimension at a t
 ground-path term from the pelvis path and heading, and the pose term as the squared distances
 of frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
 divided by (joints x tolerance²), times pose_weight. Returns every candidate, best first.
+
+A context with no future frames (a gap at the clip's end) has no L_end, no displacement or
+turn in the ground-path term, and no frame s+g+1: its pose term is frames s-1 and s, times 3/2
+(per frame matched, as with three), and a candidate needs frames up to s+g only.
 """
 
 from __future__ import annotations
@@ -42,13 +46,16 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
     wl = max(3, min(w, g))
     tol = config.travel_tolerance_m / metres_per_unit
     ptol = config.pose_tolerance_m / metres_per_unit
-    refs = [(np.asarray(ctx.past[-2]), -1), (np.asarray(ctx.past[-1]), 0),
-            (np.asarray(ctx.future[0]), g + 1)]  # fmt: skip
+    one_sided = len(ctx.future) == 0
+    refs = [(np.asarray(ctx.past[-2]), -1), (np.asarray(ctx.past[-1]), 0)]
+    if not one_sided:
+        refs.append((np.asarray(ctx.future[0]), g + 1))
+    last = g if one_sided else g + 1
     out = []
     for W in library.warped:
         N, m = W.feats.shape
         for s in range(1, N):
-            frames = [s - 1, s + g + 1, s + wl, s + g - wl + 1]
+            frames = [s - 1, s + last, s + wl, s + g - wl + 1]
             if min(frames) < 0 or max(frames) >= N:
                 continue
             if len({int(W.clip[f]) for f in range(min(frames), max(frames) + 1)}) != 1:
@@ -56,19 +63,21 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
             score = 0.0
             if config.lscore_weight > 0:
                 ls = _lscore(np.concatenate([ctx.past, W.feats[s + 1 : s + 1 + wl]]))
-                le = _lscore(np.concatenate([W.feats[s + g - wl + 1 : s + g + 1], ctx.future]))
+                le = 0.0
+                if not one_sided:
+                    le = _lscore(np.concatenate([W.feats[s + g - wl + 1 : s + g + 1], ctx.future]))
                 score += config.lscore_weight * (ls + le)
             h0 = W.heading[s]
-            d = _turn(W.ground[s + g + 1] - W.ground[s], h0)
             v = _turn(W.ground[s] - W.ground[s - 1], h0) / W.rate
-            dh = W.heading[s + g + 1] - W.heading[s]
-            score += config.travel_weight * (
-                np.sum((d - ctx.travel) ** 2) / tol**2
-                + np.sum((v - ctx.velocity) ** 2) * (g + 1) ** 2 / tol**2 / 4.0
-                + ((dh - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
-            )
+            travel = np.sum((v - ctx.velocity) ** 2) * (g + 1) ** 2 / tol**2 / 4.0
+            if not one_sided:
+                d = _turn(W.ground[s + g + 1] - W.ground[s], h0)
+                dh = W.heading[s + g + 1] - W.heading[s]
+                travel += np.sum((d - ctx.travel) ** 2) / tol**2
+                travel += ((dh - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
+            score += config.travel_weight * travel
             pose = sum(float(np.sum((W.feats[s + k].astype(float) - c) ** 2)) for c, k in refs)
-            score += config.pose_weight * pose / ((m / 3) * ptol**2)
+            score += config.pose_weight * (3 / len(refs)) * pose / ((m / 3) * ptol**2)
             out.append((float(score), int(W.clip[s]), float(W.time[s]), float(W.rate)))
     out.sort(key=lambda x: x[0])
     return out

@@ -133,6 +133,33 @@ def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
     assert best.lscore == pytest.approx(own[0], rel=1e-3)
 
 
+@pytest.mark.parametrize("gap", [3, 8])
+@pytest.mark.parametrize("lscore_weight", [0.0, 0.5])
+def test_search_of_a_gap_at_the_clips_end_matches_brute_force(gap, lscore_weight):
+    """No future frame: the pose term has the two past frames only, the ground path the start
+    velocity only, and a segment may end at its library clip's last frame."""
+    rng = np.random.default_rng(20 + gap)
+    m = 6
+    config = InbetweenConfig(
+        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0
+    )
+    lib = _synthetic_library(3, (30, 9, 26), m, config.warps)
+    full = _random_context(rng, m)
+    ctx = GapContext(full.past, full.past[:0], np.full(2, np.nan), float("nan"), full.velocity)
+    assert ctx.one_sided
+    top, count = search_inbetween_top(ctx, gap, lib, 3, w=5, config=config, metres_per_unit=0.01)
+    ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
+    assert count == len(ref)
+    best = top[0]
+    assert (best.clip, best.rate) == (ref[0][1], ref[0][3])
+    assert best.start == pytest.approx(ref[0][2])
+    assert best.score == pytest.approx(ref[0][0], rel=1e-4)
+    assert np.isnan(best.lscore_end) and best.lscore == pytest.approx(best.lscore_start)
+    # the last frame of a library clip may be the last gap frame (none is needed on B)
+    ends = {(x[1], x[3]): x[2] for x in ref}
+    assert any(t + r * gap > (n - 1) - r for (c, r), t in ends.items() for n in [(30, 9, 26)[c]])
+
+
 def test_top_k_sorted_and_apart():
     """search_inbetween_top: the k best candidates in score order, each the best of those not
     overlapping a better one (brute force), the first the single search's."""
@@ -387,13 +414,86 @@ def test_offset_blend_meets_ends_and_limits_speed(angle, n, blend, speed):
 
 @pytest.mark.parametrize(
     "gap, msg",
-    [((0, 10), "3 <= A < B"), ((20, 20), "3 <= A < B"), ((20, 10), "3 <= A < B"),
-     ((20, 150), "3 <= A < B"), ("x", "gap"), ((60.5, 90.2), "whole frames"),
-     ((True, 90), "whole frames")],
+    [((1, 10), "3 <= A < B"), ((20, 20), "3 <= A < B"), ((20, 10), "3 <= A < B"),
+     ((20, 151), "3 <= A < B"), ((0, 148), "0:B with B <= 147"), ((2, 150), "A >= 3"),
+     ((0, 150), "the whole clip"), (":", "the whole clip"), ("x", "gap"),
+     ((60.5, 90.2), "whole frames"), ((True, 90), "whole frames")],
 )  # fmt: skip
 def test_check_gap(gap, msg):
     with pytest.raises(ValueError, match=msg):
         check_gap(gap, 150)
+
+
+def test_check_gap_takes_a_gap_at_either_end_of_the_clip():
+    """A gap at the clip's start or end has context on one side only (3 frames there)."""
+    assert check_gap((0, 10), 150) == (0, 10) and check_gap((0, 147), 150) == (0, 147)
+    assert check_gap((140, 150), 150) == (140, 150) and check_gap((3, 150), 150) == (3, 150)
+    assert check_gap(":30", 150) == (0, 30) and check_gap("120:", 150) == (120, 150)
+    assert check_gap("4.0s:", 150, fps=30.0) == (120, 150)
+    with pytest.raises(ValueError, match="at least 4"):
+        check_gap((0, 1), 3)
+
+
+@pytest.mark.parametrize("at", ["start", "end"])
+def test_a_gap_at_the_clips_start_or_end_continues_the_context_on_its_one_side(humanoid, at):
+    """No frame after (or before) the gap: the best segment continues the clip's motion from
+    the side with context, meets it exactly there, and is free at the clip's end; there is one
+    junction, no Kalman transition and no average (nothing pins the far ends together)."""
+    walk, lib = humanoid
+    F = walk.num_frames
+    a, b = (0, 30) if at == "start" else (F - 30, F)
+    res = inbetween(walk, (a, b), lib, up="Y")
+    out = res.motion
+    assert res.method == "library" and res.gap == (a, b) and out.num_frames == F
+    assert len(res.blended_from) == 1 and res.blended_from[0]["source"] == res.source
+    keep = slice(b, F) if at == "start" else slice(0, a)
+    np.testing.assert_array_equal(out.rotations[keep], walk.rotations[keep])
+    np.testing.assert_array_equal(out.local_translations()[keep], walk.local_translations()[keep])
+    P, _ = forward_kinematics(out)
+    T, _ = forward_kinematics(walk)
+    step = np.linalg.norm(np.diff(T, axis=0), axis=-1).max()
+    j = b if at == "start" else a  # the one junction
+    assert np.linalg.norm(P[j] - P[j - 1], axis=-1).max() < 1.5 * step
+    assert np.isfinite(P).all()
+    assert np.linalg.norm(np.diff(P[a:b], axis=0), axis=-1).max() < 1.5 * step  # walks on
+    np.testing.assert_allclose(out.root_positions[a:b], 0.0, atol=1e-9)  # the ground root
+    # one junction: its L-score is the fill's, the missing one and the Kalman's are null
+    ends = res.library_lscore_ends
+    assert np.isnan(ends[0 if at == "start" else 1]) and np.isfinite(res.library_lscore)
+    assert res.library_lscore == pytest.approx(np.nansum(ends))
+    doc = json.loads(json.dumps(res.to_json(), allow_nan=False))
+    assert doc["kalman_lscore"] is None
+    assert doc[f"segment_lscore_{at}"] is None and doc["segment_lscore"] is not None
+    prov = res.provenance("x.bvh").to_json()
+    assert [s["kind"] for s in prov["segments"]] == (
+        ["inbetween", "clip"] if at == "start" else ["clip", "inbetween"]
+    )
+    assert [t["output_frame"] for t in prov["transitions"]] == [j]
+    with pytest.raises(ValueError, match=f"at the clip's {at}: the Kalman transition needs"):
+        inbetween(walk, (a, b), lib, up="Y", method="kalman")
+
+
+def test_a_gap_at_the_start_is_the_reversed_clips_end_filled(humanoid):
+    """The start is filled as the reversed clip's end, from the library played the other way:
+    with the clip's own take in the library its own frames come back, at either end, and the
+    report names the take as played forwards."""
+    from dataclasses import replace
+
+    walk, lib = humanoid
+    F = walk.num_frames
+    config = replace(DEFAULT_CONFIG, foot_lock=False)
+    for a, b in ((0, 30), (F - 30, F)):
+        res = inbetween(walk, (a, b), [lib[3], walk.copy()], up="Y", config=config)
+        assert res.source == "library1" and not res.backwards, (a, b)
+        assert res.difference_to(walk) < 1e-6
+        assert res.source_frames == (a, b)  # the take's own frame numbers
+    rev = inbetween(walk[::-1], (F - 30, F), lib, up="Y")
+    fwd = inbetween(walk, (0, 30), lib, up="Y")
+    np.testing.assert_array_equal(fwd.motion.rotations, rev.motion.rotations[::-1])
+    assert fwd.backwards != rev.backwards and fwd.source_frames == rev.source_frames
+    no_back = replace(DEFAULT_CONFIG, backwards=False)
+    with pytest.raises(ValueError, match="library played backwards"):
+        inbetween(walk, (0, 30), lib, up="Y", config=no_back)
 
 
 def test_a_gap_over_average_max_seconds_is_filled_by_the_best_segment_alone(humanoid):
@@ -499,8 +599,8 @@ def test_cli_writes_motion_and_sidecar(files):
 @pytest.mark.parametrize(
     "gap, msg",
     [("40:20", "reversed"), ("abc", "expected A:B"), ("1:20", "3 <= A < B"),
-     ("100:400", "expected 3 <= A < B < 150"), ("100:", "both ends given"),
-     (":70", "both ends given"), ("30:30", "empty"),
+     ("100:400", "expected 3 <= A < B < 150"), (":", "the whole clip"),
+     (":149", "0:B with B <= 147"), ("30:30", "empty"),
      ("60:90s", "gap 60:90s (frames 60:2700): expected 3 <= A < B < 150")],
 )  # fmt: skip
 def test_cli_bad_gap(files, gap, msg):
@@ -510,7 +610,6 @@ def test_cli_bad_gap(files, gap, msg):
     assert msg in se and "Traceback" not in se
     assert len(se.strip().splitlines()) == 1
     assert not (files / "bad.bvh").exists()
-    assert "A:," not in se and ":B," not in se  # the open forms are no gap's
 
 
 def test_cli_warns_when_up_is_not_the_bodys(files):
@@ -608,6 +707,28 @@ def test_view_marks_filled_frames(files):
     # the filled frames' two-sided L-score, from the sidecar's two junction costs
     costs = [t.cost for t in vm.provenance.transitions]
     assert len(costs) == 2 and st["lscore"] == pytest.approx(sum(costs))
+
+
+def test_cli_fills_a_gap_at_the_clips_start_and_the_viewer_marks_one_junction(files):
+    from mocapkit.provenance import find_provenance
+    from mocapkit.viz.viewer import ViewMotion, page_data
+
+    out = files / "start.bvh"
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", ":20", "--library",
+                       files / "lib", "--out", out, "--json", files / "start.json")  # fmt: skip
+    assert code == 0, se
+    assert "filled frames 0:20 from" in so and "a gap at the clip's start" in so
+    assert "the two frames after the gap" in so and " nan " not in f" {so} ".replace(",", " ")
+    doc = json.loads((files / "start.json").read_text())
+    assert doc["gap"] == [0, 20] and doc["kalman_lscore"] is None
+    vm = ViewMotion(read_motion(out), str(out), provenance=find_provenance(out))
+    st = page_data([vm])["stitch"]
+    assert st["generated"] == [0, 20] and st["takeoff"] is None and st["landing"] == 20
+    assert st["lscore"] == pytest.approx(vm.provenance.transitions[0].cost)
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "140:", "--method", "kalman",
+                      "--out", files / "k.bvh")  # fmt: skip
+    assert code == 2 and "at the clip's end: the Kalman transition needs" in se
+    assert len(se.strip().splitlines()) == 1 and not (files / "k.bvh").exists()
 
 
 def test_demo_step(tmp_path, capsys):

@@ -40,7 +40,8 @@ from mocapkit.stitch.search import check_same_skeleton
     "--gap",
     required=True,
     help="Frames to replace: A:B for frames A..B-1 (B excluded), or 1.5s:2.5s in seconds; "
-    "the frames before A and from B on are the context.",
+    "the frames before A and from B on are the context. :B and A: reach the clip's start "
+    "and end.",
 )
 @click.option(
     "--library",
@@ -94,8 +95,10 @@ def inbetween_cmd(
     better-scored counting more (a segment matching the context exactly all but alone), so the
     result meets the context poses exactly; a gap over 1.5 s is filled by the best segment
     alone (averaged segments drift out of step over a few strides, and their feet slide).
-    The gap needs at least 3 frames of the clip before it and 1 after it: a gap that
-    reaches the clip's first 3 frames or its last frame is refused. With --method auto the
+    The gap needs at least 3 frames of the clip before it and 1 after it, or is at the
+    clip's start (0:B, 3 frames after it) or end (A:F, 3 frames before it): such a gap is
+    filled from the one side, by the best segment alone, continuing the clip's motion and
+    free at the other end. With --method auto the
     Kalman transition of stitching fills a gap of up to 0.3 s instead, and says so, when the
     library fill's two-sided L-score (smoothness at both junctions, lower is better) is more
     than 4x the Kalman transition's own. A warning says when the best segment's path over
@@ -111,6 +114,7 @@ def inbetween_cmd(
     Examples:
       mocapkit inbetween walk.bvh --gap 60:90 --library lib/ --out walk_filled.bvh
       mocapkit inbetween walk.bvh --gap 2.0s:3.0s --library a.bvh --library b.bvh --out o.bvh
+      mocapkit inbetween take.bvh --gap :20 --library lib/ --out take_start_filled.bvh
     """
     from mocapkit.provenance import sidecar_path
     from mocapkit.stitch.inbetween import check_gap, inbetween
@@ -118,7 +122,7 @@ def inbetween_cmd(
     say = report_lines(json_path)
 
     try:
-        spec = RangeSpec.parse(gap, "--gap", closed=True)
+        spec = RangeSpec.parse(gap, "--gap")
     except RangeError as e:
         raise CLIError(str(e)) from None
     check_input_file(clip)
@@ -143,7 +147,7 @@ def inbetween_cmd(
     warn_if_up_disagrees(q, up, clip)
     with naming(clip):
         try:  # the take's bound is the gap's own rule (check_gap), said in full
-            a, b = spec.frames(q.fps, None)
+            a, b = spec.frames(q.fps, q.num_frames if spec.stop is None else None)
             check_gap(gap, q.num_frames, clip, q.fps)
         except RangeError as e:
             raise CLIError(f"{clip}: {e}") from None
@@ -172,10 +176,13 @@ def inbetween_cmd(
     c = res.candidate
     if c is not None and res.source_frames is not None:
         s0, s1 = res.source_frames
+        ends = "after" if a == 0 else "before" if b == q.num_frames else ""
+        where = f"the two frames {ends} the gap" if ends else "the gap's ends"
+        path = "ground speed" if ends else "ground path"
         say(
             f"best library segment: {res.source} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
-            f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at the gap's ends, ground path "
+            f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at {where}, {path} "
             f"{res.path_miss_m:.2f} m off; {res.candidates} candidates in "
             f"{res.search_seconds:.2f} s"
         )
@@ -198,7 +205,7 @@ def inbetween_cmd(
         a, b = res.gap
         hint = (
             " (--method kalman fills it with the smoother's transition instead)"
-            if b - a <= kalman_max_frames(res.motion)
+            if b - a <= kalman_max_frames(res.motion) and a > 0 and b < q.num_frames
             else ""
         )
         click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
@@ -215,6 +222,14 @@ def inbetween_cmd(
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         say(f"filled frames {a}:{b} with the Kalman transition ({why})")
+    elif a == 0 or b == res.motion.num_frames:  # one junction, no Kalman transition to weigh
+        at = b if a == 0 else a
+        say(
+            f"filled frames {a}:{b} from {res.source} (L-score of its junction with the clip at "
+            f"frame {at}: {res.library_lscore:.6g}; a gap at the clip's "
+            f"{'start' if a == 0 else 'end'} is filled from the library alone, free at the "
+            f"{'first' if a == 0 else 'last'} frame)"
+        )
     else:
         n = len(counted)
         what = res.source if n == 1 else f"{n} library segments averaged (weighted by score)"

@@ -100,6 +100,20 @@ length): a longer gap keeps the library fill, and is refused where no library se
 A gap over :attr:`InbetweenConfig.average_max_seconds` is filled by the best segment alone,
 not an average (averaged segments drift out of step and their feet creep).
 
+**A gap at the clip's start or end** (``0:B`` or ``A:F``) has context on one side only: it
+is filled by the best segment continuing that side, meeting it exactly there and free at the
+clip's first or last frame. At the end, the pose term is the last two past frames, the ground
+path term the start velocity (nothing to arrive at), and a segment may end its library clip;
+the start is filled as the reversed clip's end, from the library played the other way
+(:attr:`InbetweenConfig.backwards`), and reversed back. There is no Kalman transition (it needs
+both sides) and no average: nothing pins the segments' far ends together, so averaged segments
+part and their feet slide. Tuning windows (the take's person left out of the library; gaps of
+15 / 30 frames at a 10-frame context's end, then start): L2P 3.43 / 5.46 and 3.90 / 5.57 from
+the best segment, 3.02 / 4.45 and 3.33 / 4.69 averaging six, 6.42 / 8.83 and 6.73 / 9.65
+holding the nearest context pose (zero-velocity); foot skate 32.8 / 32.3 and 29.1 / 27.6 cm/s
+alone, 38.3 / 39.4 and 35.4 / 40.5 averaging six, the takes' own 31.6 / 31.6 and 29.6 / 30.9.
+Averaging is nearer the truth but skates beyond the takes' own (the issue's bound for a fill).
+
 **Feet.** Finally the feet the filled frames plant are held by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
 :attr:`InbetweenConfig.blend_max_speed_deg`. A held foot moves as the library segments'
@@ -336,36 +350,48 @@ def check_gap(
     gap, num_frames: int, name: str = "clip", fps: float | None = None
 ) -> tuple[int, int]:
     """``(A, B)`` of a gap given as ``(A, B)`` or ``"A:B"`` (frames A..B-1 replaced; either end
-    may be a time such as ``"2.0s:3.0s"``, read at ``fps``, the clip's frame rate), or a
+    may be a time such as ``"2.0s:3.0s"``, read at ``fps``, the clip's frame rate, or left out
+    for the clip's own: ``":B"``, ``"A:"``), or a
     ValueError saying what is expected: 3 <= A < B < num_frames (three past frames set the
-    smoother's prior, and at least one future frame is needed to lead into)."""
+    smoother's prior and give the pose and velocity to continue, and at least one future frame
+    is needed to lead into); or a gap at the clip's start, 0:B with B <= num_frames - 3, or at
+    its end, A:num_frames with A >= 3, filled from the one side that has context
+    (:func:`inbetween`)."""
     if isinstance(gap, str):
         from mocapkit.core.ranges import RangeSpec
 
-        spec = RangeSpec.parse(gap, "gap", closed=True)
+        spec = RangeSpec.parse(gap, "gap")
         if fps is None and any(e is not None and e.seconds for e in (spec.start, spec.stop)):
             raise ValueError(f"gap {gap!r} is in seconds: the clip's frame rate is needed")
-        a, b = spec.frames(1.0 if fps is None else fps, None)
+        # an open end is the clip's (":30" its first 30 frames, "165:" from frame 165 on)
+        a, b = spec.frames(1.0 if fps is None else fps, num_frames if spec.stop is None else None)
     else:
         try:
             a, b = (whole_number(x, "a gap end") for x in gap)
         except (TypeError, ValueError):
             raise ValueError(f"gap must be (A, B) in whole frames or 'A:B', got {gap!r}") from None
-    if num_frames < 5:  # 3 context frames, one gap frame and 1 after: no gap can fit
+    F = num_frames
+    if F < 4:  # 3 context frames and one gap frame: no gap can fit
         raise ValueError(
-            f"{name}: the clip has {num_frames} frame(s); filling a gap needs at least 5 (3 "
-            "context frames before the gap, one in it, 1 after it)"
+            f"{name}: the clip has {F} frame(s); filling a gap needs at least 4 (3 context "
+            "frames beside the gap and one in it)"
         )
-    if not 3 <= a < b < num_frames:
+    at_start = a == 0 and 0 < b <= F - 3
+    at_end = b == F and 3 <= a < F
+    if not (3 <= a < b < F or at_start or at_end):
         # a gap given with a time says which frames that was (60:90s is frames 60:2700)
         given = (
             f"gap {gap} (frames {a}:{b})"
             if isinstance(gap, str) and "s" in gap
             else (f"gap {a}:{b}")
         )
+        if a == 0 and b == F:
+            raise ValueError(f"{name}: {given} is the whole clip: there is no context to fill from")
         raise ValueError(
-            f"{name}: {given}: expected 3 <= A < B < {num_frames} (it has {num_frames} "
-            "frames; at least 3 context frames are needed before the gap and 1 after it)"
+            f"{name}: {given}: expected 3 <= A < B < {F} (it has {F} frames; 3 context frames "
+            f"are needed before the gap and 1 after it), or a gap at its start, 0:B with "
+            f"B <= {F - 3}, or at its end, A:{F} with A >= 3 (3 context frames on the other "
+            "side)"
         )
     return a, b
 
@@ -631,8 +657,9 @@ class Candidate:
 
     @property
     def lscore(self) -> float:
-        """The two-sided L-score ``L_start + L_end``."""
-        return self.lscore_start + self.lscore_end
+        """The two-sided L-score ``L_start + L_end`` (at a gap at the clip's start or end one of
+        them is NaN, and left out: there is no junction there)."""
+        return sum(x for x in (self.lscore_start, self.lscore_end) if not math.isnan(x))
 
     def source_frames(self, gap: int) -> tuple[int, int]:
         """Frames of the prepared motion (rounded, stop excluded) that fill the gap's ``gap``
@@ -654,6 +681,12 @@ class GapContext:
     """The clip's seconds per frame: the search refuses a library prepared at another rate
     (its segments would be read at the wrong speed). None: not checked (hand-made contexts)."""
 
+    @property
+    def one_sided(self) -> bool:
+        """True for a gap at the clip's end: no future frame, nothing to arrive at (``travel``
+        and ``turn`` are NaN and left out of the score)."""
+        return self.future.shape[0] == 0
+
 
 def _rotate2(v: np.ndarray, angle) -> np.ndarray:
     """Ground vectors (..., 2) turned by ``-angle`` (into the frame of that heading).
@@ -674,6 +707,8 @@ def gap_context(
     from mocapkit import features
 
     a, b = check_gap((a, b), clip.num_frames)
+    if a == 0:
+        raise ValueError("gap_context: a gap at the clip's start is searched on the reversed clip")
 
     wp = min(w, a)
     wf = min(w, clip.num_frames - b)
@@ -686,14 +721,19 @@ def gap_context(
     gp = features.root_trajectory(part, up)
     hd = features.heading_angles(part, up, unwrap=True)
     i0, i1 = wp - 1, wp + g
+    if wf == 0:  # a gap at the clip's end: no place or heading to arrive at
+        travel, turn = np.full(2, np.nan), math.nan
+    else:
+        travel, turn = _rotate2(gp[i1] - gp[i0], hd[i0]), float(hd[i1] - hd[i0])
     return GapContext(
-        past,
-        future,
-        _rotate2(gp[i1] - gp[i0], hd[i0]),
-        float(hd[i1] - hd[i0]),
-        _rotate2(gp[i0] - gp[i0 - 1], hd[i0]),
-        clip.frame_time,
+        past, future, travel, turn, _rotate2(gp[i0] - gp[i0 - 1], hd[i0]), clip.frame_time
     )
+
+
+def _last_offset(ctx: GapContext, g: int) -> int:
+    """The last frame a candidate at s needs, as an offset from s: the one on B (g + 1), or the
+    last gap frame (g) for a gap at the clip's end, so a segment may end a library clip."""
+    return g if ctx.one_sided else g + 1
 
 
 def _travel_costs(
@@ -703,21 +743,24 @@ def _travel_costs(
     N = W.feats.shape[0]
     s = np.arange(N)
     valid = np.zeros(N, bool)
-    lo, hi = 1, N - g - 1
+    e = _last_offset(ctx, g)
+    lo, hi = 1, N - e
     if hi <= lo:
         return np.full(N, np.inf), valid
     idx = s[lo:hi]
-    same = W.clip[idx - 1] == W.clip[idx + g + 1]
+    same = W.clip[idx - 1] == W.clip[idx + e]
     h0 = W.heading[idx]
-    d = _rotate2(W.ground[idx + g + 1] - W.ground[idx], h0)
+    d = _rotate2(W.ground[idx + e] - W.ground[idx], h0)
     v = _rotate2(W.ground[idx] - W.ground[idx - 1], h0) / W.rate
-    turn = W.heading[idx + g + 1] - W.heading[idx]
+    turn = W.heading[idx + e] - W.heading[idx]
     tol = config.travel_tolerance_m / mpu
-    c = (
-        np.sum((d - ctx.travel) ** 2, -1) / tol**2
-        + np.sum((v - ctx.velocity) ** 2, -1) * (g + 1) ** 2 / tol**2 / 4.0
-        + ((turn - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
-    )
+    c = np.sum((v - ctx.velocity) ** 2, -1) * (g + 1) ** 2 / tol**2 / 4.0
+    if not ctx.one_sided:  # where the body must arrive, and facing which way
+        c = (
+            c
+            + np.sum((d - ctx.travel) ** 2, -1) / tol**2
+            + ((turn - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
+        )
     cost = np.full(N, np.inf)
     cost[idx] = config.travel_weight * c
     valid[idx] = same
@@ -735,7 +778,7 @@ def _pose_costs(
     if config.pose_weight == 0:
         cost[:] = 0.0
         return cost
-    lo, hi = 1, N - g - 1
+    lo, hi = 1, N - _last_offset(ctx, g)
     if hi <= lo:
         return cost
     X = W.feats
@@ -743,14 +786,16 @@ def _pose_costs(
     if n2 is None:  # squared norms of the rows, once per prepared library
         n2 = np.einsum("nm,nm->n", X, X, dtype=np.float64)
         object.__setattr__(W, "_sqnorm", n2)
-    C = np.stack([ctx.past[-2], ctx.past[-1], ctx.future[0]]).astype(float)  # on s-1, s, s+g+1
+    C = np.concatenate([ctx.past[-2:], ctx.future[:1]]).astype(float)  # on s-1, s (, s+g+1)
     XC = (X @ C.T.astype(np.float32)).astype(np.float64)  # (N, 3)
     cc = np.einsum("km,km->k", C, C)
     total = np.zeros(hi - lo)
-    for j, k in enumerate((-1, 0, g + 1)):
+    for j, k in enumerate((-1, 0, g + 1)[: len(C)]):
         total += n2[lo + k : hi + k] - 2.0 * XC[lo + k : hi + k, j] + cc[j]
     tol = config.pose_tolerance_m / mpu
-    cost[lo:hi] = config.pose_weight * np.maximum(total, 0.0) / ((m / 3) * tol**2)
+    # per frame matched (3; 2 for a gap at the clip's end), so both read alike in metres
+    per = 3.0 / len(C)
+    cost[lo:hi] = config.pose_weight * per * np.maximum(total, 0.0) / ((m / 3) * tol**2)
     return cost
 
 
@@ -795,18 +840,21 @@ def search_inbetween_top(
         wl = 3
     for W in library.warped:
         N = W.feats.shape[0]
-        if g + 2 + wl > N:
+        e = _last_offset(ctx, g)
+        if e + 1 + wl > N:
             continue
         travel, valid = _travel_costs(W, ctx, g, config, metres_per_unit)
         ls = np.full(N, np.inf)
         le = np.full(N, np.inf)
         s = np.arange(N)
-        ok = (s + 1 + wl <= N) & (s + g - wl + 1 >= 0) & (s + g + 1 < N)
+        ok = (s + 1 + wl <= N) & (s + g - wl + 1 >= 0) & (s + e < N)
         if config.lscore_weight > 0:
             start = _sliding_lscores(ctx.past, W.feats, True, wl, model)  # b = first gap frame
-            end = _sliding_lscores(ctx.future, W.feats, False, wl, model)  # b = last - wl + 1
             ls[ok] = start[np.minimum(s[ok] + 1, start.shape[0] - 1)]
-            le[ok] = end[np.clip(s[ok] + g - wl + 1, 0, end.shape[0] - 1)]
+            le[ok] = 0.0
+            if not ctx.one_sided:
+                end = _sliding_lscores(ctx.future, W.feats, False, wl, model)  # last - wl + 1
+                le[ok] = end[np.clip(s[ok] + g - wl + 1, 0, end.shape[0] - 1)]
         else:  # not in the score: computed for the chosen candidates only, below
             ls[ok] = le[ok] = 0.0
         # the windows must stay in the candidate's clip
@@ -840,7 +888,13 @@ def search_inbetween_top(
         if config.lscore_weight == 0:  # the two L-scores of the chosen segment, for the report
             X = W.feats
             l0 = float(window_lscores(ctx.past, X[i + 1 : i + 1 + wl], 0, model)[0])
-            l1 = float(window_lscores(X[i + g - wl + 1 : i + g + 1], ctx.future, 0, model)[0])
+            l1 = (
+                math.nan  # no junction at a gap that ends the clip
+                if ctx.one_sided
+                else float(window_lscores(X[i + g - wl + 1 : i + g + 1], ctx.future, 0, model)[0])
+            )
+        if ctx.one_sided:  # no junction after a gap that ends the clip (0 in the score)
+            l1 = math.nan
         chosen.append(Candidate(c, t, W.rate, score, l0, l1, tr, po))
         if len(chosen) == k:
             break
@@ -872,10 +926,13 @@ def _offset_blend(rots, trans, r0, r1, t0, t1, blend: int, max_step: float = mat
     """Rotations/translations (n, J, ·) with the end offsets to (r0, t0) at index 0 and (r1, t1)
     at index n-1 blended in, each decaying from its end over ``blend`` frames, or for a joint's
     rotation over as many more frames (at most n - 1) as keep the correction's angular speed
-    under ``max_step`` radians per frame (smoothstep's steepest slope is 1.5 / length)."""
+    under ``max_step`` radians per frame (smoothstep's steepest slope is 1.5 / length).
+    ``r1`` and ``t1`` None: no end at index n-1 to meet (a gap at the clip's end)."""
     n = rots.shape[0]
     w0 = _decay(n, blend)[:, None, None]
     w1 = w0[::-1]
+    if r1 is None:  # nothing to meet at the far end: its offset is none
+        r1, t1 = rots[-1], trans[-1]
     d0 = rot.quat_mul(r0, rot.quat_inv(rots[0]))
     d1 = rot.quat_mul(r1, rot.quat_inv(rots[-1]))
     l0 = rot.quat_log(np.where(d0[..., :1] < 0, -d0, d0))  # (J, 3), half the angle
@@ -894,15 +951,17 @@ def _offset_blend(rots, trans, r0, r1, t0, t1, blend: int, max_step: float = mat
     return out_r, out_t
 
 
-def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int, up: str) -> Motion:
+def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int | None, up: str) -> Motion:
     """``seg`` (n frames) moved over the ground by a transform growing linearly from the one
     putting its frame 0 on ``ctx[i_start]`` (pelvis ground position and facing) to the one
-    putting its frame n-1 on ``ctx[i_end]``."""
+    putting its frame n-1 on ``ctx[i_end]``; ``i_end`` None: by the first alone."""
     from mocapkit import features
 
     n = seg.num_frames
     T0 = features.ground_alignment(ctx, i_start, seg, 0, up=up)
     moved = features.apply_ground_transform(seg, T0)
+    if i_end is None:
+        return moved
     T1 = features.ground_alignment(ctx, i_end, moved, n - 1, up=up)
     # T1 = rotation by dθ about the origin then a translation; spread it along the segment as a
     # rotation by u·dθ about the start pelvis then the translation that makes u = 1 exact.
@@ -934,6 +993,8 @@ def _two_sided(onpath, fill, a, b, ctx: GapContext, w: int, up: str, model) -> t
     if f.shape[0] < wl:  # a gap shorter than three frames: repeat its last frame, as a hold
         f = np.concatenate([f, np.repeat(f[-1:], wl - f.shape[0], axis=0)])
     start = window_lscores(ctx.past, f[:wl], 0, model)[0]
+    if ctx.one_sided:  # a gap that ends the clip has no junction there
+        return float(start), math.nan
     end = window_lscores(f[-wl:], ctx.future, 0, model)[0]
     return float(start), float(end)
 
@@ -993,14 +1054,16 @@ def _lock_feet(
             planted = foot_contacts(seg, feet=list(effs), up=up).contacts
             step = np.diff(sp, axis=0) * (planted[1:] & planted[:-1])[..., None]
             m = seg.num_frames - (b - a + 2)  # the segment: frames a-1-m/2 .. b+m/2
-            drift[a - lo : b + 1 - lo] += w * step[m // 2 : m // 2 + b - a + 1]
+            n = min(b + 1, hi) - a  # steps into frames a..b (a..b-1 at the clip's end)
+            drift[a - lo : a - lo + n] += w * step[m // 2 : m // 2 + n]
     targets, weights = ik.lock_targets(
         pos[:, list(effs)], flags, ex.seconds_to_frames(lock.blend), "first",
         ground_frame(up)[1], "offset", np.repeat(context[:, None], len(effs), 1), drift,
     )  # fmt: skip
     targets, weights = _onto_floor(ex, pos[:, list(effs)], flags, context, targets, weights, up)
     ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
-    x = np.clip(np.minimum(i - (a - 1), b - i) / (ramp + 1), 0.0, 1.0)
+    to_end = b - i if b < motion.num_frames else np.inf  # no context after a gap that ends it
+    x = np.clip(np.minimum(i - (a - 1), to_end) / (ramp + 1), 0.0, 1.0)
     # faded even where the target meets the context's foot: the leg may reach it in another
     # pose than the context's, and unfaded that pose change pops at the junction (tuning
     # windows: the legs' angular acceleration at the junctions 10.5 deg/frame^2 against the
@@ -1010,10 +1073,11 @@ def _lock_feet(
     legs = sorted({j for c in chains for j in c.joints})
     step = math.radians(config.blend_max_speed_deg) * motion.frame_time
     # frames a-1 .. b: the correction is none at both (context), and ramps within the gap
-    span = slice(a - 1 - lo, b + 1 - lo)
+    # (a-1 .. b-1 at the clip's end, where the last frame keeps its own)
+    span = slice(a - 1 - lo, min(b + 1, hi) - lo)
     locked = _rate_limited(ex.rotations[span, legs], res.motion.rotations[span, legs], step)
     out = motion.copy()
-    out.rotations[a:b, legs] = locked[1:-1]
+    out.rotations[a:b, legs] = locked[1 : 1 + b - a]
     return out
 
 
@@ -1137,17 +1201,20 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
 
 
 def _back_to_clip(fill: Motion, clip: Motion, a: int, b: int, onpath: bool) -> Motion:
-    """The filled frames in the clip's own root convention (see the module docstring)."""
+    """The filled frames in the clip's own root convention (see the module docstring): the
+    ground root interpolated between frames A-1 and B, held at A-1's past a gap that ends the
+    clip."""
     if not onpath:
         return fill
     sk = clip.skeleton
     c = sk.children(0)[0]
     g = fill.num_frames
     u = (np.arange(g) + 1.0) / (g + 1.0)
+    e = b if b < clip.num_frames else a - 1  # a gap that ends the clip: the root held
     q0 = clip.rotations[a - 1, 0]
-    q1 = rot.quat_fix_hemisphere(clip.rotations[b, 0], q0)
+    q1 = rot.quat_fix_hemisphere(clip.rotations[e, 0], q0)
     root_q = rot.quat_slerp(np.broadcast_to(q0, (g, 4)), np.broadcast_to(q1, (g, 4)), u)
-    p0, p1 = clip.root_positions[a - 1], clip.root_positions[b]
+    p0, p1 = clip.root_positions[a - 1], clip.root_positions[e]
     root_p = p0[None] * (1 - u[:, None]) + p1[None] * u[:, None]
     tr = fill.local_translations()
     world_q = rot.quat_mul(fill.rotations[:, 0], fill.rotations[:, c])
@@ -1181,12 +1248,14 @@ def library_fill(
     rots, trans = _sample(source, t)
     has_t = source.translations is not None or clip.translations is not None
     seg = Motion(clip.skeleton, rots, trans[:, 0], clip.frame_time, trans if has_t else None)
-    seg = _ground_warp(seg, clip, a - 1, b, up)
+    one_sided = b == clip.num_frames  # a gap at the clip's end: nothing to arrive at
+    seg = _ground_warp(seg, clip, a - 1, None if one_sided else b, up)
     ct = clip.local_translations()
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
     r, tr = _offset_blend(
-        seg.rotations, seg.local_translations(), clip.rotations[a - 1], clip.rotations[b],
-        ct[a - 1], ct[b], blend, math.radians(config.blend_max_speed_deg) * clip.frame_time,
+        seg.rotations, seg.local_translations(), clip.rotations[a - 1],
+        None if one_sided else clip.rotations[b], ct[a - 1], None if one_sided else ct[b],
+        blend, math.radians(config.blend_max_speed_deg) * clip.frame_time,
     )  # fmt: skip
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
 
@@ -1267,7 +1336,8 @@ def _to_level(
     g = fill.num_frames
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
     w0 = _decay(g + 2, blend)
-    profile = np.clip(1.0 - w0 - w0[::-1], 0.0, 1.0)[1:-1] * shift  # as the end offsets fade
+    w1 = np.zeros_like(w0) if b == clip.num_frames else w0[::-1]  # no end to meet at the clip's
+    profile = np.clip(1.0 - w0 - w1, 0.0, 1.0)[1:-1] * shift  # as the end offsets fade
     _, upv, _ = features.ground_frame(up)
     pos, _ = forward_kinematics(fill)
     if shift > 0:  # a rise no leg can follow to its foot is capped there
@@ -1455,11 +1525,14 @@ class Inbetween:
                 TransitionTaken(a, self.clip_name, a - 1, self.source, first, l0),
                 TransitionTaken(b, self.source, last, self.clip_name, b, l1),
             ]
+            # a gap at the clip's start or end has one junction
+            trans = [t for t in trans if 0 < t.output_frame < F]
         segs = [
             Segment(0, a, "clip", self.clip_name, 0, a),
             mid,
             Segment(b, F, "clip", self.clip_name, b, F),
         ]
+        segs = [x for x in segs if x.output_stop > x.output_start]
         params = {"gap": [a, b], "method": self.method, **self.parameters, **(parameters or {})}
         params["requested"] = self.requested
         if self.warning:
@@ -1492,8 +1565,8 @@ class Inbetween:
             "source_used": used,
             "blended_from": [dict(x) for x in self.blended_from],
             # the best segment's own search scores: raw, joined to the context as found
-            **{
-                f"segment_{k}": None if c is None else getattr(c, k)
+            **{  # the L-score of a junction a gap at the clip's start or end lacks is null
+                f"segment_{k}": None if c is None else _finite_or_none(getattr(c, k))
                 for k in ("rate", "score", "lscore", "lscore_start", "lscore_end", "travel", "pose")
             },
             # the final filled frames' two-sided L-score, and the Kalman transition's: the pair
@@ -1564,8 +1637,9 @@ def inbetween(
     the best candidate's two-sided L-score is more than ``config.fallback_margin`` times the
     Kalman transition's own, ``config.fallback`` is on and the gap is within
     ``config.kalman_max_seconds``), "library" (never fall back) or "kalman" (the Kalman
-    transition, ValueError past ``config.kalman_max_seconds``; the search still runs, for the
-    report). Returns :class:`Inbetween`."""
+    transition, ValueError past ``config.kalman_max_seconds`` or at the clip's start or end; the
+    search still runs, for the report). A gap at the clip's start (``0:B``) or end (``A:F``) is
+    filled from its one side (module docstring). Returns :class:`Inbetween`."""
     from mocapkit import features
     from mocapkit.stitch.transition import _join
 
@@ -1579,12 +1653,30 @@ def inbetween(
     no_library = library is None or (isinstance(library, (list, tuple)) and not library)
     if no_library and method != "kalman":
         raise ValueError(f"method {method!r} needs a library (only 'kalman' works without)")
+    F = clip.num_frames
+    one_sided = a == 0 or b == F
+    if one_sided and method == "kalman":
+        raise ValueError(
+            f"{clip_name}: gap {a}:{b} is at the clip's {'start' if a == 0 else 'end'}: the "
+            "Kalman transition needs context on both sides of the gap; fill it from a library"
+        )
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
+    if a == 0:  # the reversed clip's end, filled from the library played the other way
+        if lib is not None and not any(lib.backwards):
+            raise ValueError(
+                f"{clip_name}: gap 0:{b} is at the clip's start: it is filled by searching the "
+                "library played backwards, which InbetweenConfig.backwards turns off"
+            )
+        rev = inbetween(
+            clip[::-1], (F - b, F), lib, config=config, model=model, up=up, method=method,
+            clip_name=clip_name, output=output,
+        )  # fmt: skip
+        return _reversed(rev)
     w = max(3, clip.seconds_to_frames(config.window_seconds))
     onpath = features.ground_root_on_path(clip, up)
     ctx = gap_context(onpath, a, b, w, up, future_frames)
     mpu = features.metres_per_unit(clip, None)
-    kalman_ok = b - a <= kalman_max_frames(clip, config)
+    kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
     if method == "kalman" and not kalman_ok:
         raise ValueError(_kalman_too_long(clip, a, b, config, lib is not None))
     t0 = time.perf_counter()
@@ -1593,19 +1685,25 @@ def inbetween(
         if lib is None:  # the Kalman transition alone, asked for without a library
             raise NoLibraryFitError("no library given")
         cands, count = search_inbetween_top(
-            ctx, b - a, lib, averaged(clip, b - a, config), w=w, config=config, model=model,
-            metres_per_unit=mpu,
+            ctx, b - a, lib, averaged(clip, b - a, config, one_sided), w=w, config=config,
+            model=model, metres_per_unit=mpu,
         )  # fmt: skip
     except NoLibraryFitError as e:  # no library clip fits the gap: only the Kalman transition can
         if method == "library" or (not config.fallback and method == "auto"):
             raise
+        if one_sided:
+            raise NoLibraryFitError(
+                f"{e}; a gap at the clip's start or end is filled from the library only"
+            ) from None
         if not kalman_ok:
             raise NoLibraryFitError(f"{e}; {_kalman_too_long(clip, a, b, config)}") from None
         cands, count, note = [], 0, str(e)
     cand = cands[0] if cands else None
     seconds = time.perf_counter() - t0
-    kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
-    kal = sum(_two_sided(onpath, kfill, a, b, ctx, w, up, model))
+    kfill, kal = None, math.nan  # no Kalman transition without a future to lead into
+    if not one_sided:
+        kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
+        kal = sum(_two_sided(onpath, kfill, a, b, ctx, w, up, model))
     lib_ends, lfill = (math.nan, math.nan), None
     if cands:
         lfill = _average_fills(
@@ -1622,7 +1720,7 @@ def inbetween(
             shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known)
             lfill = _to_level(onpath, a, b, lfill, shift, up, config)
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
-    lib_score = sum(lib_ends)
+    lib_score = sum(x for x in lib_ends if not (one_sided and math.isnan(x)))  # one junction
     use_kalman = (
         method == "kalman"
         or lfill is None
@@ -1665,10 +1763,38 @@ def inbetween(
     )  # fmt: skip
 
 
-def averaged(clip: Motion, gap: int, config: InbetweenConfig = DEFAULT_CONFIG) -> int:
+def averaged(
+    clip: Motion, gap: int, config: InbetweenConfig = DEFAULT_CONFIG, one_sided: bool = False
+) -> int:
     """How many segments fill a gap of ``gap`` frames of ``clip``: :attr:`InbetweenConfig.
-    neighbours`, or 1 past :attr:`InbetweenConfig.average_max_seconds`."""
-    return config.neighbours if gap <= clip.seconds_to_frames(config.average_max_seconds) else 1
+    neighbours`, or 1 past :attr:`InbetweenConfig.average_max_seconds` or at the clip's start
+    or end (``one_sided``: nothing pins the segments' far ends together, so their paths part
+    and their average's feet slide)."""
+    if one_sided or gap > clip.seconds_to_frames(config.average_max_seconds):
+        return 1
+    return config.neighbours
+
+
+def _reversed(res: Inbetween) -> Inbetween:
+    """``res``, the fill of the reversed clip's end, as the fill of the clip's start: the motion
+    reversed, the gap and the junction scores mirrored, every library segment played the other
+    way (:func:`inbetween` for a gap at the clip's start)."""
+    from dataclasses import replace
+
+    F = res.motion.num_frames
+    a, b = res.gap
+    c = res.candidate
+    if c is not None:  # its start junction is the clip's B
+        c = replace(c, lscore_start=c.lscore_end, lscore_end=c.lscore_start)
+    return replace(
+        res,
+        motion=res.motion[::-1],
+        gap=(F - b, F - a),
+        candidate=c,
+        backwards=not res.backwards if res.source is not None else False,
+        blended_from=tuple({**x, "backwards": not x["backwards"]} for x in res.blended_from),
+        library_lscore_ends=res.library_lscore_ends[::-1],
+    )
 
 
 def kalman_max_frames(clip: Motion, config: InbetweenConfig = DEFAULT_CONFIG) -> int:

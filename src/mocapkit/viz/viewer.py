@@ -303,15 +303,18 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         return None
     a, b = mid.output_start, mid.output_stop
     clip = plan.inputs[0] if plan.inputs else None
+    before = a - 1 if a > 0 else None  # a gap at the clip's start or end: no frame there
+    after = b if b < plan.frames else None
     return {
         "motion": idx,
         "kind": "inbetween",
-        "takeoff": a - 1,
+        "takeoff": before,
         "generated": [a, b],
-        "landing": b,
-        "landingData": b,
+        "landing": after,
+        "landingData": after,
         "k": b - a,
-        # the filled frames' two-sided L-score: the sum of the two junctions' (sidecar costs)
+        # the filled frames' two-sided L-score: the sum of the junctions' (sidecar costs; one
+        # at a gap at the clip's start or end)
         "lscore": _junction_sum(plan.transitions),
         "lscoreByK": [],
         "query": clip,

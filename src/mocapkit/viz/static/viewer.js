@@ -443,8 +443,9 @@
     var items = [];
     if (stitch) {
       var gapLabels = stitch.kind === 'inbetween' ? ['last frame before gap', 'first frame after gap'] : ['take-off', 'landing'];
-      items.push({ x: mfx(stitch.motion, stitch.takeoff, w), text: gapLabels[0], color: '#4fc3f7' });
-      items.push({ x: mfx(stitch.motion, stitch.landing, w), text: gapLabels[1], color: '#81c784' });
+      // a gap at the clip's start or end has no frame before or after it (null)
+      if (stitch.takeoff != null) items.push({ x: mfx(stitch.motion, stitch.takeoff, w), text: gapLabels[0], color: '#4fc3f7' });
+      if (stitch.landing != null) items.push({ x: mfx(stitch.motion, stitch.landing, w), text: gapLabels[1], color: '#81c784' });
     }
     var costs = graphTrans.filter(function (t) { return t.cost !== null; }).map(function (t) {
       return { x: mfx(graph.motion, t.frame, w), text: shortCost(t.cost), color: '#ff8a65' };
@@ -544,8 +545,8 @@
       var mi = stitch.motion;
       var g0 = mfx(mi, stitch.generated[0], w), g1 = mfx(mi, stitch.generated[1], w);
       tctx.fillStyle = 'rgba(255,235,59,0.45)'; tctx.fillRect(g0, 0, Math.max(2, g1 - g0), top);
-      tctx.fillStyle = '#4fc3f7'; tctx.fillRect(mfx(mi, stitch.takeoff, w) - 1, 0, 2, top);
-      tctx.fillStyle = '#81c784'; tctx.fillRect(mfx(mi, stitch.landing, w) - 1, 0, 2, top);
+      if (stitch.takeoff != null) { tctx.fillStyle = '#4fc3f7'; tctx.fillRect(mfx(mi, stitch.takeoff, w) - 1, 0, 2, top); }
+      if (stitch.landing != null) { tctx.fillStyle = '#81c784'; tctx.fillRect(mfx(mi, stitch.landing, w) - 1, 0, 2, top); }
     }
     graphTrans.forEach(function (t) {
       var a = mfx(graph.motion, t.frame, w), b = mfx(graph.motion, t.end, w);
@@ -662,7 +663,9 @@
       blended.length > 1 ? 'by averaging ' + blended.length + ' library segments, weighted by how well they match: ' + blended.map(segText).join('; ') :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from +
-      (stitch.lscore != null ? '; two-sided L-score of the filled frames ' + Number(stitch.lscore).toPrecision(4) : ''));
+      (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
+        '; L-score of its one junction with the clip (a gap at the clip\'s ' + (stitch.takeoff == null ? 'start' : 'end') + ') ' + Number(stitch.lscore).toPrecision(4) :
+        '; two-sided L-score of the filled frames ' + Number(stitch.lscore).toPrecision(4)));
     if (stitch.warning) info('warning: ' + stitch.warning).style.color = '#ffb74d';
   } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
