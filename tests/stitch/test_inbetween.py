@@ -754,6 +754,28 @@ def test_warns_when_the_library_holds_nothing_like_the_context(humanoid):
     assert good.path_miss_m < DEFAULT_CONFIG.poor_fit_path_m
 
 
+def test_the_poor_fit_bound_grows_with_a_long_gap(humanoid):
+    """A good segment's small difference of speed adds up over a long gap: past about 1.4 s
+    the bound is poor_fit_speed_m_s per second of gap, not poor_fit_path_m (newcomer report:
+    a 4 s gap of a walk filled from walks warned of "nothing like" it)."""
+    from mocapkit.stitch.inbetween import Candidate, _fit_of
+
+    cfg = DEFAULT_CONFIG
+    miss = 0.8  # metres off the clip's path: a travel cost of (0.8 / tolerance)^2
+    cand = Candidate(0, 10.0, 1.0, 1.0, 0.0, 0.0, (miss / cfg.travel_tolerance_m) ** 2, 0.0)
+    assert _fit_of(cand, cfg, 1.0)[1] == pytest.approx(miss)
+    assert "misses the clip's by 0.80 m, over 0.50 m for a gap of 1 s" in _fit_of(cand, cfg, 1.0)[2]
+    assert _fit_of(cand, cfg, 3.0)[2] == ""  # 0.8 m in 3 s: within 1.05 m
+    assert (
+        "over 1.40 m for a gap of 4 s"
+        in _fit_of(
+            Candidate(0, 10.0, 1.0, 1.0, 0.0, 0.0, (1.5 / cfg.travel_tolerance_m) ** 2, 0.0),
+            cfg,
+            4.0,
+        )[2]
+    )
+
+
 def test_cli_reports_the_fit_in_metres_and_warns(files, humanoid):
     _, lib = humanoid
     write_motion(lib[3], files / "idle.bvh")

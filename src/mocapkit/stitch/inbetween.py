@@ -265,7 +265,16 @@ class InbetweenConfig:
     or more in 95% of windows from the gestures; a limit on them warned about no window the
     path did not) and are reported, not judged. Only a warning: on those windows the fill from
     the gestures was still closer to the truth (L2P) than the Kalman transition from one future
-    frame at every length but 5 frames."""
+    frame at every length but 5 frames. A gap over about 1.4 s is judged by
+    :attr:`poor_fit_speed_m_s` instead."""
+    poor_fit_speed_m_s: float = 0.35
+    """On a long gap, the warning's bound (:attr:`poor_fit_path_m`) grows with the gap: the path
+    missed by more than this many metres per second of gap. A good segment's small difference
+    of speed adds up over a long gap (newcomer report: a 4 s gap warned of "nothing like" a walk
+    filled from walks). Tuning windows (the take's person left out), best segment's miss per
+    second of gap at 2, 3 and 4 s: from the locomotion library at most 0.21, 0.21, 0.18 m/s
+    (over 0.5 m in 8% and 14% of windows at 3 and 4 s), from hand gestures at least 0.56, 0.57,
+    0.54 m/s; 0.35 m/s is about their geometric mean."""
     neighbours: int = 6
     """How many of the best non-overlapping candidates fill the gap together: each is
     ground-warped and end-blended on its own, then their poses are averaged (rotations by
@@ -323,8 +332,11 @@ class InbetweenConfig:
             raise ValueError(f"travel_weight must be >= 0, got {self.travel_weight}")
         if not (self.pose_weight >= 0 and self.lscore_weight >= 0 and self.pose_tolerance_m > 0):
             raise ValueError("pose_weight and lscore_weight must be >= 0, pose_tolerance_m > 0")
-        if not self.poor_fit_path_m > 0:
-            raise ValueError(f"poor_fit_path_m must be > 0, got {self.poor_fit_path_m}")
+        if not (self.poor_fit_path_m > 0 and self.poor_fit_speed_m_s > 0):
+            raise ValueError(
+                "poor_fit_path_m and poor_fit_speed_m_s must be > 0, got "
+                f"{self.poor_fit_path_m}, {self.poor_fit_speed_m_s}"
+            )
         if not (math.isfinite(self.level_seconds) and self.level_seconds >= 0):
             raise ValueError(f"level_seconds must be >= 0, got {self.level_seconds}")
         if not (math.isfinite(self.average_max_seconds) and self.average_max_seconds >= 0):
@@ -1753,7 +1765,7 @@ def inbetween(
         for c, wk in zip(cands, share, strict=True)
     )
     best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
-    pose_rms, path_miss, warning = _fit_of(cand, config)
+    pose_rms, path_miss, warning = _fit_of(cand, config, (b - a) * clip.frame_time)
     return Inbetween(
         motion, (a, b), how, cand, best["source"], kal, count, seconds,
         str(clip_name), used, None if output is None else str(output),
@@ -1821,9 +1833,12 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def _fit_of(cand: Candidate | None, config: InbetweenConfig) -> tuple[float, float, str]:
+def _fit_of(
+    cand: Candidate | None, config: InbetweenConfig, seconds: float = 0.0
+) -> tuple[float, float, str]:
     """The best candidate's pose and ground-path misses in metres (from its score terms), and
-    the warning when the path's is beyond :attr:`InbetweenConfig.poor_fit_path_m`."""
+    the warning when the path's is beyond :attr:`InbetweenConfig.poor_fit_path_m`, or on a gap
+    of ``seconds`` beyond :attr:`InbetweenConfig.poor_fit_speed_m_s` per second of it."""
     if cand is None:
         return math.nan, math.nan, ""
     pose = path = math.nan
@@ -1831,14 +1846,15 @@ def _fit_of(cand: Candidate | None, config: InbetweenConfig) -> tuple[float, flo
         pose = config.pose_tolerance_m * math.sqrt(max(cand.pose, 0.0) / (3 * config.pose_weight))
     if config.travel_weight > 0:
         path = config.travel_tolerance_m * math.sqrt(max(cand.travel, 0.0) / config.travel_weight)
-    if not path > config.poor_fit_path_m:
+    bound = max(config.poor_fit_path_m, config.poor_fit_speed_m_s * seconds)
+    if not path > bound:
         return pose, path, ""
     return (
         pose,
         path,
         (
             "the library holds nothing like the motion around the gap (the best segment's path "
-            f"over the ground misses the clip's by {path:.2f} m); the fill may not look like the "
-            "clip's own motion"
+            f"over the ground misses the clip's by {path:.2f} m, over {bound:.2f} m for a gap "
+            f"of {seconds:.3g} s); the fill may not look like the clip's own motion"
         ),
     )
