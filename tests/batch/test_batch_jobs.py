@@ -114,6 +114,16 @@ def test_in_process_reference(reference, library):
     assert len(summary["ranking"]) == 12
     html = res.overview_path.read_text()
     assert html.count("<svg") == 12 and "broken_000.bvh" in html
+    # flagged spans are start:stop (stop excluded), as segments' start and stop: their union
+    for r in (r for r in res.records if "error" not in r):
+        covered = np.zeros(r["frames"], bool)
+        for seg in r["segments"]:
+            covered[seg["start"] : seg["stop"]] = True
+        spans = np.zeros(r["frames"], bool)
+        for a, b in r["flagged_spans"]:
+            spans[a:b] = True
+        np.testing.assert_array_equal(spans, covered)
+    assert any(r.get("flagged_spans") for r in res.records)
     assert len(reference["minima"].i) > 0
     assert reference["convert"].failed[0].source.name == "broken_000.bvh"
 

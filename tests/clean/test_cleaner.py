@@ -232,6 +232,8 @@ def test_contact_constraint_pins_the_effector(takes, ground_root) -> None:
     assert held.pinned and held.max_error == pytest.approx(e_pin.max())
     assert held.joint == "LeftToe" and (held.start, held.end) == (a + 2, b - 2)
     assert held.held and "held to" in str(held) and held.as_dict()["held"]
+    # JSON ranges are start:stop, stop excluded, as every range of the CLI and report
+    assert held.as_dict()["frames"] == [a + 2, b - 1]
     # a point out of the leg's reach is pinned towards but not held, and says so
     away = ContactConstraint(toe, a + 2, b - 2, tuple(pos[a + 2, toe] + np.array([0, 2.0, 0])))
     (missed,) = cl.repair(contacts=[away]).contacts

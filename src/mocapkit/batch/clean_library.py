@@ -200,7 +200,8 @@ def _record(report: Any, task: TakeTask) -> dict[str, Any]:
         "flagged_cells": int(js.get("flagged_cells", int(mask.sum()))),
         "repaired_cells": js.get("repaired_cells"),
         "worst_joints": worst,
-        "flagged_spans": [list(r) for r in true_runs(any_f)],
+        # start:stop, stop excluded (the CLI's one range syntax, as segments' "stop")
+        "flagged_spans": [[int(a), int(b) + 1] for a, b in true_runs(any_f)],
         "reasons": dict(sorted(reasons.items(), key=lambda kv: (-kv[1], kv[0]))),
         "segments": segments,
         "context": list(task.context),
@@ -432,7 +433,7 @@ def _timeline_svg(r: dict[str, Any], seen: list[str], width: int = 400, row: int
     rows = [("any joint", [(a, b, "") for a, b in r["flagged_spans"]])]
     for j in joints:
         rows.append(
-            (j, [(s["start"], s["end"], _first_reason(s)) for s in r["segments"]
+            (j, [(s["start"], s["stop"], _first_reason(s)) for s in r["segments"]
                  if s.get("joint") == j])
         )  # fmt: skip
     label = 130
@@ -444,9 +445,9 @@ def _timeline_svg(r: dict[str, Any], seen: list[str], width: int = 400, row: int
             f'<text x="{label - 4}" y="{y + row - 2}" text-anchor="end">{html.escape(name)}</text>'
             f'<rect x="{label}" y="{y}" width="{width}" height="{row - 2}" fill="#e8e8e8"/>'
         )
-        for a, b, why in spans:
+        for a, b, why in spans:  # frames a:b, b excluded
             x = label + width * a / frames
-            w = max(1.0, width * (b - a + 1) / frames)
+            w = max(1.0, width * (b - a) / frames)
             fill = reason_colour(why, seen) if why else "#333"
             tip = f"<title>{html.escape(why)}</title>" if why else ""
             parts.append(

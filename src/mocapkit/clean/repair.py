@@ -103,7 +103,7 @@ class ContactHeld:
     def as_dict(self) -> dict:
         return {
             "joint": self.joint,
-            "frames": [self.start, self.end],
+            "frames": [self.start, self.end + 1],  # start:stop, stop excluded, as --gap A:B
             "target": list(self.target),
             "max_error": self.max_error,
             "mean_error": self.mean_error,
