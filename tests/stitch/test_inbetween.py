@@ -487,13 +487,61 @@ def test_a_gap_at_the_start_is_the_reversed_clips_end_filled(humanoid):
         assert res.source == "library1" and not res.backwards, (a, b)
         assert res.difference_to(walk) < 1e-6
         assert res.source_frames == (a, b)  # the take's own frame numbers
-    rev = inbetween(walk[::-1], (F - 30, F), lib, up="Y")
-    fwd = inbetween(walk, (0, 30), lib, up="Y")
-    np.testing.assert_array_equal(fwd.motion.rotations, rev.motion.rotations[::-1])
-    assert fwd.backwards != rev.backwards and fwd.source_frames == rev.source_frames
+    # the report is the clip's own way round: the best candidate is on the library motion
+    # played as it fills the gap, its frames those the report names
+    prepared = prepare_library(lib, walk, up="Y")
+    fwd = inbetween(walk, (0, 30), prepared, up="Y")
+    c = fwd.candidate
+    assert prepared.backwards[c.clip] == fwd.backwards == fwd.blended_from[0]["backwards"]
+    assert prepared.clip_frames(c.clip, *c.source_frames(30)) == fwd.source_frames
     no_back = replace(DEFAULT_CONFIG, backwards=False)
     with pytest.raises(ValueError, match="library played backwards"):
         inbetween(walk, (0, 30), lib, up="Y", config=no_back)
+
+
+def test_a_ground_root_that_follows_the_body_follows_it_past_the_clips_end(humanoid):
+    """Bandai's ground root sits still at the origin and stays so in a fill; a root that rides
+    under the body (as stitch writes it) keeps riding under it past the context."""
+    from mocapkit.features import ground_root_on_path, root_trajectory
+
+    walk, lib = humanoid
+    riding = ground_root_on_path(walk, "Y")
+    F = riding.num_frames
+    res = inbetween(riding, (F - 30, F), lib, up="Y")
+    out = res.motion
+    ground = root_trajectory(ground_root_on_path(out, "Y"), "Y")  # the body's ground path
+    root = out.root_positions[:, [0, 2]]
+    np.testing.assert_allclose(root[F - 30 :], ground[F - 30 :], atol=1e-6)
+    assert np.linalg.norm(root[-1] - root[F - 31]) > 0.3  # it walked on
+    still = inbetween(walk, (F - 30, F), lib, up="Y")  # the origin's
+    np.testing.assert_allclose(still.motion.root_positions[F - 30 :], 0.0, atol=1e-9)
+
+
+def test_a_library_clip_just_long_enough_is_searched(humanoid):
+    """A candidate spans frames s-1 .. s+g+1 (s+g at the clip's end): a clip of g + 3 frames
+    (g + 2) fills a gap of g frames, and a shorter one is refused naming the longest gap."""
+    from dataclasses import replace
+
+    from mocapkit.stitch.inbetween import NoLibraryFitError
+
+    walk, lib = humanoid
+    F = walk.num_frames
+    one = replace(DEFAULT_CONFIG, warps=(1.0,), backwards=False)
+    for gap, need in (((F - 10, F), 12), ((60, 70), 13)):
+        res = inbetween(walk, gap, [lib[0][40 : 40 + need]], up="Y", config=one)
+        assert res.method == "library" and res.source_frames == (2, 12)  # on A-2, A-1: 0, 1
+        with pytest.raises(NoLibraryFitError, match="the longest fills a gap of 9 frames"):
+            inbetween(walk, gap, [lib[0][40 : 40 + need - 1]], up="Y", config=one)
+
+
+def test_the_fills_refuse_a_gap_without_a_frame_before_it(humanoid):
+    from mocapkit.stitch.inbetween import Candidate, kalman_fill, library_fill
+
+    walk, lib = humanoid
+    with pytest.raises(ValueError, match="inbetween"):
+        kalman_fill(walk, 0, 10)
+    with pytest.raises(ValueError, match="reversed clip"):
+        library_fill(walk, 0, 10, lib[0], Candidate(0, 5.0, 1.0, 0, 0, 0, 0), up="Y")
 
 
 def test_a_gap_over_average_max_seconds_is_filled_by_the_best_segment_alone(humanoid):
@@ -725,6 +773,13 @@ def test_cli_fills_a_gap_at_the_clips_start_and_the_viewer_marks_one_junction(fi
     st = page_data([vm])["stitch"]
     assert st["generated"] == [0, 20] and st["takeoff"] is None and st["landing"] == 20
     assert st["lscore"] == pytest.approx(vm.provenance.transitions[0].cost)
+    end = files / "end.bvh"
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "130:", "--library",
+                       files / "lib", "--out", end)  # fmt: skip
+    assert code == 0 and "filled frames 130:150" in so and "at the clip's end" in so, se
+    vm = ViewMotion(read_motion(end), str(end), provenance=find_provenance(end))
+    st = page_data([vm])["stitch"]
+    assert st["generated"] == [130, 150] and st["takeoff"] == 129 and st["landing"] is None
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "140:", "--method", "kalman",
                       "--out", files / "k.bvh")  # fmt: skip
     assert code == 2 and "at the clip's end: the Kalman transition needs" in se

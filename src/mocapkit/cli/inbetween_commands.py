@@ -178,7 +178,7 @@ def inbetween_cmd(
         s0, s1 = res.source_frames
         ends = "after" if a == 0 else "before" if b == q.num_frames else ""
         where = f"the two frames {ends} the gap" if ends else "the gap's ends"
-        path = "ground speed" if ends else "ground path"
+        path = "ground path (from its start velocity over the gap)" if ends else "ground path"
         say(
             f"best library segment: {res.source} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "

@@ -853,7 +853,7 @@ def search_inbetween_top(
     for W in library.warped:
         N = W.feats.shape[0]
         e = _last_offset(ctx, g)
-        if e + 1 + wl > N:
+        if max(e, wl) + 2 > N:  # no frame s can have its frames s-1 .. s+e and its window
             continue
         travel, valid = _travel_costs(W, ctx, g, config, metres_per_unit)
         ls = np.full(N, np.inf)
@@ -885,7 +885,10 @@ def search_inbetween_top(
         pool += [(float(total[i]), W, int(i), float(ls[i]), float(le[i]), float(travel[i]),
                   float(pose[i])) for i in top]  # fmt: skip
     if not pool:
-        longest = max(int(np.bincount(W.clip).max()) for W in library.warped) - 3
+        # a candidate spans frames s-1 .. s+g+1 (s+g at the clip's end): g + 3 (g + 2) frames
+        longest = max(int(np.bincount(W.clip).max()) for W in library.warped) - (
+            2 if ctx.one_sided else 3
+        )
         raise NoLibraryFitError(
             f"no library clip is long enough for a gap of {g} frames (the longest fills a gap "
             f"of {max(longest, 0)} frames, played at speed x{min(library.warped[0].rate, 1):g})"
@@ -1212,10 +1215,14 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
     return np.where(same[..., None], after, out)
 
 
-def _back_to_clip(fill: Motion, clip: Motion, a: int, b: int, onpath: bool) -> Motion:
+def _back_to_clip(
+    fill: Motion, clip: Motion, a: int, b: int, onpath: bool, up: str | None = None
+) -> Motion:
     """The filled frames in the clip's own root convention (see the module docstring): the
-    ground root interpolated between frames A-1 and B, held at A-1's past a gap that ends the
-    clip."""
+    ground root interpolated between frames A-1 and B. Past a gap that ends the clip, held at
+    A-1's where the clip holds it still over the last half second before the gap (Bandai's sits
+    at the origin), else carried along with the body as it rode at A-1 (a root that follows the
+    body's path keeps following it)."""
     if not onpath:
         return fill
     sk = clip.skeleton
@@ -1228,6 +1235,18 @@ def _back_to_clip(fill: Motion, clip: Motion, a: int, b: int, onpath: bool) -> M
     root_q = rot.quat_slerp(np.broadcast_to(q0, (g, 4)), np.broadcast_to(q1, (g, 4)), u)
     p0, p1 = clip.root_positions[a - 1], clip.root_positions[e]
     root_p = p0[None] * (1 - u[:, None]) + p1[None] * u[:, None]
+    seen = clip[max(0, a - max(2, clip.seconds_to_frames(0.5))) : a]
+    still = np.allclose(seen.root_positions, p0, rtol=0, atol=1e-9 * (1 + np.abs(p0).max()))
+    still = still and np.allclose(np.abs(np.sum(seen.rotations[:, 0] * q0, -1)), 1.0, atol=1e-12)
+    if b >= clip.num_frames and not still:
+        from mocapkit import features
+
+        body0 = features.ground_root_on_path(clip[a - 1 : a], up)  # the body's frame at A-1
+        gq0_inv = rot.quat_inv(body0.rotations[0, 0])
+        rel_q = rot.quat_mul(gq0_inv, q0)  # the root in the body's frame
+        rel_p = rot.quat_apply(gq0_inv, p0 - body0.root_positions[0])
+        root_q = rot.quat_normalize(rot.quat_mul(fill.rotations[:, 0], rel_q[None]))
+        root_p = fill.root_positions + rot.quat_apply(fill.rotations[:, 0], rel_p[None])
     tr = fill.local_translations()
     world_q = rot.quat_mul(fill.rotations[:, 0], fill.rotations[:, c])
     world_p = rot.quat_apply(fill.rotations[:, 0], tr[:, c]) + fill.root_positions
@@ -1256,6 +1275,11 @@ def library_fill(
     clip's skeleton) as :class:`Candidate` says: sampled, ground-warped onto frames a-1 and b,
     end offsets blended in (module docstring). Both motions in the same root convention."""
     g = b - a
+    if not (1 <= a < b <= clip.num_frames):
+        raise ValueError(
+            f"library_fill: gap {a}:{b} needs a frame before it (the clip has {clip.num_frames} "
+            "frames); inbetween() fills a gap at the clip's start on the reversed clip"
+        )
     t = candidate.start + candidate.rate * np.arange(g + 2)
     rots, trans = _sample(source, t)
     has_t = source.translations is not None or clip.translations is not None
@@ -1425,6 +1449,11 @@ def kalman_fill(
     from mocapkit.stitch.transition import _relative_logs
 
     g = b - a
+    if not (1 <= a < b < clip.num_frames):
+        raise ValueError(
+            f"kalman_fill: gap {a}:{b} needs frames before and after it (the clip has "
+            f"{clip.num_frames}); a gap at the clip's start or end is filled by inbetween()"
+        )
     wp = min(window, a)
     wf = min(window, clip.num_frames - b)
     if future_frames is not None:
@@ -1683,7 +1712,7 @@ def inbetween(
             clip[::-1], (F - b, F), lib, config=config, model=model, up=up, method=method,
             clip_name=clip_name, output=output,
         )  # fmt: skip
-        return _reversed(rev)
+        return _reversed(rev, lib)
     w = max(3, clip.seconds_to_frames(config.window_seconds))
     onpath = features.ground_root_on_path(clip, up)
     ctx = gap_context(onpath, a, b, w, up, future_frames)
@@ -1744,7 +1773,7 @@ def inbetween(
         )
     )
     fill = kfill if use_kalman else lfill
-    fill = _back_to_clip(fill, clip, a, b, onpath is not clip)
+    fill = _back_to_clip(fill, clip, a, b, onpath is not clip, up)
     motion = _join(clip[:a], fill, clip[b:])
     if config.foot_lock:
         sources = () if use_kalman else _source_segments(onpath, a, b, lib, cands, up)
@@ -1787,17 +1816,27 @@ def averaged(
     return config.neighbours
 
 
-def _reversed(res: Inbetween) -> Inbetween:
+def _reversed(res: Inbetween, lib: InbetweenLibrary) -> Inbetween:
     """``res``, the fill of the reversed clip's end, as the fill of the clip's start: the motion
     reversed, the gap and the junction scores mirrored, every library segment played the other
-    way (:func:`inbetween` for a gap at the clip's start)."""
+    way (:func:`inbetween` for a gap at the clip's start; ``lib`` holds every clip both ways,
+    forwards first)."""
     from dataclasses import replace
 
     F = res.motion.num_frames
     a, b = res.gap
     c = res.candidate
-    if c is not None:  # its start junction is the clip's B
-        c = replace(c, lscore_start=c.lscore_end, lscore_end=c.lscore_start)
+    if c is not None:  # the same frames of the library clip played the other way
+        n = len(lib.motions) // 2
+        other = (c.clip + n) % (2 * n)
+        last = lib.motions[c.clip].num_frames - 1
+        c = replace(
+            c,
+            clip=other,
+            start=last - (c.start + c.rate * (b - a + 1)),  # its frame on the clip's A-1 = -1
+            lscore_start=c.lscore_end,  # its start junction is the clip's B
+            lscore_end=c.lscore_start,
+        )
     return replace(
         res,
         motion=res.motion[::-1],
