@@ -12,8 +12,9 @@ of frames s-1, s and s+g+1 to the context's last two past frames and its first f
 divided by (joints x tolerance²), times pose_weight. Returns every candidate, best first.
 
 A context with no future frames (a gap at the clip's end) has no L_end, no displacement or
-turn in the ground-path term, and no frame s+g+1: its pose term is frames s-1 and s, times 3/2
-(per frame matched, as with three), and a candidate needs frames up to s+g only.
+turn in the ground-path term (its velocity is the warped segment's, not the library's own),
+and no frame s+g+1: its pose term is frames s-1 and s, times 3/2 (per frame matched, as with
+three), and a candidate needs frames up to s+g only.
 """
 
 from __future__ import annotations
@@ -68,7 +69,8 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
                     le = _lscore(np.concatenate([W.feats[s + g - wl + 1 : s + g + 1], ctx.future]))
                 score += config.lscore_weight * (ls + le)
             h0 = W.heading[s]
-            v = _turn(W.ground[s] - W.ground[s - 1], h0) / W.rate
+            # the library's own speed, or at the clip's end the speed as the segment plays it
+            v = _turn(W.ground[s] - W.ground[s - 1], h0) / (1.0 if one_sided else W.rate)
             travel = np.sum((v - ctx.velocity) ** 2) * (g + 1) ** 2 / tol**2 / 4.0
             if not one_sided:
                 d = _turn(W.ground[s + g + 1] - W.ground[s], h0)

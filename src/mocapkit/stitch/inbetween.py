@@ -103,16 +103,23 @@ not an average (averaged segments drift out of step and their feet creep).
 **A gap at the clip's start or end** (``0:B`` or ``A:F``) has context on one side only: it
 is filled by the best segment continuing that side, meeting it exactly there and free at the
 clip's first or last frame. At the end, the pose term is the last two past frames, the ground
-path term the start velocity (nothing to arrive at), and a segment may end its library clip;
+path term the start velocity (nothing to arrive at) as the segment plays it, time-warped (the
+two-sided term compares the library's own speed and lets the arrival set the warp: alone, it
+let a run at x1.25 set off 0.9 m/s faster than the clip, newcomer report; tuning windows, L2P
+at 15 / 30 frames 3.43 / 5.46 and 3.90 / 5.57 before, 3.39 / 4.82 and 3.60 / 5.43 after, foot
+skate 32.8 / 32.3 and 29.1 / 27.6 cm/s before, 36.2 / 34.5 and 30.4 / 31.6 after; a
+constant-velocity guess of the arrival as well: 3.65 / 5.94 and 3.51 / 6.10), and a segment
+may end its library clip;
 the start is filled as the reversed clip's end, from the library played the other way
 (:attr:`InbetweenConfig.backwards`), and reversed back. There is no Kalman transition (it needs
 both sides) and no average: nothing pins the segments' far ends together, so averaged segments
 part and their feet slide. Tuning windows (the take's person left out of the library; gaps of
-15 / 30 frames at a 10-frame context's end, then start): L2P 3.43 / 5.46 and 3.90 / 5.57 from
-the best segment, 3.02 / 4.45 and 3.33 / 4.69 averaging six, 6.42 / 8.83 and 6.73 / 9.65
-holding the nearest context pose (zero-velocity); foot skate 32.8 / 32.3 and 29.1 / 27.6 cm/s
-alone, 38.3 / 39.4 and 35.4 / 40.5 averaging six, the takes' own 31.6 / 31.6 and 29.6 / 30.9.
-Averaging is nearer the truth but skates beyond the takes' own (the issue's bound for a fill).
+15 / 30 frames at a 10-frame context's end, then start; the library's own speed compared):
+L2P 3.43 / 5.46 and 3.90 / 5.57 from the best segment, 3.02 / 4.45 and 3.33 / 4.69 averaging
+six, 6.42 / 8.83 and 6.73 / 9.65 holding the nearest context pose (zero-velocity); foot skate
+32.8 / 32.3 and 29.1 / 27.6 cm/s alone, 38.3 / 39.4 and 35.4 / 40.5 averaging six, the takes'
+own 31.6 / 31.6 and 29.6 / 30.9. Averaging is nearer the truth but skates beyond the takes'
+own (the issue's bound for a fill).
 
 **Feet.** Finally the feet the filled frames plant are held by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
@@ -263,10 +270,17 @@ class InbetweenConfig:
     of a library of hand gestures by more than 0.5 m in 89% and 100% of them. The poses at
     the gap's ends tell less (up to 10.8 cm RMS per joint from the locomotion library, 6.6 cm
     or more in 95% of windows from the gestures; a limit on them warned about no window the
-    path did not) and are reported, not judged. Only a warning: on those windows the fill from
-    the gestures was still closer to the truth (L2P) than the Kalman transition from one future
-    frame at every length but 5 frames. A gap over about 1.4 s is judged by
+    path did not) and are judged by :attr:`poor_fit_pose_m`. Only a warning: on those windows
+    the fill from the gestures was still closer to the truth (L2P) than the Kalman transition
+    from one future frame at every length but 5 frames. A gap over about 1.4 s is judged by
     :attr:`poor_fit_speed_m_s` instead."""
+    poor_fit_pose_m: float = 0.12
+    """The best segment's poses (RMS per joint, body-local) missing the context's beside the
+    gap by more than this also makes the warning: above the 10.8 cm the locomotion library
+    missed by at most on the tuning windows (see :attr:`poor_fit_path_m`). A gap at the clip's
+    start or end has no arrival to judge its path by, only the start velocity (newcomer report:
+    a dance's end filled from walks, 18.6 cm off, and a CMU playground take's start, 23 cm off,
+    did not warn)."""
     poor_fit_speed_m_s: float = 0.35
     """On a long gap, the warning's bound (:attr:`poor_fit_path_m`) grows with the gap: the path
     missed by more than this many metres per second of gap. A good segment's small difference
@@ -332,10 +346,12 @@ class InbetweenConfig:
             raise ValueError(f"travel_weight must be >= 0, got {self.travel_weight}")
         if not (self.pose_weight >= 0 and self.lscore_weight >= 0 and self.pose_tolerance_m > 0):
             raise ValueError("pose_weight and lscore_weight must be >= 0, pose_tolerance_m > 0")
-        if not (self.poor_fit_path_m > 0 and self.poor_fit_speed_m_s > 0):
+        if not (
+            self.poor_fit_path_m > 0 and self.poor_fit_speed_m_s > 0 and self.poor_fit_pose_m > 0
+        ):
             raise ValueError(
-                "poor_fit_path_m and poor_fit_speed_m_s must be > 0, got "
-                f"{self.poor_fit_path_m}, {self.poor_fit_speed_m_s}"
+                "poor_fit_path_m, poor_fit_speed_m_s and poor_fit_pose_m must be > 0, got "
+                f"{self.poor_fit_path_m}, {self.poor_fit_speed_m_s}, {self.poor_fit_pose_m}"
             )
         if not (math.isfinite(self.level_seconds) and self.level_seconds >= 0):
             raise ValueError(f"level_seconds must be >= 0, got {self.level_seconds}")
@@ -766,6 +782,8 @@ def _travel_costs(
     v = _rotate2(W.ground[idx] - W.ground[idx - 1], h0) / W.rate
     turn = W.heading[idx + e] - W.heading[idx]
     tol = config.travel_tolerance_m / mpu
+    if ctx.one_sided:  # nothing to arrive at: the fill must set off at the clip's own speed
+        v = v * W.rate
     c = np.sum((v - ctx.velocity) ** 2, -1) * (g + 1) ** 2 / tol**2 / 4.0
     if not ctx.one_sided:  # where the body must arrive, and facing which way
         c = (
@@ -1876,8 +1894,9 @@ def _fit_of(
     cand: Candidate | None, config: InbetweenConfig, seconds: float = 0.0
 ) -> tuple[float, float, str]:
     """The best candidate's pose and ground-path misses in metres (from its score terms), and
-    the warning when the path's is beyond :attr:`InbetweenConfig.poor_fit_path_m`, or on a gap
-    of ``seconds`` beyond :attr:`InbetweenConfig.poor_fit_speed_m_s` per second of it."""
+    the warning when the path's is beyond :attr:`InbetweenConfig.poor_fit_path_m` (on a gap of
+    ``seconds``, beyond :attr:`InbetweenConfig.poor_fit_speed_m_s` per second of it) or the
+    poses' beyond :attr:`InbetweenConfig.poor_fit_pose_m`."""
     if cand is None:
         return math.nan, math.nan, ""
     pose = path = math.nan
@@ -1886,14 +1905,22 @@ def _fit_of(
     if config.travel_weight > 0:
         path = config.travel_tolerance_m * math.sqrt(max(cand.travel, 0.0) / config.travel_weight)
     bound = max(config.poor_fit_path_m, config.poor_fit_speed_m_s * seconds)
-    if not path > bound:
+    why = []
+    if path > bound:
+        why.append(
+            f"the best segment's path over the ground misses the clip's by {path:.2f} m, over "
+            f"{bound:.2f} m for a gap of {seconds:.3g} s"
+        )
+    if pose > config.poor_fit_pose_m:
+        why.append(
+            f"its poses are {pose * 100:.1f} cm RMS per joint off the clip's beside the gap, "
+            f"over {config.poor_fit_pose_m * 100:.0f} cm"
+        )
+    if not why:
         return pose, path, ""
     return (
         pose,
         path,
-        (
-            "the library holds nothing like the motion around the gap (the best segment's path "
-            f"over the ground misses the clip's by {path:.2f} m, over {bound:.2f} m for a gap "
-            f"of {seconds:.3g} s); the fill may not look like the clip's own motion"
-        ),
+        f"the library holds nothing like the motion around the gap ({'; '.join(why)}); the fill "
+        "may not look like the clip's own motion",
     )
