@@ -487,6 +487,10 @@ def test_a_gap_at_the_start_is_the_reversed_clips_end_filled(humanoid):
         assert res.source == "library1" and not res.backwards, (a, b)
         assert res.difference_to(walk) < 1e-6
         assert res.source_frames == (a, b)  # the take's own frame numbers
+        # the foot lock leaves a capture as it was: its floor is the clip's, over all its
+        # steps (newcomer report: the half second beside the gap raised a foot 1 cm)
+        locked = inbetween(walk, (a, b), [lib[3], walk.copy()], up="Y")
+        assert locked.difference_to(walk) < 1e-6
     # the report is the clip's own way round: the best candidate is on the library motion
     # played as it fills the gap, its frames those the report names
     prepared = prepare_library(lib, walk, up="Y")

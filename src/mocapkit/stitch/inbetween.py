@@ -1093,7 +1093,9 @@ def _lock_feet(
         pos[:, list(effs)], flags, ex.seconds_to_frames(lock.blend), "first",
         ground_frame(up)[1], "offset", np.repeat(context[:, None], len(effs), 1), drift,
     )  # fmt: skip
-    targets, weights = _onto_floor(ex, pos[:, list(effs)], flags, context, targets, weights, up)
+    floor = _planted_heights(motion, a, b, list(effs), up)
+    targets, weights = _onto_floor(ex, pos[:, list(effs)], flags, ~context, targets, weights, up,
+                                   floor)  # fmt: skip
     ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
     to_end = b - i if b < motion.num_frames else np.inf  # no context after a gap that ends it
     x = np.clip(np.minimum(i - (a - 1), to_end) / (ramp + 1), 0.0, 1.0)
@@ -1118,14 +1120,34 @@ FLOOR_TOLERANCE_M = 0.002
 """A foot the fill plants less than this below the clip's floor is left (:func:`_onto_floor`)."""
 
 
-def _onto_floor(ex: Motion, pos, flags, context, targets, weights, up: str):
+def _planted_heights(motion: Motion, a: int, b: int, effs: list[int], up: str) -> np.ndarray:
+    """(len(effs),) the height at which the clip plants each foot joint outside frames a..b-1:
+    the 10th percentile of its planted frames there (NaN where it plants none), over the whole
+    clip: a few steps beside the gap may all sit a centimetre high (a walk's start filled from
+    the take itself was raised 1 cm with the half second after the gap alone)."""
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.features import foot_contacts, ground_frame
+
+    _, u, _ = ground_frame(up)
+    keep = np.ones(motion.num_frames, bool)
+    keep[a:b] = False
+    planted = foot_contacts(motion, feet=effs, up=up).contacts & keep[:, None]
+    h = forward_kinematics(motion)[0][:, effs] @ u
+    return np.array(
+        [np.percentile(h[planted[:, k], k], 10) if planted[:, k].any() else np.nan
+         for k in range(len(effs))]
+    )  # fmt: skip
+
+
+def _onto_floor(ex: Motion, pos, flags, gap, targets, weights, up: str, floor: np.ndarray):
     """``targets`` and ``weights`` of :func:`_lock_feet` (``pos``: the foot joints' positions,
-    ``flags`` their contacts, ``context`` the frames the fill must not change) with each foot
-    joint that the filled frames plant lower than the context frames plant it raised by the
-    difference over all the filled frames, the lock's own correction kept as its weight applied
-    it. The planted height is the 10th percentile of the joint's planted frames (a foot rolls
-    up from the floor, not into it); differences under :data:`FLOOR_TOLERANCE_M` are left (a
-    capture's own steps differ by as much). A foot is never lowered.
+    ``flags`` their contacts, ``gap`` the filled frames, ``floor`` the heights at which the clip
+    plants them, :func:`_planted_heights`) with each foot joint that the filled frames plant
+    lower than the clip plants it raised by the difference over all the filled frames, the
+    lock's own correction kept as its weight applied it. The planted height is the 10th
+    percentile of the joint's planted frames (a foot rolls up from the floor, not into it);
+    differences under :data:`FLOOR_TOLERANCE_M` are left (a capture's own steps differ by as
+    much). A foot is never lowered.
 
     Relies on: the floor is where the clip's own feet stand; the library segments were captured
     by other people, on their own floor, with their own foot joints, and fitted to the clip's
@@ -1146,12 +1168,11 @@ def _onto_floor(ex: Motion, pos, flags, context, targets, weights, up: str):
 
     _, u, _ = ground_frame(up)
     h = pos @ u
-    gap = ~context
     rise = np.zeros(pos.shape[1])
     for k in range(pos.shape[1]):
-        floor, fill = h[context & flags[:, k], k], h[gap & flags[:, k], k]
-        if len(floor) and len(fill):
-            rise[k] = max(float(np.percentile(floor, 10) - np.percentile(fill, 10)), 0.0)
+        fill = h[gap & flags[:, k], k]
+        if len(fill) and np.isfinite(floor[k]):
+            rise[k] = max(float(floor[k] - np.percentile(fill, 10)), 0.0)
     lift = np.flatnonzero(rise * metres_per_unit(ex, None) > FLOOR_TOLERANCE_M)
     if not len(lift):
         return targets, weights
