@@ -837,7 +837,8 @@ def test_the_poor_fit_bound_grows_with_a_long_gap(humanoid):
 
 def test_poses_far_off_the_context_warn_too():
     """A gap at the clip's start or end has only its start velocity to judge the path by: poses
-    over poor_fit_pose_m RMS per joint off the clip's beside the gap warn as well."""
+    over poor_fit_pose_m RMS per joint off the clip's beside the gap warn as well (not with
+    context on both sides, where the poses told nothing the path did not)."""
     from mocapkit.stitch.inbetween import Candidate, _fit_of
 
     cfg = DEFAULT_CONFIG
@@ -845,12 +846,13 @@ def test_poses_far_off_the_context_warn_too():
     def cand(pose_m):
         return Candidate(0, 10.0, 1.0, 1.0, 0.0, 0.0, 0.0, 3 * (pose_m / cfg.pose_tolerance_m) ** 2)
 
-    pose, path, warning = _fit_of(cand(0.186), cfg, 1.0)
+    pose, path, warning = _fit_of(cand(0.186), cfg, 1.0, one_sided=True)
     assert pose == pytest.approx(0.186) and path == 0.0
     assert (
         "its poses are 18.6 cm RMS per joint off the clip's beside the gap, over 12 cm" in warning
     )
-    assert _fit_of(cand(0.10), cfg, 1.0)[2] == ""
+    assert _fit_of(cand(0.10), cfg, 1.0, one_sided=True)[2] == ""
+    assert _fit_of(cand(0.186), cfg, 1.0)[2] == ""  # both sides: the arrival judges the path
 
 
 def test_cli_reports_the_fit_in_metres_and_warns(files, humanoid):
