@@ -102,19 +102,26 @@ def _random_context(rng, m):
     )
 
 
+def _brute_force_case(seed: int, lscore_weight: float, one_sided: bool):
+    """A config with every score term, a random-walk library of three clips (9 to 30 frames,
+    three warps) and a random context, without future frames when ``one_sided``."""
+    config = InbetweenConfig(
+        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0
+    )
+    lib = _synthetic_library(3, (30, 9, 26), 6, config.warps)
+    ctx = _random_context(np.random.default_rng(seed), 6)
+    if one_sided:  # a gap at the clip's end: nothing after it
+        ctx = GapContext(ctx.past, ctx.past[:0], np.full(2, np.nan), float("nan"), ctx.velocity)
+    return config, lib, ctx
+
+
 @pytest.mark.parametrize("gap", [2, 7])
 @pytest.mark.parametrize("lscore_weight", [0.0, 0.5])
 def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
     """The pose term (frames s-1, s, s+g+1 against A-2, A-1, B), with and without the
     L-scores in the score: the best candidate and its score are the brute force's, and the
     chosen candidate reports its own L-scores even when they are not in the score."""
-    rng = np.random.default_rng(10 + gap)
-    m = 6
-    config = InbetweenConfig(
-        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0
-    )
-    lib = _synthetic_library(3, (30, 9, 26), m, config.warps)
-    ctx = _random_context(rng, m)
+    config, lib, ctx = _brute_force_case(10 + gap, lscore_weight, one_sided=False)
     best, count = search_inbetween(ctx, gap, lib, w=5, config=config, metres_per_unit=0.01)
     ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
     assert count == len(ref)
@@ -138,14 +145,7 @@ def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
 def test_search_of_a_gap_at_the_clips_end_matches_brute_force(gap, lscore_weight):
     """No future frame: the pose term has the two past frames only, the ground path the start
     velocity only, and a segment may end at its library clip's last frame."""
-    rng = np.random.default_rng(20 + gap)
-    m = 6
-    config = InbetweenConfig(
-        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0
-    )
-    lib = _synthetic_library(3, (30, 9, 26), m, config.warps)
-    full = _random_context(rng, m)
-    ctx = GapContext(full.past, full.past[:0], np.full(2, np.nan), float("nan"), full.velocity)
+    config, lib, ctx = _brute_force_case(20 + gap, lscore_weight, one_sided=True)
     assert ctx.one_sided
     top, count = search_inbetween_top(ctx, gap, lib, 3, w=5, config=config, metres_per_unit=0.01)
     ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
