@@ -412,6 +412,38 @@ def test_offset_blend_meets_ends_and_limits_speed(angle, n, blend, speed):
         assert turn.max() <= 1.5 * angle / (n - 1) + 1e-6
 
 
+@pytest.mark.parametrize("blend", [3, 8])
+def test_offset_blend_carries_the_angular_velocity_offsets(blend):
+    """Inertialization carries the velocity offset too: with the context turning a joint at
+    v0 (v1) per frame where the segment holds it still, the blended frames leave (reach) the
+    context turning at v0 (v1), the ends still met exactly, the term gone after ``blend``."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.stitch.inbetween import _offset_blend, _turn_offset
+
+    n, J = 20, 2
+    rots = np.tile(np.array([1.0, 0.0, 0.0, 0.0]), (n, J, 1))  # the segment holds still
+    v0 = np.array([[0.0, 0.0, 0.0], [0.04, -0.02, 0.01]])  # radians per frame (root: none)
+    v1 = np.array([[0.0, 0.0, 0.0], [-0.03, 0.0, 0.05]])
+    zeros = np.zeros((n, J, 3))
+    out, _ = _offset_blend(rots, zeros, rots[0], rots[-1], zeros[0], zeros[-1], blend,
+                           v0=v0, v1=v1)  # fmt: skip
+    np.testing.assert_allclose(out[0], rots[0], atol=1e-12)
+    np.testing.assert_allclose(out[-1], rots[-1], atol=1e-12)
+
+    def step(q0, q1):
+        return rot.quat_to_rotvec(rot.quat_mul(q1, rot.quat_inv(q0)))
+
+    # smoothstep's first step keeps 1 - 3/L^2 + 2/L^3 of the rate
+    keep = 1 - 3 / blend**2 + 2 / blend**3
+    np.testing.assert_allclose(step(out[0], out[1]), v0 * keep, atol=1e-9)
+    np.testing.assert_allclose(step(out[-2], out[-1]), v1 * keep, atol=1e-9)
+    np.testing.assert_allclose(out[blend : n - blend], rots[blend : n - blend], atol=1e-12)
+    # the offsets as library_fill measures them: the clip's turn less the segment's
+    c0 = rot.quat_exp(np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]]))
+    c1 = rot.quat_mul(rot.quat_exp(0.5 * v0), c0)
+    np.testing.assert_allclose(_turn_offset(c0, c1, rots[0], rots[1], 1), v0, atol=1e-12)
+
+
 @pytest.mark.parametrize(
     "gap, msg",
     [((1, 10), "3 <= A < B"), ((20, 20), "3 <= A < B"), ((20, 10), "3 <= A < B"),

@@ -68,10 +68,13 @@ zero over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep we
 joint's larger rotation offset over more frames, so that the correction turns it no faster than
 :attr:`InbetweenConfig.blend_max_speed_deg`), so
 frames A-1 and B of the result are the context's exactly and the frames between are the
-library's motion. Between the two blends the pelvis is kept at the clip's own level (its mean
-height before the gap, :attr:`InbetweenConfig.level_seconds`, not the library person's), the
-legs turned so that the feet stay where the segments put them (:func:`_to_level`). The fills
-of the :attr:`InbetweenConfig.neighbours` candidates are averaged
+library's motion. Where the clip has a second frame beside the gap, the joints'
+angular-velocity offsets are carried too (:func:`_offset_blend` ``v0``, ``v1``), so the fill
+leaves and reaches the context at its own angular velocity. Between the two blends the pelvis
+is kept at the clip's own level (its mean height before the gap,
+:attr:`InbetweenConfig.level_seconds`, not the library person's), the legs turned so that the
+feet stay where the segments put them (:func:`_to_level`). The fills of the
+:attr:`InbetweenConfig.neighbours` candidates are averaged
 (normalised quaternion sum, mean translation), each weighted by its score
 (:func:`neighbour_weights`): each meets the context exactly, so their mean does too, and it is
 the better estimate of the unknown motion where the candidates disagree.
@@ -958,12 +961,22 @@ def _decay(n: int, length: int) -> np.ndarray:
     return 1.0 - x * x * (3.0 - 2.0 * x)
 
 
-def _offset_blend(rots, trans, r0, r1, t0, t1, blend: int, max_step: float = math.inf):
+def _offset_blend(
+    rots, trans, r0, r1, t0, t1, blend: int, max_step: float = math.inf, v0=None, v1=None
+):
     """Rotations/translations (n, J, ·) with the end offsets to (r0, t0) at index 0 and (r1, t1)
     at index n-1 blended in, each decaying from its end over ``blend`` frames, or for a joint's
     rotation over as many more frames (at most n - 1) as keep the correction's angular speed
     under ``max_step`` radians per frame (smoothstep's steepest slope is 1.5 / length).
-    ``r1`` and ``t1`` None: no end at index n-1 to meet (a gap at the clip's end)."""
+    ``r1`` and ``t1`` None: no end at index n-1 to meet (a gap at the clip's end).
+
+    ``v0``, ``v1`` ((J, 3) radians per frame, optional): the joints' angular-velocity offsets
+    (the context's turn per frame less the segment's) at index 0 and n-1, carried as
+    inertialization carries them: a term ``v t`` that fades over ``blend`` frames, so the
+    result leaves the context at its own angular velocity, not the segment's. Relies on: a
+    joint's angular velocity is continuous; a blend that meets the pose but not its velocity
+    jolts the junction (tuning windows: mean joint acceleration at the junction 12.8-13.5
+    m/s² without, 10.1-10.5 with, the truth's 8.1)."""
     n = rots.shape[0]
     w0 = _decay(n, blend)[:, None, None]
     w1 = w0[::-1]
@@ -980,7 +993,13 @@ def _offset_blend(rots, trans, r0, r1, t0, t1, blend: int, max_step: float = mat
         x = np.clip(np.arange(n)[:, None] / np.maximum(length[None], 1), 0.0, 1.0)
         return (1.0 - x * x * (3.0 - 2.0 * x))[..., None]
 
-    off = rot.quat_exp(l0[None] * decay(l0) + l1[None] * decay(l1)[::-1])
+    log = l0[None] * decay(l0) + l1[None] * decay(l1)[::-1]
+    k = np.arange(n, dtype=float)[:, None, None]
+    if v0 is not None:  # the log is half the rotation vector
+        log = log + 0.5 * v0[None] * k * w0
+    if v1 is not None:
+        log = log - 0.5 * v1[None] * k[::-1] * w1
+    off = rot.quat_exp(log)
     out_r = rot.quat_normalize(rot.quat_mul(off, rots))
     out_t = trans + (t0 - trans[0])[None] * w0 + (t1 - trans[-1])[None] * w1
     out_r[0], out_r[-1], out_t[0], out_t[-1] = r0, r1, t0, t1
@@ -1330,12 +1349,40 @@ def library_fill(
     seg = _ground_warp(seg, clip, a - 1, None if one_sided else b, up)
     ct = clip.local_translations()
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
+    # the joints' angular-velocity offsets where the clip has a second frame beside the gap and
+    # the library clip a frame beyond the segment (the root's turn is the ground warp's)
+    v0 = v1 = None
+    t_out = (t[0] - candidate.rate, t[-1] + candidate.rate)
+    if a >= 2 and t_out[0] >= 0:
+        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1],
+                          _sample(source, t_out[:1])[0][0], rots[0], 1)  # fmt: skip
+    if b + 1 < clip.num_frames and t_out[1] <= source.num_frames - 1:
+        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1],
+                          rots[-1], _sample(source, t_out[1:])[0][0], 0)  # fmt: skip
     r, tr = _offset_blend(
         seg.rotations, seg.local_translations(), clip.rotations[a - 1],
         None if one_sided else clip.rotations[b], ct[a - 1], None if one_sided else ct[b],
-        blend, math.radians(config.blend_max_speed_deg) * clip.frame_time,
+        blend, math.radians(config.blend_max_speed_deg) * clip.frame_time, v0, v1,
     )  # fmt: skip
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
+
+
+def _turn_offset(c0, c1, s0, s1, junction: int) -> np.ndarray:
+    """(J, 3) the clip's turn per frame from rotations ``c0`` to ``c1`` less the segment's from
+    ``s0`` to ``s1`` (rotation vectors in each joint's parent frame, the segment's carried by
+    the offset that puts it on the clip at the junction, the pair's first frame (``junction``
+    0) or second (1)), 0 for the root, whose turn the ground warp sets: the angular-velocity
+    offset :func:`_offset_blend` carries at a junction."""
+
+    def turn(q0, q1):
+        d = rot.quat_mul(q1, rot.quat_inv(q0))
+        return rot.quat_to_rotvec(np.where(d[..., :1] < 0, -d, d))
+
+    c, s = (c0, s0) if junction == 0 else (c1, s1)
+    offset = rot.quat_mul(c, rot.quat_inv(s))
+    v = turn(c0, c1) - rot.quat_apply(offset, turn(s0, s1))
+    v[0] = 0.0
+    return v
 
 
 def _level_offset(
