@@ -418,11 +418,11 @@ def test_offset_blend_carries_the_angular_velocity_offsets(blend):
     v0 (v1) per frame where the segment holds it still, the blended frames leave (reach) the
     context turning at v0 (v1), the ends still met exactly, the term gone after ``blend``."""
     from mocapkit.core import rotations as rot
-    from mocapkit.stitch.inbetween import _offset_blend, _turn_offset
+    from mocapkit.stitch.inbetween import _offset_blend
 
     n, J = 20, 2
     rots = np.tile(np.array([1.0, 0.0, 0.0, 0.0]), (n, J, 1))  # the segment holds still
-    v0 = np.array([[0.0, 0.0, 0.0], [0.04, -0.02, 0.01]])  # radians per frame (root: none)
+    v0 = np.array([[0.0, 0.0, 0.0], [0.04, -0.02, 0.01]])  # radians per frame
     v1 = np.array([[0.0, 0.0, 0.0], [-0.03, 0.0, 0.05]])
     zeros = np.zeros((n, J, 3))
     out, _ = _offset_blend(rots, zeros, rots[0], rots[-1], zeros[0], zeros[-1], blend,
@@ -433,15 +433,41 @@ def test_offset_blend_carries_the_angular_velocity_offsets(blend):
     def step(q0, q1):
         return rot.quat_to_rotvec(rot.quat_mul(q1, rot.quat_inv(q0)))
 
-    # smoothstep's first step keeps 1 - 3/L^2 + 2/L^3 of the rate
-    keep = 1 - 3 / blend**2 + 2 / blend**3
+    # the fade t (1 - t/L)^2 keeps (1 - 1/L)^2 of the rate over the first frame
+    keep = (1 - 1 / blend) ** 2
     np.testing.assert_allclose(step(out[0], out[1]), v0 * keep, atol=1e-9)
     np.testing.assert_allclose(step(out[-2], out[-1]), v1 * keep, atol=1e-9)
     np.testing.assert_allclose(out[blend : n - blend], rots[blend : n - blend], atol=1e-12)
-    # the offsets as library_fill measures them: the clip's turn less the segment's
-    c0 = rot.quat_exp(np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]]))
-    c1 = rot.quat_mul(rot.quat_exp(0.5 * v0), c0)
-    np.testing.assert_allclose(_turn_offset(c0, c1, rots[0], rots[1], 1), v0, atol=1e-12)
+    # a velocity offset over 3 max_step is capped there: the joint leaves at that rate and the
+    # fade's return (at most a third of it, past a third of the fade) stays within max_step
+    capped, _ = _offset_blend(rots, zeros, rots[0], rots[-1], zeros[0], zeros[-1], blend,
+                              0.005, v0=v0 * 10)  # fmt: skip
+    turn = np.linalg.norm(step(capped[:-1], capped[1:]), axis=-1)[:, 1]
+    assert turn.max() <= 3 * 0.005 + 1e-9
+    assert turn[int(np.ceil(blend / 3)) :].max() <= 0.005 + 1e-9
+
+
+def test_turn_offset_is_the_clips_turn_less_the_segments_as_the_offset_carries_it():
+    """The segment's turn is seen through the pose offset that puts it on the clip: a clip
+    that is the segment turned by D, plus a turn of its own, differs from it by that turn."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.stitch.inbetween import _turn_offset
+
+    rng = np.random.default_rng(3)
+    J = 4
+    s0 = rot.quat_normalize(rng.normal(size=(J, 4)))
+    ws = rng.normal(0, 0.1, size=(J, 3))  # the segment's turn per frame
+    s1 = rot.quat_mul(rot.rotvec_to_quat(ws), s0)
+    D = rot.rotvec_to_quat(rng.normal(0, 0.6, size=(J, 3)))  # a pose offset of about 60 deg
+    wc = rng.normal(0, 0.1, size=(J, 3))  # the clip's turn per frame
+    c1 = rot.quat_mul(D, s1)
+    c0 = rot.quat_mul(rot.rotvec_to_quat(-wc), c1)
+    want = wc - rot.quat_apply(D, ws)
+    np.testing.assert_allclose(_turn_offset(c0, c1, s0, s1, 1), want, atol=1e-9)
+    # at an end junction the offset is the pair's first frame's
+    c0e = rot.quat_mul(D, s0)
+    c1e = rot.quat_mul(rot.rotvec_to_quat(wc), c0e)
+    np.testing.assert_allclose(_turn_offset(c0e, c1e, s0, s1, 0), want, atol=1e-9)
 
 
 @pytest.mark.parametrize(
