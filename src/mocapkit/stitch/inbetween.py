@@ -103,26 +103,25 @@ length): a longer gap keeps the library fill, and is refused where no library se
 A gap over :attr:`InbetweenConfig.average_max_seconds` is filled by the best segment alone,
 not an average (averaged segments drift out of step and their feet creep).
 
-**A gap at the clip's start or end** (``0:B`` or ``A:F``) has context on one side only: it
-is filled by the best segment continuing that side, meeting it exactly there and free at the
+**A gap at the clip's start or end** (``0:B`` or ``A:F``) has context on one side only: it is
+filled by the best segment continuing that side, meeting it exactly there and free at the
 clip's first or last frame. At the end, the pose term is the last two past frames, the ground
 path term the start velocity (nothing to arrive at) as the segment plays it, time-warped (the
 two-sided term compares the library's own speed and lets the arrival set the warp: alone, it
 let a run at x1.25 set off 0.9 m/s faster than the clip, newcomer report; tuning windows, L2P
 at 15 / 30 frames 3.43 / 5.46 and 3.90 / 5.57 before, 3.39 / 4.82 and 3.60 / 5.43 after, foot
 skate 32.8 / 32.3 and 29.1 / 27.6 cm/s before, 36.2 / 34.5 and 30.4 / 31.6 after; a
-constant-velocity guess of the arrival as well: 3.65 / 5.94 and 3.51 / 6.10), and a segment
-may end its library clip;
-the start is filled as the reversed clip's end, from the library played the other way
-(:attr:`InbetweenConfig.backwards`), and reversed back. There is no Kalman transition (it needs
-both sides) and no average: nothing pins the segments' far ends together, so averaged segments
-part and their feet slide. Tuning windows (the take's person left out of the library; gaps of
-15 / 30 frames at a 10-frame context's end, then start; the library's own speed compared):
-L2P 3.43 / 5.46 and 3.90 / 5.57 from the best segment, 3.02 / 4.45 and 3.33 / 4.69 averaging
-six, 6.42 / 8.83 and 6.73 / 9.65 holding the nearest context pose (zero-velocity); foot skate
-32.8 / 32.3 and 29.1 / 27.6 cm/s alone, 38.3 / 39.4 and 35.4 / 40.5 averaging six, the takes'
-own 31.6 / 31.6 and 29.6 / 30.9. Averaging is nearer the truth but skates beyond the takes'
-own (the issue's bound for a fill).
+constant-velocity guess of the arrival as well: 3.65 / 5.94 and 3.51 / 6.10), and a segment may
+end its library clip; the start is filled as the reversed clip's end, from the library played
+the other way (:attr:`InbetweenConfig.backwards`), and reversed back. There is no Kalman
+transition (it needs both sides) and no average: nothing pins the segments' far ends together,
+so averaged segments part and their feet slide. Tuning windows (the take's person left out of
+the library; gaps of 15 / 30 frames at a 10-frame context's end, then start; the library's own
+speed compared): L2P 3.43 / 5.46 and 3.90 / 5.57 from the best segment, 3.02 / 4.45 and 3.33 /
+4.69 averaging six, 6.42 / 8.83 and 6.73 / 9.65 holding the nearest context pose
+(zero-velocity); foot skate 32.8 / 32.3 and 29.1 / 27.6 cm/s alone, 38.3 / 39.4 and 35.4 / 40.5
+averaging six, the takes' own 31.6 / 31.6 and 29.6 / 30.9. Averaging is nearer the truth but
+skates beyond the takes' own (the issue's bound for a fill).
 
 **Feet.** Finally the feet the filled frames plant are held by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
@@ -924,16 +923,13 @@ def search_inbetween_top(
         span = W.rate * (g + 1)
         if any(o.clip == c and abs(o.start - t) <= max(span, o.rate * (g + 1)) for o in chosen):
             continue
-        if config.lscore_weight == 0:  # the two L-scores of the chosen segment, for the report
-            X = W.feats
+        X = W.feats
+        if config.lscore_weight == 0:  # the L-scores of the chosen segment, for the report
             l0 = float(window_lscores(ctx.past, X[i + 1 : i + 1 + wl], 0, model)[0])
-            l1 = (
-                math.nan  # no junction at a gap that ends the clip
-                if ctx.one_sided
-                else float(window_lscores(X[i + g - wl + 1 : i + g + 1], ctx.future, 0, model)[0])
-            )
         if ctx.one_sided:  # no junction after a gap that ends the clip (0 in the score)
             l1 = math.nan
+        elif config.lscore_weight == 0:
+            l1 = float(window_lscores(X[i + g - wl + 1 : i + g + 1], ctx.future, 0, model)[0])
         chosen.append(Candidate(c, t, W.rate, score, l0, l1, tr, po))
         if len(chosen) == k:
             break
@@ -1004,7 +1000,7 @@ def _offset_blend(
     # faster than max_step; a left factor of its own, exact however large the pose offset
     x = np.clip(np.arange(n, dtype=float) / max(blend, 1), 0.0, 1.0)
     fade = (np.arange(n) * (1.0 - x) ** 2)[:, None, None]
-    vel = np.zeros_like(l0[None]) * fade
+    vel = np.zeros((n, *l0.shape))
     for v, f in ((v0, fade), (v1, -fade[::-1])):
         if v is not None:
             norm = np.linalg.norm(v, axis=-1, keepdims=True)
@@ -1286,14 +1282,20 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
     return np.where(same[..., None], after, out)
 
 
+ROOT_STILL_SECONDS = 0.5
+"""A ground root that stays put this long before a gap at the clip's end is held there through
+the gap (:func:`_back_to_clip`): half a gait cycle, over which a root riding under a walking
+body moves by a step."""
+
+
 def _back_to_clip(
     fill: Motion, clip: Motion, a: int, b: int, onpath: bool, up: str | None = None
 ) -> Motion:
     """The filled frames in the clip's own root convention (see the module docstring): the
     ground root interpolated between frames A-1 and B. Past a gap that ends the clip, held at
-    A-1's where the clip holds it still over the last half second before the gap (Bandai's sits
-    at the origin), else carried along with the body as it rode at A-1 (a root that follows the
-    body's path keeps following it)."""
+    A-1's where the clip holds it still over the :data:`ROOT_STILL_SECONDS` before the gap
+    (Bandai's sits at the origin), else carried along with the body as it rode at A-1 (a root
+    that follows the body's path keeps following it)."""
     if not onpath:
         return fill
     sk = clip.skeleton
@@ -1306,7 +1308,7 @@ def _back_to_clip(
     root_q = rot.quat_slerp(np.broadcast_to(q0, (g, 4)), np.broadcast_to(q1, (g, 4)), u)
     p0, p1 = clip.root_positions[a - 1], clip.root_positions[e]
     root_p = p0[None] * (1 - u[:, None]) + p1[None] * u[:, None]
-    seen = clip[max(0, a - max(2, clip.seconds_to_frames(0.5))) : a]
+    seen = clip[max(0, a - max(2, clip.seconds_to_frames(ROOT_STILL_SECONDS))) : a]
     still = np.allclose(seen.root_positions, p0, rtol=0, atol=1e-9 * (1 + np.abs(p0).max()))
     still = still and np.allclose(np.abs(np.sum(seen.rotations[:, 0] * q0, -1)), 1.0, atol=1e-12)
     if b >= clip.num_frames and not still:
