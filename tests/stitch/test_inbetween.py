@@ -1265,3 +1265,48 @@ def test_feet_the_segments_plant_below_the_clips_floor_are_raised_to_it(humanoid
     # the context frames are the clip's own either way
     np.testing.assert_array_equal(out[True][:a], T[:a])
     np.testing.assert_array_equal(out[True][b:], T[b:])
+
+
+def test_free_feet_pass_over_the_floor_as_high_as_their_segments_did():
+    """A fill whose swinging feet were pushed 2 cm lower than its library segment carried them
+    (as the legs' end offsets can): the foot lock raises them back to the segment's height over
+    its floor; the context stays as it was, and the segment's own frames are left alone.
+    Without the segments (a Kalman fill) nothing tells how high a swing went: left as it is."""
+    from dataclasses import replace
+
+    from mocapkit import ik
+    from mocapkit.features import foot_contacts
+    from mocapkit.stitch.inbetween import SOURCE_MARGIN, _lock_feet, _planted_heights
+
+    walk = datasets.procedural_motion("walk", 4.0, seed=5).motion
+    con = foot_contacts(walk, up="Y")
+    feet = list(con.joints)
+    a, b = 40, 80
+    chains = list(ik.leg_chains(walk))
+    effs = [e for c in chains for e in c.effectors]
+    T = forward_kinematics(walk)[0]
+    free = ~con.contacts[:, [feet.index(e) for e in effs]]
+    low = T[:, effs] > np.percentile(T[:, effs, 1], 5, axis=0)[None, :, None] + 0.01
+    sweep = free & low[..., 1]  # free feet above 1 cm: pushed 2 cm down in the gap
+    sweep[: a + 4], sweep[b - 4 :] = False, False
+    assert sweep.sum() > 20
+    lowered = ik.solve(walk, chains, T[:, effs] - 0.02 * np.array([0, 1, 0]), sweep).motion
+    L = forward_kinematics(lowered)[0][:, effs, 1]
+    assert (T[:, effs, 1] - L)[sweep].mean() > 0.015
+    m = SOURCE_MARGIN
+    seg = walk[a - 1 - m : b + 1 + m]
+    config = replace(DEFAULT_CONFIG, foot_lock=True)
+    raised = _lock_feet(lowered, a, b, "Y", config, [(seg, 1.0, _planted_heights(walk, "Y"))])
+    R = forward_kinematics(raised)[0][:, effs, 1]
+    # back within a few mm on average (the first frames of a sweep lag: the legs' correction
+    # turns no faster than blend_max_speed_deg, and this push starts at once)
+    assert (T[:, effs, 1] - R)[sweep].mean() < 0.004, (T[:, effs, 1] - R)[sweep].mean()
+    assert np.abs(R - T[:, effs, 1])[sweep].mean() < 0.5 * (T[:, effs, 1] - L)[sweep].mean()
+    np.testing.assert_array_equal(raised.rotations[:a], walk.rotations[:a])
+    np.testing.assert_array_equal(raised.rotations[b:], walk.rotations[b:])
+    # the segment's own frames are left as they are (nothing is lower than the segment)
+    itself = _lock_feet(walk, a, b, "Y", config, [(seg, 1.0, _planted_heights(walk, "Y"))])
+    np.testing.assert_allclose(itself.rotations, walk.rotations, atol=1e-12)
+    kept = _lock_feet(lowered, a, b, "Y", config)  # no segments: no clearance to restore
+    K = forward_kinematics(kept)[0][:, effs, 1]
+    assert (T[:, effs, 1] - K)[sweep].mean() > 0.008
