@@ -34,52 +34,17 @@ def _unit(v: list[float]) -> list[float]:
 # A small skeleton: a spine chain with a branch, a leg chain behind a dof-less hip bone.
 # Angles in degrees; each bone: (name, parent, direction, length, axis angles, axis order, dof).
 BONES = [
-    (
-        "lowerback",
-        "root",
-        _unit([0.1, 1.0, 0.05]),
-        2.0,
-        [10.0, -20.0, 30.0],
-        "XYZ",
-        ("rx", "ry", "rz"),
-    ),
-    (
-        "upperback",
-        "lowerback",
-        _unit([0.0, 1.0, -0.2]),
-        1.5,
-        [0.0, 40.0, 45.0],
-        "ZYX",
-        ("rz", "rx"),
-    ),
-    (
-        "head",
-        "upperback",
-        _unit([0.05, 1.0, 0.1]),
-        1.2,
-        [5.0, 15.0, -25.0],
-        "YZX",
-        ("ry", "rz", "rx"),
-    ),
-    (
-        "rclavicle",
-        "lowerback",
-        _unit([-1.0, 0.3, 0.0]),
-        1.7,
-        [30.0, 0.0, -10.0],
-        "XZY",
-        ("ry", "rz"),
-    ),
+    ("lowerback", "root", _unit([0.1, 1.0, 0.05]), 2.0, [10.0, -20.0, 30.0], "XYZ",
+     ("rx", "ry", "rz")),
+    ("upperback", "lowerback", _unit([0.0, 1.0, -0.2]), 1.5, [0.0, 40.0, 45.0], "ZYX",
+     ("rz", "rx")),
+    ("head", "upperback", _unit([0.05, 1.0, 0.1]), 1.2, [5.0, 15.0, -25.0], "YZX",
+     ("ry", "rz", "rx")),
+    ("rclavicle", "lowerback", _unit([-1.0, 0.3, 0.0]), 1.7, [30.0, 0.0, -10.0], "XZY",
+     ("ry", "rz")),
     ("lhipjoint", "root", _unit([0.69, -0.65, 0.32]), 2.4, [0.0, 0.0, 0.0], "XYZ", ()),
-    (
-        "lfemur",
-        "lhipjoint",
-        _unit([0.342, -0.94, 0.0]),
-        7.1,
-        [0.0, 0.0, 20.0],
-        "XYZ",
-        ("rx", "ry", "rz"),
-    ),
+    ("lfemur", "lhipjoint", _unit([0.342, -0.94, 0.0]), 7.1, [0.0, 0.0, 20.0], "XYZ",
+     ("rx", "ry", "rz")),
     ("ltibia", "lfemur", _unit([0.342, -0.94, 0.0]), 7.4, [0.0, 0.0, 20.0], "XYZ", ("rx",)),
 ]
 HIERARCHY = [
@@ -151,12 +116,8 @@ def make_frames(n: int = 4, seed: int = 0, root_order: str = "TX TY TZ RX RY RZ"
     rng = np.random.default_rng(seed)
     frames = []
     for _ in range(n):
-        f = {
-            "root": [
-                float(rng.uniform(-10, 10)) if t[0] == "T" else float(rng.uniform(-90, 90))
-                for t in root_order.split()
-            ]
-        }
+        f = {"root": [float(rng.uniform(-10, 10)) if t[0] == "T" else float(rng.uniform(-90, 90))
+                      for t in root_order.split()]}
         for name, _, _, _, _, _, dof in BONES:
             if dof:
                 f[name] = [float(rng.uniform(-100, 100)) for _ in dof]
@@ -164,13 +125,8 @@ def make_frames(n: int = 4, seed: int = 0, root_order: str = "TX TY TZ RX RY RZ"
     return frames
 
 
-def make_amc(
-    frames: list[dict],
-    angle: str = "deg",
-    header: str | None = ":DEGREES",
-    root_order: str = "TX TY TZ RX RY RZ",
-    first: int = 1,
-) -> str:
+def make_amc(frames: list[dict], angle: str = "deg", header: str | None = ":DEGREES",
+             root_order: str = "TX TY TZ RX RY RZ", first: int = 1) -> str:
     tokens = root_order.split()
     out = ["#!OML:ASF test.asf", ":FULLY-SPECIFIED"]
     if header:
@@ -180,10 +136,8 @@ def make_amc(
         for name, vals in f.items():
             if angle == "rad":
                 if name == "root":
-                    vals = [
-                        v if t[0] == "T" else math.radians(v)
-                        for v, t in zip(vals, tokens, strict=True)
-                    ]
+                    vals = [v if t[0] == "T" else math.radians(v)
+                            for v, t in zip(vals, tokens, strict=True)]
                 else:
                     vals = [math.radians(v) for v in vals]
             out.append(name + " " + " ".join(_fmt(v) for v in vals))
@@ -252,9 +206,8 @@ def check_fk(motion, W, start, end, atol=TOL, scale=1.0):
     es = end_site_positions(sk, pos, grot)
     for j, n in enumerate(PREORDER):
         np.testing.assert_allclose(pos[:, j], np.array(start[n]) * scale, rtol=0, atol=atol)
-        np.testing.assert_allclose(
-            rot.quat_to_matrix(grot[:, j]), np.array(W[n]), rtol=0, atol=atol
-        )
+        np.testing.assert_allclose(rot.quat_to_matrix(grot[:, j]), np.array(W[n]), rtol=0,
+                                   atol=atol)
     leaf_names = [sk.names[p] for p in sk.end_site_parents]
     assert sorted(leaf_names) == sorted(LEAVES)
     for e, n in enumerate(leaf_names):
@@ -285,9 +238,8 @@ def test_fk_root_offsets_and_order() -> None:
     assert asf.root_order == tuple(order.split())
     assert asf.root_axis == "ZXY"
     motion = parse_amc(make_amc(frames, root_order=order), asf)
-    W, start, end = acclaim_reference(
-        frames, root_order=order, root_axis="ZXY", position=pos, orientation=ori
-    )
+    W, start, end = acclaim_reference(frames, root_order=order, root_axis="ZXY",
+                                      position=pos, orientation=ori)
     check_fk(motion, W, start, end)
 
 
@@ -300,25 +252,15 @@ def test_rest_pose_is_the_asf_pose() -> None:
     check_fk(motion, *acclaim_reference(frames))
     # with no motion, each bone simply ends at its start + direction * length
     for name, _, d, length, *_ in BONES:
-        np.testing.assert_allclose(
-            end[name][0] - start[name][0], np.asarray(d) * length, atol=1e-12
-        )
+        np.testing.assert_allclose(end[name][0] - start[name][0], np.asarray(d) * length,
+                                   atol=1e-12)
 
 
 def test_knee_flexion_is_about_the_bone_axis() -> None:
     """A hand-checkable case: ltibia's axis is rotated 20 deg about z, so rx bends the shin
     about the axis Rz(20) x, not about global x."""
-    frames = [
-        {
-            "root": [0.0] * 6,
-            "lowerback": [0, 0, 0],
-            "upperback": [0, 0],
-            "head": [0, 0, 0],
-            "rclavicle": [0, 0],
-            "lfemur": [0, 0, 0],
-            "ltibia": [90.0],
-        }
-    ]
+    frames = [{"root": [0.0] * 6, "lowerback": [0, 0, 0], "upperback": [0, 0], "head": [0, 0, 0],
+               "rclavicle": [0, 0], "lfemur": [0, 0, 0], "ltibia": [90.0]}]
     motion = parse_amc(make_amc(frames), parse_asf(make_asf()))
     pos, grot = forward_kinematics(motion)
     es = end_site_positions(motion.skeleton, pos, grot)
@@ -339,22 +281,21 @@ def test_knee_flexion_is_about_the_bone_axis() -> None:
 def test_rad_and_deg_files_give_the_same_motion() -> None:
     frames = make_frames(3, seed=3)
     m_deg = parse_amc(make_amc(frames), parse_asf(make_asf(angle="deg")))
-    m_rad = parse_amc(make_amc(frames, angle="rad", header=None), parse_asf(make_asf(angle="rad")))
+    m_rad = parse_amc(make_amc(frames, angle="rad", header=None),
+                      parse_asf(make_asf(angle="rad")))
     assert m_deg.allclose(m_rad, rot_atol=1e-12, pos_atol=1e-12)
     asf = parse_asf(make_asf(angle="rad"))
     assert asf.angle == "rad"
-    np.testing.assert_allclose(
-        asf.bone("lfemur").limits, np.radians([[-170.0, 170.0]] * 3), atol=1e-15
-    )
+    np.testing.assert_allclose(asf.bone("lfemur").limits,
+                               np.radians([[-170.0, 170.0]] * 3), atol=1e-15)
 
 
 def test_amc_header_overrides_asf_angle_unit() -> None:
     frames = make_frames(2, seed=4)
     ref = parse_amc(make_amc(frames), parse_asf(make_asf(angle="deg")))
     # degrees ASF, radian AMC values declared by :RADIANS
-    m = parse_amc(
-        make_amc(frames, angle="rad", header=":RADIANS"), parse_asf(make_asf(angle="deg"))
-    )
+    m = parse_amc(make_amc(frames, angle="rad", header=":RADIANS"),
+                  parse_asf(make_asf(angle="deg")))
     assert ref.allclose(m, rot_atol=1e-12, pos_atol=1e-12)
     # radians ASF, degree AMC values declared by :DEGREES
     m = parse_amc(make_amc(frames, header=":DEGREES"), parse_asf(make_asf(angle="rad")))
@@ -369,9 +310,8 @@ def test_length_units_and_metres() -> None:
     # file units by default: offsets are direction * length as written
     m = parse_amc(make_amc(frames), asf)
     k = m.skeleton.index("ltibia")
-    np.testing.assert_allclose(
-        m.skeleton.offsets[k], np.asarray(BONES[5][2]) * BONES[5][3], atol=1e-15
-    )
+    np.testing.assert_allclose(m.skeleton.offsets[k], np.asarray(BONES[5][2]) * BONES[5][3],
+                               atol=1e-15)
     np.testing.assert_allclose(m.root_positions[0], frames[0]["root"][:3], atol=1e-15)
     # scale=metres_per_unit gives metres: every point scaled, rotations unchanged
     mm = parse_amc(make_amc(frames), asf, scale=asf.metres_per_unit)
@@ -411,14 +351,8 @@ def test_bvh_round_trip(tmp_path) -> None:
     frames = make_frames(6, seed=7)
     motion = parse_amc(make_amc(frames), parse_asf(make_asf(length_unit=0.45)))
     sk = motion.skeleton
-    assert sk.channels[0] == (
-        "Xposition",
-        "Yposition",
-        "Zposition",
-        "Zrotation",
-        "Yrotation",
-        "Xrotation",
-    )
+    assert sk.channels[0] == ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation",
+                              "Xrotation")
     assert all(ch == ("Zrotation", "Yrotation", "Xrotation") for ch in sk.channels[1:])
     path = write_bvh(motion, tmp_path / "a.bvh")
     back = read_bvh(path)
@@ -428,9 +362,8 @@ def test_bvh_round_trip(tmp_path) -> None:
     p1, r1 = forward_kinematics(motion)
     p2, r2 = forward_kinematics(back)
     np.testing.assert_allclose(p2, p1, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(
-        end_site_positions(back.skeleton, p2, r2), end_site_positions(sk, p1, r1), rtol=0, atol=1e-9
-    )
+    np.testing.assert_allclose(end_site_positions(back.skeleton, p2, r2),
+                               end_site_positions(sk, p1, r1), rtol=0, atol=1e-9)
 
 
 def test_translation_dof(tmp_path) -> None:
@@ -454,10 +387,8 @@ def test_translation_dof(tmp_path) -> None:
     ref_frames = [dict(f, rclavicle=[f["rclavicle"][1], f["rclavicle"][3]]) for f in frames]
     ref_bones = [tuple(b) for b in bones]
     ref_bones[3] = (*ref_bones[3][:6], ("ry", "rz"))
-    out = [
-        acclaim_reference([rf], ref_bones, translations={"rclavicle": t})
-        for rf, t in zip(ref_frames, trans["rclavicle"], strict=True)
-    ]
+    out = [acclaim_reference([rf], ref_bones, translations={"rclavicle": t})
+           for rf, t in zip(ref_frames, trans["rclavicle"], strict=True)]
     W = {n: [o[0][n][0] for o in out] for n in PREORDER}
     start = {n: [o[1][n][0] for o in out] for n in PREORDER}
     end = {n: [o[2][n][0] for o in out] for n in PREORDER}
@@ -515,10 +446,8 @@ def test_cmu_style_text() -> None:
     )
     a = parse_asf(asf)
     assert a.bone("lfemur").limits[2, 1] == np.inf
-    amc = (
-        "#!OML:ASF x\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n1\r\nroot 1 2 3 4 5 6\r\n"
-        "lfemur -21.2 3.6 -10.5\r\n2\r\nroot 1 2 3 4 5 6\r\nlfemur 1e1 0 0\r\n"
-    )
+    amc = "#!OML:ASF x\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n1\r\nroot 1 2 3 4 5 6\r\n" \
+          "lfemur -21.2 3.6 -10.5\r\n2\r\nroot 1 2 3 4 5 6\r\nlfemur 1e1 0 0\r\n"
     m = parse_amc(amc, a)
     assert m.num_frames == 2
     np.testing.assert_allclose(m.root_positions, [[1, 2, 3]] * 2)
@@ -540,11 +469,8 @@ def _line_of(text: str, snippet: str) -> int:
 
 
 BASE_ASF = make_asf()
-DIR_HEAD = next(
-    ln
-    for ln in BASE_ASF.split("\n")
-    if "direction" in ln and ln.split()[1:] == [_fmt(v) for v in BONES[2][2]]
-)
+DIR_HEAD = next(ln for ln in BASE_ASF.split("\n") if "direction" in ln
+                and ln.split()[1:] == [_fmt(v) for v in BONES[2][2]])
 ASF_ERRORS = [
     # (old, new, snippet locating the expected line in the new text, message part)
     (":root", ":rot", None, "no :root section"),
@@ -552,58 +478,30 @@ ASF_ERRORS = [
     ("    lfemur ltibia", "    lfemur ltibiax", "lfemur ltibiax", "unknown bone 'ltibiax'"),
     ("    upperback head", "    upperbackx head", "upperbackx head", "unknown bone"),
     ("    lfemur ltibia", "    lfemur ltibia head", "lfemur ltibia head", "already has parent"),
-    (
-        "    upperback head",
-        "    upperback head\n    head upperback",
-        "head upperback",
-        "already has parent",
-    ),
+    ("    upperback head", "    upperback head\n    head upperback", "head upperback",
+     "already has parent"),
     ("    upperback head\n", "", None, "'head' has no parent"),
-    (
-        "    lfemur ltibia",
-        "    lfemur ltibia\n    root lowerback",
-        "LAST:root lowerback",
-        "already has parent",
-    ),
+    ("    lfemur ltibia", "    lfemur ltibia\n    root lowerback", "LAST:root lowerback",
+     "already has parent"),
     ("    upperback head\n", "", None, "'head' has no parent"),
     ("     length 7.4", "     length seven", "length seven", "expected a number"),
     ("     length 7.4", "     length 7.4 2", "length 7.4 2", "needs 1 number"),
     ("     length 7.4", "     length -7.4", "length -7.4", "negative"),
-    (
-        "     axis 0.0 0.0 20.0  XYZ\n    dof rx\n",
-        "     axis 0.0 nan 20.0  XYZ\n    dof rx\n",
-        "axis 0.0 nan",
-        "only finite",
-    ),
-    (
-        "     axis 0.0 0.0 20.0  XYZ\n    dof rx\n",
-        "     axis 0.0 0.0 20.0  XXY\n    dof rx\n",
-        "XXY",
-        "rotation order",
-    ),
-    (
-        "     axis 0.0 0.0 20.0  XYZ\n    dof rx\n",
-        "     axis 0.0 0.0  XYZ\n    dof rx\n",
-        "axis 0.0 0.0  XYZ",
-        "3 angles",
-    ),
+    ("     axis 0.0 0.0 20.0  XYZ\n    dof rx\n", "     axis 0.0 nan 20.0  XYZ\n    dof rx\n",
+     "axis 0.0 nan", "only finite"),
+    ("     axis 0.0 0.0 20.0  XYZ\n    dof rx\n", "     axis 0.0 0.0 20.0  XXY\n    dof rx\n",
+     "XXY", "rotation order"),
+    ("     axis 0.0 0.0 20.0  XYZ\n    dof rx\n", "     axis 0.0 0.0  XYZ\n    dof rx\n",
+     "axis 0.0 0.0  XYZ", "3 angles"),
     ("    dof rx\n", "    dof rw\n", "dof rw", "expected distinct tokens"),
     ("    dof rx\n", "    dof rx l\n", "dof rx l", "'l' (length) dof is not supported"),
     ("    dof rx\n", "    dof rx rx\n", "dof rx rx", "distinct"),
     ("name ltibia", "name lfemur", "LAST:name lfemur", "duplicate bone name"),
     ("name ltibia", "name root", "name root", "may not be called 'root'"),
-    (
-        "    dof rx\n    limits (-170.0 170.0)\n",
-        "    dof rx\n    limits (-170.0)\n",
-        "limits (-170.0)\n",
-        "expected 2 values",
-    ),
-    (
-        "    dof rx\n    limits (-170.0 170.0)\n",
-        "    dof rx\n    limits (-170.0 170.0 1)\n",
-        "limits (-170.0 170.0 1)",
-        "more than 2",
-    ),
+    ("    dof rx\n    limits (-170.0 170.0)\n", "    dof rx\n    limits (-170.0)\n",
+     "limits (-170.0)\n", "expected 2 values"),
+    ("    dof rx\n    limits (-170.0 170.0)\n", "    dof rx\n    limits (-170.0 170.0 1)\n",
+     "limits (-170.0 170.0 1)", "more than 2"),
     ("   order TX TY TZ RX RY RZ", "   order TX TY TW RX RY RZ", "order TX", "root order"),
     ("   order TX TY TZ RX RY RZ", "   order TX TY TX RX RY RZ", "order TX", "root order"),
     ("   position 0.0 0.0 0.0", "   position 0.0 0.0", "position 0.0", "needs 3 numbers"),
@@ -624,7 +522,7 @@ ASF_ERRORS = [
 def test_asf_errors(old: str, new: str, snippet: str | None, message: str) -> None:
     if old == "  end\n":  # the last 'end' (the hierarchy's)
         idx = BASE_ASF.rindex(old)
-        text = BASE_ASF[:idx] + BASE_ASF[idx + len(old) :]
+        text = BASE_ASF[:idx] + BASE_ASF[idx + len(old):]
     elif old == "  end\n:hierarchy":
         text = BASE_ASF.replace(old, new, 1)
     else:
@@ -678,7 +576,7 @@ def test_amc_missing_bone_line() -> None:
     asf = parse_asf(BASE_ASF)
     lines = GOOD_AMC.split("\n")
     i = next(k for k, ln in enumerate(lines) if ln.startswith("head "))
-    text = "\n".join(lines[:i] + lines[i + 1 :])
+    text = "\n".join(lines[:i] + lines[i + 1:])
     with pytest.raises(ASFAMCError, match="frame 1 has no line for bone 'head'") as info:
         parse_amc(text, asf, "bad.amc")
     assert info.value.line == lines.index("1") + 1
@@ -708,7 +606,7 @@ def test_garbage_only_raises_asfamc_error() -> None:
 def test_overflow_is_an_asfamc_error() -> None:
     lines = BASE_ASF.split("\n")
     i = lines.index("     name lfemur")
-    lines[i + 1 : i + 3] = ["     direction 1e300 0 0", "     length 1e300"]
+    lines[i + 1:i + 3] = ["     direction 1e300 0 0", "     length 1e300"]
     with pytest.raises(ASFAMCError, match="overflows") as info:
         parse_asf("\n".join(lines))
     assert info.value.line == i + 3
