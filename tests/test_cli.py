@@ -460,3 +460,26 @@ def test_a_reader_that_goes_away_is_no_error(monkeypatch):
     monkeypatch.setattr(common, "_stdout_broken", lambda: False)
     with pytest.raises(click.ClickException, match="Broken pipe"):
         writes_to_a_closed_pipe()
+
+
+def test_a_failed_command_asked_for_json_on_stdout_prints_its_error_there(
+    walk_bvh: Path, tmp_path: Path
+) -> None:
+    """Newcomer report: ``--json -`` printed nothing on standard output when the command failed,
+    so a script reading it got no JSON. Now it gets ``{"error": LINE}`` (the same line as on
+    standard error), with exit status 2; a JSON file named by --json is not written."""
+    missing = str(tmp_path / "nope.bvh")
+    out = str(tmp_path / "o.bvh")
+    for args in (
+        ["inbetween", missing, "--gap", "10:20", "--library", str(walk_bvh), "--out", out,
+         "--json", "-"],
+        ["stitch", str(walk_bvh), missing, "--takeoff", "10", "--out", out, "--json", "-"],
+        ["retarget", missing, "--to", str(walk_bvh), "--out", out, "--json"],
+    ):  # fmt: skip
+        code, stdout, stderr = run(*args)
+        assert code == 2, (args, stdout, stderr)
+        err = json.loads(stdout)["error"]
+        assert "nope.bvh" in err and f"mocapkit: error: {err}" in stderr
+    code, stdout, _ = run("inbetween", missing, "--gap", "10:20", "--library", str(walk_bvh),
+                          "--out", out, "--json", str(tmp_path / "r.json"))  # fmt: skip
+    assert code == 2 and stdout == "" and not (tmp_path / "r.json").exists()

@@ -92,11 +92,21 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     Warnings raised meanwhile are printed once each when the command ends: a
     :class:`~mocapkit.io.RepairWarning` as ``mocapkit: repaired: ...``, others as
     ``mocapkit: warning: ...``; numpy's overflow/invalid-value RuntimeWarnings are dropped. When
-    the command fails only the error line is printed.
+    the command fails only the error line is printed, and a command asked to print its JSON
+    result (``--json`` as a flag, or ``--json -``) prints ``{"error": LINE}`` there instead,
+    so that a script reading standard output always gets JSON.
     """
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return run(*args, **kwargs)
+        except click.ClickException as e:
+            if kwargs.get("as_json") is True or kwargs.get("json_path") == "-":
+                echo_json({"error": e.format_message()})
+            raise
+
+    def run(*args: Any, **kwargs: Any) -> Any:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:

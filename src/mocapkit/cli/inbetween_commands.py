@@ -71,7 +71,8 @@ from mocapkit.stitch.search import check_same_skeleton
     "--json",
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
-    help="Write the result (-: print it, and the other lines go to standard error).",
+    help="Write the result (-: print it, and the other lines go to standard error; a failure "
+    'prints {"error": LINE}).',
 )
 @LENIENT
 @friendly_errors

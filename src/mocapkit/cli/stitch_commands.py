@@ -97,7 +97,8 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
     "--json",
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
-    help="Write the result (-: print it, and the other lines go to standard error).",
+    help="Write the result (-: print it, and the other lines go to standard error; a failure "
+    'prints {"error": LINE}).',
 )
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), help="Write a PNG figure.")
 @LENIENT
