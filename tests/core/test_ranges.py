@@ -52,6 +52,8 @@ def test_single_positions_are_one_frame_ranges() -> None:
         ("abc", False, "expected A:B"),
         ("1:2:3", False, "expected A:B"),
         ("-5:10", False, "expected A:B"),
+        ("-20:", False, "not back from its end"),  # newcomer report: said only "expected"
+        ("10:-2s", False, "not back from its end"),
         ("1.5:3", False, "expected A:B"),  # seconds need their s
         ("60", False, "expected A:B"),  # a lone frame is not a range here
         ("20:10", False, "reversed"),

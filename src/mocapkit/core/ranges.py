@@ -96,6 +96,11 @@ class RangeSpec:
         lo = _parse_end(lo_t) if lo_t.strip() else None
         hi = _parse_end(hi_t) if hi_t.strip() else None
         if (lo_t.strip() and lo is None) or (hi_t.strip() and hi is None):
+            if any(t.strip().startswith("-") and _parse_end(t.strip()[1:]) for t in (lo_t, hi_t)):
+                raise RangeError(
+                    f"{option}: expected {want}, got {text!r}: frames count from the take's "
+                    "start, not back from its end (its length: mocapkit info FILE)"
+                )
             raise RangeError(f"{option}: expected {want}, got {text!r}")
         if closed and (lo is None or hi is None):
             raise RangeError(f"{option}: expected {want} with both ends given, got {text!r}")
