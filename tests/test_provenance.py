@@ -64,3 +64,45 @@ def test_keys_a_later_version_adds_are_ignored(tmp_path):
     prov = find_provenance(tmp_path / "x.bvh")
     assert prov is not None and prov.segments[0].kind == "clip"
     assert prov.transitions[0].cost == 1.0
+
+
+def test_a_sidecar_traced_through_its_inputs_own_names_where_every_frame_came_from(tmp_path):
+    """``through``: the frames copied from a file mocapkit made become the segments its own
+    sidecar gives them, clipped (a time-warped fill in proportion, a backwards one from its
+    end), with its transitions inside them; nothing changes where the sidecar cannot be this
+    file's (another frame rate, too few frames)."""
+    a, f = str(tmp_path / "a.bvh"), str(tmp_path / "f.bvh")
+    earlier = Provenance(
+        "inbetween", f, 30.0, 100, [a, "lib.bvh"], {"gap": [30, 60]},
+        [Segment(0, 30, "clip", a, 0, 30), Segment(30, 60, "inbetween", "lib.bvh", 200, 260),
+         Segment(60, 80, "inbetween", "back.bvh", 10, 30, True),
+         Segment(80, 100, "clip", a, 80, 100)],
+        [TransitionTaken(30, a, 29, "lib.bvh", 200, 1.0), TransitionTaken(60, "lib.bvh", 259,
+                                                                           a, 60, 2.0)],
+    )  # fmt: skip
+    later = Provenance(
+        "stitch", "out.bvh", 30.0, 70, [f, "b.bvh"], {"k": 0},
+        [Segment(0, 50, "clip", f, 40, 90), Segment(50, 70, "clip", "b.bvh", 5, 25)],
+        [TransitionTaken(50, f, 89, "b.bvh", 5, 3.0)],
+    )  # fmt: skip
+    got = later.through(earlier, f)
+    assert got.segments == [
+        Segment(0, 20, "inbetween", "lib.bvh", 220, 260),  # output 40:60 of f, warped x2
+        Segment(20, 40, "inbetween", "back.bvh", 10, 30, True),
+        Segment(40, 50, "clip", a, 80, 90),
+        Segment(50, 70, "clip", "b.bvh", 5, 25),
+    ]
+    assert [(t.output_frame, t.source, t.source_frame) for t in got.transitions] == [
+        (20, "lib.bvh", 259), (50, a, 89)]  # fmt: skip
+    assert got.inputs == [f, "b.bvh", a, "lib.bvh"]
+    assert got.parameters == {"k": 0, "earlier": [{"tool": "inbetween", "gap": [30, 60]}]}
+    # the history chains: a third run lists both earlier ones, oldest first
+    third = Provenance("inbetween", "o3.bvh", 30.0, 70, ["out.bvh"], {"gap": [1, 2]},
+                       [Segment(0, 70, "clip", "out.bvh", 0, 70)])  # fmt: skip
+    tools = [e["tool"] for e in third.through(got, "out.bvh").parameters["earlier"]]
+    assert tools == ["inbetween", "stitch"]
+    from dataclasses import replace
+
+    assert later.through(replace(earlier, fps=25.0), f) is later
+    assert later.through(replace(earlier, frames=80), f) is later  # copies frames 40:90
+    assert later.through(earlier, str(tmp_path / "other.bvh")) is later

@@ -36,6 +36,10 @@ stitch's injected frames), ``"inbetween"`` (frames of ``source``, time-warped an
 the frames around a gap, their ends blended into them: ``mocapkit inbetween``; with
 ``"backwards": true`` when the source played in reverse). Readers ignore keys they do not know,
 so later tools may add some.
+
+A motion made from a motion mocapkit made (a take filled twice) traces its copied frames back
+through that input's sidecar (:meth:`Provenance.through`; ``mocapkit inbetween`` does): the
+segments then name the original files, and ``parameters["earlier"]`` lists the earlier runs.
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -118,6 +122,48 @@ class Provenance:
             ],
         }
 
+    def through(self, earlier: Provenance, file: str) -> Provenance:
+        """This sidecar with the frames it copied from ``file`` traced back through
+        ``earlier``, the sidecar of ``file`` (a motion mocapkit made: a take whose gap was
+        filled, then filled again elsewhere): each "clip" segment of ``file`` becomes the
+        segments of ``earlier`` it copied (clipped to its frames; a time-warped segment's
+        source frames in proportion), ``earlier``'s transitions inside it come along, a
+        transition's end on a copied frame names the clip it came from, ``earlier``'s inputs
+        are added, and ``parameters["earlier"]`` lists the tools and parameters that made
+        ``file``, oldest first. Unchanged when ``earlier`` is of another frame rate or shorter
+        than the frames copied (then it is not this file's sidecar any more)."""
+        copied = [s for s in self.segments if s.kind == "clip" and _same(s.source, file)]
+        if not copied or not _close(earlier.fps, self.fps):
+            return self
+        if any(s.backwards or (s.source_stop or 0) > earlier.frames for s in copied):
+            return self
+        segs: list[Segment] = []
+        trans = [_traced_ends(t, earlier, file) for t in self.transitions]
+        for s in self.segments:
+            if s not in copied:
+                segs.append(s)
+                continue
+            s0, s1 = int(s.source_start or 0), int(s.source_stop or 0)
+            shift = s.output_start - s0
+            for x in earlier.segments:
+                lo, hi = max(x.output_start, s0), min(x.output_stop, s1)
+                if lo < hi:
+                    segs.append(_clipped(x, lo, hi, shift))
+            trans += [
+                replace(t, output_frame=t.output_frame + shift)
+                for t in earlier.transitions
+                if s0 < t.output_frame < s1
+            ]
+        params = {k: v for k, v in earlier.parameters.items() if k != "earlier"}
+        history = [*earlier.parameters.get("earlier", []), {"tool": earlier.tool, **params}]
+        return replace(
+            self,
+            inputs=[*self.inputs, *(x for x in earlier.inputs if x not in self.inputs)],
+            parameters={**self.parameters, "earlier": history},
+            segments=sorted(segs, key=lambda x: x.output_start),
+            transitions=sorted(trans, key=lambda t: t.output_frame),
+        )
+
     def write(self, output: str | Path) -> Path:
         """Write the sidecar of ``output`` (:func:`sidecar_path`) atomically, file paths relative
         to its folder (module notes); returns its path."""
@@ -128,6 +174,53 @@ class Provenance:
         data = self.to_json(lambda s: _from_folder(s, folder))
         data["output"] = os.path.join(".", Path(output).name)  # beside it, written or not yet
         return atomic_write_text(side, to_json_text(data) + "\n")
+
+
+def _same(a: str | None, b: str) -> bool:
+    """Whether the paths ``a`` and ``b`` name one file (one that is gone: the same path)."""
+    if a is None:
+        return False
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+def _close(x: float, y: float) -> bool:
+    return abs(x - y) <= 1e-6 * max(abs(x), abs(y))
+
+
+def _traced_ends(t: TransitionTaken, earlier: Provenance, file: str) -> TransitionTaken:
+    """``t`` with an end at a frame of ``file`` that ``earlier`` says was copied from a clip
+    named as that clip's frame."""
+
+    def back(name: str, frame: int) -> tuple[str, int]:
+        if _same(name, file):
+            for x in earlier.segments:
+                if x.kind == "clip" and x.output_start <= frame < x.output_stop:
+                    return str(x.source), frame - x.output_start + int(x.source_start or 0)
+        return name, frame
+
+    (src, sf), (tgt, tf) = back(t.source, t.source_frame), back(t.target, t.target_frame)
+    return replace(t, source=src, source_frame=sf, target=tgt, target_frame=tf)
+
+
+def _clipped(x: Segment, lo: int, hi: int, shift: int) -> Segment:
+    """Output frames ``lo:hi`` of segment ``x``, moved by ``shift`` frames, with the source
+    frames that play there (in proportion where the segment is time-warped; from the source's
+    end where it plays backwards)."""
+    if x.source_start is None or x.source_stop is None:
+        return replace(x, output_start=lo + shift, output_stop=hi + shift)
+    k = (x.source_stop - x.source_start) / (x.output_stop - x.output_start)
+    d0 = round((lo - x.output_start) * k)
+    d1 = max(round((hi - x.output_start) * k), d0 + 1)
+    src = (
+        (x.source_stop - d1, x.source_stop - d0)
+        if x.backwards
+        else (x.source_start + d0, x.source_start + d1)
+    )
+    return replace(x, output_start=lo + shift, output_stop=hi + shift, source_start=src[0],
+                   source_stop=src[1])  # fmt: skip
 
 
 def _from_folder(s: str, folder: str) -> str:

@@ -1310,3 +1310,36 @@ def test_free_feet_pass_over_the_floor_as_high_as_their_segments_did():
     kept = _lock_feet(lowered, a, b, "Y", config)  # no segments: no clearance to restore
     K = forward_kinematics(kept)[0][:, effs, 1]
     assert (T[:, effs, 1] - K)[sweep].mean() > 0.008
+
+
+def test_a_take_filled_twice_keeps_both_fills_in_its_sidecar_and_viewer(files):
+    """Newcomer report: filling a second gap of an output kept only the newest fill in the
+    sidecar, its frames "clip" frames of the first output. Now the second sidecar traces them
+    back through the first: both fills, the clip's frames named as the original take's, both
+    runs' parameters; the viewer draws the earlier fill too and scores only the newest."""
+    from mocapkit.provenance import find_provenance
+    from mocapkit.viz.viewer import ViewMotion, page_data
+
+    one, two = files / "once.bvh", files / "twice.bvh"
+    for clip, gap, out in ((files / "walk.bvh", "30:50", one), (one, "90:110", two)):
+        code, _, se = run("inbetween", clip, "--gap", gap, "--library", files / "lib",
+                          "--method", "library", "--out", out)  # fmt: skip
+        assert code == 0, se
+    prov = find_provenance(two)
+    walk = str((files / "walk.bvh").resolve())
+    got = [(s.output_start, s.output_stop, s.kind) for s in prov.segments]
+    assert got == [(0, 30, "clip"), (30, 50, "inbetween"), (50, 90, "clip"),
+                   (90, 110, "inbetween"), (110, 150, "clip")]  # fmt: skip
+    for s in prov.segments:
+        if s.kind == "clip":
+            assert str(Path(s.source).resolve()) == walk
+            assert (s.source_start, s.source_stop) == (s.output_start, s.output_stop)
+    assert [t.output_frame for t in prov.transitions] == [30, 50, 90, 110]
+    ends = [prov.transitions[2].source, prov.transitions[3].target]  # once.bvh's 89 and 110
+    assert [str(Path(x).resolve()) for x in ends] == [walk, walk]
+    assert (prov.transitions[2].source_frame, prov.transitions[3].target_frame) == (89, 110)
+    assert [e["tool"] for e in prov.parameters["earlier"]] == ["inbetween"]
+    assert prov.parameters["earlier"][0]["gap"] == [30, 50] and prov.parameters["gap"] == [90, 110]
+    st = page_data([ViewMotion(read_motion(two), str(two), provenance=prov)])["stitch"]
+    assert st["generated"] == [90, 110] and [e["generated"] for e in st["earlier"]] == [[30, 50]]
+    assert st["lscore"] == pytest.approx(sum(t.cost for t in prov.transitions[2:]))

@@ -30,6 +30,7 @@ from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs
+from mocapkit.provenance import Provenance, find_provenance
 from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS, kalman_max_frames
 from mocapkit.stitch.search import check_same_skeleton
 
@@ -247,7 +248,8 @@ def inbetween_cmd(
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
         write_motion(res.motion, out_path)
-        side = res.provenance(out_path, {"gap_spec": gap}).write(out_path)
+        side = _traced(res.provenance(out_path, {"gap_spec": gap}), clip, q.num_frames)
+        side = side.write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         if json_path:
             write_json(json_path, {**res.to_json(), "skipped": [*unnamed, *skipped]})
@@ -256,6 +258,20 @@ def inbetween_cmd(
         say(line)
     if skipped or unnamed:  # the gap is filled from the others; the status says not all were
         raise click.exceptions.Exit(2)
+
+
+def _traced(plan: Provenance, clip: str, frames: int) -> Provenance:
+    """``plan`` with the frames it kept of ``clip`` traced back through ``clip``'s own sidecar,
+    where it has one that still describes it (its frame count): a take whose gaps are filled
+    one run at a time keeps every fill in the last sidecar (newcomer report: only the newest)."""
+    try:
+        earlier = find_provenance(clip)
+    except ValueError as e:
+        click.echo(f"mocapkit: warning: {one_line(e)}: its history is left out", err=True)
+        return plan
+    if earlier is None or earlier.frames != frames:
+        return plan
+    return plan.through(earlier, clip)
 
 
 # ------------------------------------------------------------------------------------ demo

@@ -293,12 +293,17 @@ def stitch_overlay(motions: Sequence[ViewMotion], result: dict[str, Any] | None)
 def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
     """The in-betweening overlay, read from the provenance sidecar ``mocapkit inbetween`` writes
     (:mod:`mocapkit.provenance`): drawn like a stitch (the filled frames yellow, the last context
-    frame and the first frame after the gap marked), with the library clip and frames used."""
+    frame and the first frame after the gap marked), with the library clip and frames used;
+    frames that earlier runs filled on the same take (a sidecar traced through the take's own,
+    :meth:`mocapkit.provenance.Provenance.through`) drawn yellow too."""
     found = _first_made_by(motions, "inbetween")
     if found is None:
         return None
     idx, plan = found
-    mid = next((s for s in plan.segments if s.kind in ("inbetween", "generated")), None)
+    fills = [s for s in plan.segments if s.kind in ("inbetween", "generated")]
+    gap = plan.parameters.get("gap")  # the newest fill; earlier runs' fills are traced too
+    mid = next((s for s in fills if [s.output_start, s.output_stop] == gap), None)
+    mid = mid or (fills[-1] if fills else None)
     if mid is None:
         return None
     a, b = mid.output_start, mid.output_stop
@@ -315,7 +320,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "k": b - a,
         # the filled frames' two-sided L-score: the sum of the junctions' (sidecar costs; one
         # at a gap at the clip's start or end)
-        "lscore": _junction_sum(plan.transitions),
+        "lscore": _junction_sum([t for t in plan.transitions if a <= t.output_frame <= b]),
         "lscoreByK": [],
         "query": clip,
         "data": mid.source,
@@ -334,6 +339,11 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
         "note": plan.parameters.get("note"),
+        "earlier": [  # frames filled by earlier runs on the take this one filled
+            {"generated": [s.output_start, s.output_stop], "data": s.source}
+            for s in fills
+            if s is not mid
+        ],
     }
 
 

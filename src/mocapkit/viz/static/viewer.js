@@ -314,10 +314,13 @@
     }
   }
 
+  function inRange(r, f) { return f >= r[0] && f < r[1]; }
+
   function updatePose() {
     motions.forEach(function (m) {
       var f = motionFrame(m, frame); m.frame = f;
-      var injected = !!(stitch && stitch.motion === m.index && f >= stitch.generated[0] && f < stitch.generated[1]);
+      var injected = !!(stitch && stitch.motion === m.index && (inRange(stitch.generated, f) ||
+        (stitch.earlier || []).some(function (e) { return inRange(e.generated, f); })));
       var C = m.colBuf;
       if (mdm && clean.motion === m.index) {
         for (var j = 0; j < m.n; j++) C.set(j < m.meta.numJoints ? ramp(mdmAt(f, j)) : m.rgb, 3 * j);
@@ -545,6 +548,10 @@
       var mi = stitch.motion;
       var g0 = mfx(mi, stitch.generated[0], w), g1 = mfx(mi, stitch.generated[1], w);
       tctx.fillStyle = 'rgba(255,235,59,0.45)'; tctx.fillRect(g0, 0, Math.max(2, g1 - g0), top);
+      (stitch.earlier || []).forEach(function (e) {
+        var e0 = mfx(mi, e.generated[0], w), e1 = mfx(mi, e.generated[1], w);
+        tctx.fillRect(e0, 0, Math.max(2, e1 - e0), top);
+      });
       if (stitch.takeoff != null) { tctx.fillStyle = '#4fc3f7'; tctx.fillRect(mfx(mi, stitch.takeoff, w) - 1, 0, 2, top); }
       if (stitch.landing != null) { tctx.fillStyle = '#81c784'; tctx.fillRect(mfx(mi, stitch.landing, w) - 1, 0, 2, top); }
     }
@@ -607,6 +614,10 @@
       else if (mf2 >= stitch.generated[0] && mf2 < stitch.generated[1] && stitch.kind === 'inbetween') s += ' \u00b7 filled frame ' + (mf2 - stitch.generated[0] + 1) + ' of ' + (stitch.generated[1] - stitch.generated[0]) + (stitch.data ? ' (' + base(stitch.data) + ')' : ' (Kalman)');
       else if (mf2 >= stitch.generated[0] && mf2 < stitch.generated[1]) s += ' \u00b7 injected frame ' + (mf2 - stitch.generated[0] + 1) + ' of ' + (stitch.generated[1] - stitch.generated[0]);
       else if (mf2 === stitch.landing) s += stitch.kind === 'inbetween' ? ' \u00b7 first frame after the gap' : ' \u00b7 landing (data frame ' + stitch.landingData + ')';
+      else {
+        var early = (stitch.earlier || []).filter(function (e) { return inRange(e.generated, mf2); })[0];
+        if (early) s += ' \u00b7 filled by an earlier run, frame ' + (mf2 - early.generated[0] + 1) + ' of ' + (early.generated[1] - early.generated[0]) + (early.data ? ' (' + base(early.data) + ')' : ' (Kalman)');
+      }
     }
     $('hover-info').textContent = s;
   });
@@ -666,6 +677,11 @@
       (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
         '; L-score of its one junction with the clip (a gap at the clip\'s ' + (stitch.takeoff == null ? 'start' : 'end') + ') ' + Number(stitch.lscore).toPrecision(4) :
         '; two-sided L-score of the filled frames ' + Number(stitch.lscore).toPrecision(4)));
+    if (stitch.earlier && stitch.earlier.length) {
+      info('filled by earlier runs on this take (drawn yellow too): ' + stitch.earlier.map(function (e) {
+        return 'frames ' + e.generated[0] + '\u2013' + (e.generated[1] - 1) + (e.data ? ' from ' + base(e.data) : ' (Kalman)');
+      }).join('; '));
+    }
     if (stitch.warning) info('warning: ' + stitch.warning).style.color = '#ffb74d';
   } else if (stitch) {
     info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
