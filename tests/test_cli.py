@@ -483,3 +483,37 @@ def test_a_failed_command_asked_for_json_on_stdout_prints_its_error_there(
     code, stdout, _ = run("inbetween", missing, "--gap", "10:20", "--library", str(walk_bvh),
                           "--out", out, "--json", str(tmp_path / "r.json"))  # fmt: skip
     assert code == 2 and stdout == "" and not (tmp_path / "r.json").exists()
+    # a mistyped option (click's own check, before the command runs) prints it too, once
+    for args in (
+        ["inbetween", str(walk_bvh), "--gap", "10:20", "--method", "foo", "--out", out,
+         "--json=-"],
+        ["inbetween", str(walk_bvh), "--library", str(walk_bvh), "--out", out, "--json", "-"],
+        ["graph", "report", missing, "--json"],
+    ):  # fmt: skip
+        code, stdout, stderr = run(*args)
+        assert code == 2 and "mocapkit: error:" in stderr
+        assert json.loads(stdout)["error"] in stderr
+    code, stdout, _ = run("inbetween", str(walk_bvh), "--gap", "10:20", "--method", "foo",
+                          "--out", out)  # fmt: skip
+    assert code == 2 and stdout == ""  # no JSON asked for
+
+
+def test_stitch_prints_its_json_result_only_once_its_files_are_written(
+    walk_bvh: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Review: the result was printed inside the all-or-nothing block, so a later failure (the
+    plot, the final rename) left a success document on stdout followed by the error's. Now
+    standard output holds the error alone, and no output file is left."""
+    import mocapkit.viz.figures.stitch as fig
+
+    def broken(*_args, **_kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(fig, "plot_stitch", broken)
+    out = tmp_path / "o.bvh"
+    code, stdout, stderr = run("stitch", str(walk_bvh), str(walk_bvh), "--takeoff", "30",
+                               "--out", str(out), "--plot", str(tmp_path / "p.png"),
+                               "--json", "-")  # fmt: skip
+    assert code == 2, stderr
+    assert set(json.loads(stdout)) == {"error"} and "no space" in stdout.lower()
+    assert not out.exists()

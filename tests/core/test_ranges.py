@@ -54,6 +54,7 @@ def test_single_positions_are_one_frame_ranges() -> None:
         ("-5:10", False, "expected A:B"),
         ("-20:", False, "not back from its end"),  # newcomer report: said only "expected"
         ("10:-2s", False, "not back from its end"),
+        ("-20", True, "not back from its end"),
         ("1.5:3", False, "expected A:B"),  # seconds need their s
         ("60", False, "expected A:B"),  # a lone frame is not a range here
         ("20:10", False, "reversed"),

@@ -104,6 +104,7 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
         except click.ClickException as e:
             if kwargs.get("as_json") is True or kwargs.get("json_path") == "-":
                 echo_json({"error": e.format_message()})
+                e.json_printed = True  # type: ignore[attr-defined]  # not again by the group
             raise
 
     def run(*args: Any, **kwargs: Any) -> Any:
@@ -262,10 +263,30 @@ class OneLineErrorGroup(click.Group):
             raise self._one_line(e) from None
 
     def invoke(self, ctx: click.Context) -> Any:
+        args = [*getattr(ctx, "_protected_args", []), *ctx.args]  # the subcommand and its args
         try:
             return super().invoke(ctx)
         except click.UsageError as e:
+            cmd = self.get_command(ctx, args[0]) if args else None
+            if not getattr(e, "json_printed", False) and _json_on_stdout(cmd, args[1:]):
+                echo_json({"error": one_line(e.format_message())})  # a mistyped option too
             raise self._one_line(e) from None
+
+
+def _json_on_stdout(cmd: click.Command | None, args: Sequence[str]) -> bool:
+    """Whether ``args`` ask ``cmd`` (not a group: its own subcommand judges) to print its
+    JSON result on standard output: ``--json`` where it is a flag, or ``--json -``."""
+    if cmd is None or isinstance(cmd, click.Group):
+        return False
+    opt = next((p for p in cmd.params if isinstance(p, click.Option) and "--json" in p.opts), None)
+    if opt is None:
+        return False
+    for i, a in enumerate(args):
+        if a == "--json":
+            return bool(opt.is_flag) or args[i + 1 : i + 2] == ["-"]
+        if a == "--json=-":
+            return True
+    return False
 
 
 @click.group(

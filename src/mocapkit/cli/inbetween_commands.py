@@ -13,6 +13,7 @@ from mocapkit.cli.common import (
     CLIError,
     check_input_file,
     data_output,
+    echo_json,
     expand_library,
     friendly_errors,
     load,
@@ -72,8 +73,8 @@ from mocapkit.stitch.search import check_same_skeleton
     "--json",
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
-    help="Write the result (-: print it, and the other lines go to standard error; a failure "
-    'prints {"error": LINE}).',
+    help="Write the result (-: print it, and the other lines go to standard error; a failure, "
+    'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
 )
 @LENIENT
 @friendly_errors
@@ -94,8 +95,10 @@ def inbetween_cmd(
     last two frames before the gap and the first frame after it, plus how the body travels
     over the ground across the gap. The best segments (six) are each moved over the
     ground onto both ends, their remaining pose differences blended away, and averaged, the
-    better-scored counting more (a segment matching the context exactly all but alone), so the
-    result meets the context poses exactly; a gap over 1.5 s is filled by the best segment
+    better-scored counting more (a segment with score s weighs exp(-(s - best) / (best + 1)),
+    the score's unit being the pose and path tolerances: an exact match still shares its
+    weight with segments within about one unit of it), so the result meets the context poses
+    exactly; a gap over 1.5 s is filled by the best segment
     alone (averaged segments drift out of step over a few strides, and their feet slide).
     The gap needs at least 3 frames of the clip before it and 1 after it, or is at the
     clip's start (0:B, 3 frames after it) or end (A:F, 3 frames before it): such a gap is
@@ -251,9 +254,13 @@ def inbetween_cmd(
         side = _traced(res.provenance(out_path, {"gap_spec": gap}), clip, q.num_frames)
         side = side.write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
-        if json_path:
-            write_json(json_path, {**res.to_json(), "skipped": [*unnamed, *skipped]})
-            wrote.append(f"wrote {json_path}" if json_path != "-" else "printed the JSON result")
+        result = {**res.to_json(), "skipped": [*unnamed, *skipped]}
+        if json_path and json_path != "-":
+            write_json(json_path, result)
+            wrote.append(f"wrote {json_path}")
+    if json_path == "-":  # printed once the files are in place: a failure prints only its error
+        echo_json(result)
+        wrote.append("printed the JSON result")
     for line in wrote:
         say(line)
     if skipped or unnamed:  # the gap is filled from the others; the status says not all were

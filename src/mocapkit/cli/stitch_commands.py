@@ -13,6 +13,7 @@ from mocapkit.cli.common import (
     CLIError,
     check_input_file,
     data_output,
+    echo_json,
     expand_inputs,
     friendly_errors,
     load,
@@ -97,8 +98,8 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
     "--json",
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
-    help="Write the result (-: print it, and the other lines go to standard error; a failure "
-    'prints {"error": LINE}).',
+    help="Write the result (-: print it, and the other lines go to standard error; a failure, "
+    'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
 )
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), help="Write a PNG figure.")
 @LENIENT
@@ -239,14 +240,17 @@ def stitch_cmd(
             params = {"takeoff": takeoff, "takeoff_frames": [a, b], "window": window}
             side = res.provenance(out_path, params).write(out_path)
             wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames, {method}) and {side}")
-        if json_path:
+        if json_path and json_path != "-":
             write_json(json_path, res.to_json())
-            wrote.append(f"wrote {json_path}" if json_path != "-" else "printed the JSON result")
+            wrote.append(f"wrote {json_path}")
         if plot_path:
             from mocapkit.viz.figures.stitch import plot_stitch
 
             plot_stitch(res, plot_path)
             wrote.append(f"wrote {plot_path}")
+    if json_path == "-":  # printed once the files are in place: a failure prints only its error
+        echo_json(res.to_json())
+        wrote.append("printed the JSON result")
     for line in wrote:
         say(line)
     if res.skipped:  # as every library job: the others are done, the status says not all

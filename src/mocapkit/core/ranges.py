@@ -27,6 +27,9 @@ _END = re.compile(r"^\s*(?:(?P<frame>\d+)|(?P<sec>\d+(?:\.\d*)?|\.\d+)\s*s)\s*$"
 _SYNTAX = "A:B (0-based frames, B excluded), A:, :B, or seconds such as 1.5s:4.0s"
 _SYNTAX_CLOSED = "A:B (0-based frames, B excluded) or seconds such as 1.5s:4.0s"
 _SYNTAX_ONE = "a frame (60) or a time (2.0s)"
+_NOT_FROM_END = (
+    "frames count from the take's start, not back from its end (its length: mocapkit info FILE)"
+)
 
 
 class RangeError(ValueError):
@@ -85,9 +88,12 @@ class RangeSpec:
             raise RangeError(f"{option}: expected {syntax}, got {text!r}")
         s = text.strip()
         want = f"{_SYNTAX_ONE} or a range {syntax}" if single else syntax
+        back = _NOT_FROM_END
         if ":" not in s:
             end = _parse_end(s) if single else None
             if end is None:
+                if single and s.startswith("-") and _parse_end(s[1:]):
+                    raise RangeError(f"{option}: expected {want}, got {text!r}: {back}")
                 raise RangeError(f"{option}: expected {want}, got {text!r}")
             return cls(text, end, None, True, option)
         if s.count(":") != 1:
@@ -97,10 +103,7 @@ class RangeSpec:
         hi = _parse_end(hi_t) if hi_t.strip() else None
         if (lo_t.strip() and lo is None) or (hi_t.strip() and hi is None):
             if any(t.strip().startswith("-") and _parse_end(t.strip()[1:]) for t in (lo_t, hi_t)):
-                raise RangeError(
-                    f"{option}: expected {want}, got {text!r}: frames count from the take's "
-                    "start, not back from its end (its length: mocapkit info FILE)"
-                )
+                raise RangeError(f"{option}: expected {want}, got {text!r}: {back}")
             raise RangeError(f"{option}: expected {want}, got {text!r}")
         if closed and (lo is None or hi is None):
             raise RangeError(f"{option}: expected {want} with both ends given, got {text!r}")

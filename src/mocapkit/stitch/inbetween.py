@@ -1239,10 +1239,11 @@ def _onto_floor(ex: Motion, pos, flags, gap, targets, weights, up: str, floor: n
 
 def _swing_clearance(ex: Motion, pos, planted, targets, weights, up: str, clearance, known):
     """``targets`` and ``weights`` of :func:`_lock_feet` with each filled frame's free foot joint
-    (``planted`` False, ``known`` True) that sits lower than ``clearance`` (F, n), the height its
-    library segments had there above their own floor put on the clip's, raised to it where the
-    difference is over :data:`FLOOR_TOLERANCE_M` (the lock's own correction kept as its weight
-    applied it). A foot is never lowered.
+    (``planted`` False, ``known`` True) that the lock aims lower (its target as far as its
+    weight pulls: the floor raise of :func:`_onto_floor` included) than ``clearance`` (F, n),
+    the height its library segments had there above their own floor put on the clip's, aimed
+    at that height instead, fully, where the difference is over :data:`FLOOR_TOLERANCE_M`. A
+    foot is never lowered.
 
     Relies on: how high a swinging foot passes over the floor is part of the captured step
     (toe clearance is a few centimetres and varies little within a person's gait), while
@@ -1251,23 +1252,24 @@ def _swing_clearance(ex: Motion, pos, planted, targets, weights, up: str, cleara
     tuning windows (bench_inbetween.py --tune --holdout person) the filled moving toes' 5th
     percentile height was -0.1 cm against the segments' own 1.2 and the truth's 1.4, and foot
     skate at 5 / 15 / 30 / 45 frames 30.8 / 37.8 / 35.2 / 36.8 cm/s against the truth's 27.1
-    / 31.6 / 31.6 / 31.6; raised, 28.3 / 31.9 / 29.9 / 28.8 (L2P at 15 / 30 frames 2.219 /
-    2.931 before, 2.218 / 2.957). Raised by the difference less the tolerance instead: 28.6 /
-    32.7 / 30.7 / 29.9. The floors are the clips' whole takes' (a segment's own planted frames
-    gave within 0.3 cm/s)."""
+    / 31.6 / 31.6 / 31.6; raised, 28.4 / 33.5 / 32.8 / 33.0 (L2P at 15 / 30 frames 2.219 /
+    2.931 before, 2.208 / 2.934). Measured from the fill as it came, not from the lock's aim
+    (a first version, which raised a fill standing low by that much again): 28.3 / 31.9 /
+    29.9 / 28.8. Only the segments whose foot is free at the frame counting: 28.5 / 33.6 /
+    32.7 / 32.7, left out. The floors are the clips' whole takes' (a segment's own planted
+    frames gave within 0.3 cm/s)."""
     from mocapkit.features import ground_frame, metres_per_unit
 
     _, u, _ = ground_frame(up)
     tol = FLOOR_TOLERANCE_M / metres_per_unit(ex, None)
-    rise = np.where(known & ~planted, clearance - pos @ u, 0.0)
-    low = np.argwhere(rise > tol)
-    if not len(low):
+    aim = pos + weights[..., None] * (targets - pos)  # where the lock (and floor) put the foot
+    rise = np.where(known & ~planted, clearance - aim @ u, 0.0)
+    low = rise > tol
+    if not low.any():
         return targets, weights
     targets, weights = targets.copy(), weights.copy()
-    for f, k in low:  # the lock's target as far as its weight pulled, then raised, held fully
-        w = weights[f, k]
-        targets[f, k] = pos[f, k] + w * (targets[f, k] - pos[f, k]) + rise[f, k] * u
-        weights[f, k] = 1.0
+    targets[low] = aim[low] + rise[low][:, None] * u  # raised from there, held fully
+    weights[low] = 1.0
     return targets, weights
 
 

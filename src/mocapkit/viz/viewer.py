@@ -294,16 +294,18 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
     """The in-betweening overlay, read from the provenance sidecar ``mocapkit inbetween`` writes
     (:mod:`mocapkit.provenance`): drawn like a stitch (the filled frames yellow, the last context
     frame and the first frame after the gap marked), with the library clip and frames used;
-    frames that earlier runs filled on the same take (a sidecar traced through the take's own,
-    :meth:`mocapkit.provenance.Provenance.through`) drawn yellow too."""
+    frames that earlier runs filled from a library on the same take (a sidecar traced through
+    the take's own, :meth:`mocapkit.provenance.Provenance.through`) drawn yellow too."""
     found = _first_made_by(motions, "inbetween")
     if found is None:
         return None
     idx, plan = found
+    # the newest fill (its gap, in the parameters); earlier runs' library fills are traced in
+    # too, and only those are drawn as earlier fills: "generated" frames may be another tool's
+    # (a stitch's injected frames, a retarget's resampled take)
+    gap = plan.parameters.get("gap")
     fills = [s for s in plan.segments if s.kind in ("inbetween", "generated")]
-    gap = plan.parameters.get("gap")  # the newest fill; earlier runs' fills are traced too
     mid = next((s for s in fills if [s.output_start, s.output_stop] == gap), None)
-    mid = mid or (fills[-1] if fills else None)
     if mid is None:
         return None
     a, b = mid.output_start, mid.output_stop
@@ -341,8 +343,8 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "note": plan.parameters.get("note"),
         "earlier": [  # frames filled by earlier runs on the take this one filled
             {"generated": [s.output_start, s.output_stop], "data": s.source}
-            for s in fills
-            if s is not mid
+            for s in plan.segments
+            if s.kind == "inbetween" and s is not mid
         ],
     }
 
