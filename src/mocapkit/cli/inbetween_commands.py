@@ -108,8 +108,8 @@ def inbetween_cmd(
     library fill's two-sided L-score (smoothness at both junctions, lower is better) is more
     than 4x the Kalman transition's own. A warning says when the best segment's path over
     the ground misses the clip's by more than 0.5 m (0.35 m per second of a gap over 1.4 s),
-    or, at the clip's start or end, its poses beside the gap by more than 12 cm RMS per joint:
-    the library then holds nothing like the motion around the gap.
+    or its poses beside the gap by more than 12 cm RMS per joint: the library then holds
+    nothing like the motion around the gap.
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
     OUT`` marks them); --json writes the same with the scores. A library file that cannot be
     read, or has another skeleton, gets one error line and is left out; the gap is still
