@@ -143,7 +143,8 @@ def inbetween_cmd(
         lib_paths = others
     if not lib_paths and method != "kalman":
         if unnamed:
-            raise CLIError("--library: no usable library file (see the errors above)")
+            more = f"; {len(unnamed) - 1} more above" if len(unnamed) > 1 else ""
+            raise CLIError(f"--library: no usable library file ({unnamed[0]}{more})")
         raise CLIError("--library: no library motion besides the clip")
     check_outputs(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
@@ -172,7 +173,11 @@ def inbetween_cmd(
     for why in skipped:
         click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
     if not kept and method != "kalman":
-        raise CLIError(f"--library: no library motion with {clip}'s skeleton could be read")
+        why = f" ({skipped[0]}{f'; {len(skipped) - 1} more above' if len(skipped) > 1 else ''})"
+        raise CLIError(
+            f"--library: no library motion with {clip}'s skeleton could be read"
+            f"{why if skipped else ''}"
+        )
     lib_paths, lib = [p for p, _ in kept], [m for _, m in kept]
     with naming(clip, *lib_paths):
         res = inbetween(

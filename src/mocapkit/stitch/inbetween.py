@@ -422,9 +422,18 @@ def check_gap(
         )
         if a == 0 and b == F:
             raise ValueError(f"{name}: {given} is the whole clip: there is no context to fill from")
+        seconds = f", {F / fps:.4g} s at {fps:.4g} fps" if fps else ""
+        if b > F:
+            why = f"it runs past the clip's end ({F} frames{seconds}); "
+        elif 0 < a < 3:
+            why = f"only {a} frame{'s' if a > 1 else ''} of the clip before it, 3 needed; "
+        elif a == 0 and b > F - 3:
+            why = f"only {F - b} frame{'' if F - b == 1 else 's'} of the clip after it, 3 needed; "
+        else:
+            why = ""
         raise ValueError(
-            f"{name}: {given}: expected 3 <= A < B < {F} (it has {F} frames; 3 context frames "
-            f"are needed before the gap and 1 after it), or a gap at its start, 0:B with "
+            f"{name}: {given}: {why}expected 3 <= A < B < {F} (it has {F} frames; 3 context "
+            f"frames are needed before the gap and 1 after it), or a gap at its start, 0:B with "
             f"B <= {F - 3}, or at its end, A:{F} with A >= 3 (3 context frames on the other "
             "side)"
         )
