@@ -100,6 +100,8 @@ def inbetween_cmd(
     weight with segments within about one unit of it), so the result meets the context poses
     exactly; a gap over 1.5 s is filled by the best segment
     alone (averaged segments drift out of step over a few strides, and their feet slide).
+    The legs are then fitted by IK: planted feet held and never below the clip's floor,
+    swinging feet passing over it no lower than the segments lifted them.
     The gap needs at least 3 frames of the clip before it and 1 after it, or is at the
     clip's start (0:B, 3 frames after it) or end (A:F, 3 frames before it): such a gap is
     filled from the one side, by the best segment alone, continuing the clip's motion and
@@ -111,7 +113,8 @@ def inbetween_cmd(
     or its poses beside the gap by more than 12 cm RMS per joint: the library then holds
     nothing like the motion around the gap.
     OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
-    OUT`` marks them); --json writes the same with the scores. A library file that cannot be
+    OUT`` marks them); when CLIP has a sidecar of its own (a take filled before), the earlier
+    fills are traced into it. --json writes the same with the scores. A library file that cannot be
     read, or has another skeleton, gets one error line and is left out; the gap is still
     filled from the others, and the exit status is then 2. CLIP and library files may be
     .bvh, .npz or CMU .amc (with its subject's .asf beside it).
