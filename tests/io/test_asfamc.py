@@ -663,3 +663,24 @@ def test_an_error_in_the_last_frame_that_is_no_truncation_stays_an_error() -> No
     i = GOOD_AMC.index("\n3\n")
     cut = GOOD_AMC[: i + 3] + GOOD_AMC[i + 3 :].split("\n", 2)[0]
     assert parse_amc(cut, asf, "cut.amc", lenient=True).num_frames == 2
+
+
+def test_a_linked_amc_finds_the_asf_beside_the_file_it_links_to(tmp_path) -> None:
+    """Newcomer report: a library folder of links to CMU takes said "cannot find its ASF
+    skeleton file" (it looked beside the link only). An ASF beside the link still wins."""
+    from mocapkit.io import MocapFileError, find_asf, read_motion
+
+    takes, lib = tmp_path / "03", tmp_path / "lib"
+    takes.mkdir()
+    lib.mkdir()
+    (takes / "03.asf").write_text(make_asf())
+    (takes / "03_02.amc").write_text(make_amc(make_frames(4, seed=6)))
+    (lib / "03_02.amc").symlink_to(takes / "03_02.amc")
+    assert find_asf(lib / "03_02.amc") == takes / "03.asf"
+    assert read_motion(lib / "03_02.amc").num_frames == 4
+    (lib / "03.asf").write_text(make_asf())
+    assert find_asf(lib / "03_02.amc") == lib / "03.asf"
+    (takes / "03.asf").unlink()
+    (lib / "03.asf").unlink()
+    with pytest.raises(MocapFileError, match=f"single .asf in {lib} and in {takes}"):
+        find_asf(lib / "03_02.amc")

@@ -66,19 +66,24 @@ def files_under(root: Path, suffixes: Sequence[str] = READABLE) -> list[Path]:
 
 def find_asf(amc: Path) -> Path:
     """The ASF skeleton of a CMU-style AMC: ``<subject>.asf`` beside it (``01_02.amc`` ->
-    ``01.asf``), else the only ``.asf`` in its folder."""
+    ``01.asf``), else the only ``.asf`` in its folder; for an AMC that is a link, then the same
+    beside the file it links to (a library of links to the takes)."""
     subject = amc.stem.split("_")[0]
-    for cand in (amc.with_suffix(".asf"), amc.with_name(f"{subject}.asf")):
-        if cand.exists():
-            return cand
-    found = sorted(amc.parent.glob("*.asf"))
-    if len(found) == 1:
-        return found[0]
+    real = Path(os.path.realpath(amc))
+    places = [amc] if real.parent == amc.parent.resolve() else [amc, real]
+    for at in places:
+        for cand in (at.with_suffix(".asf"), at.with_name(f"{at.stem.split('_')[0]}.asf")):
+            if cand.exists():
+                return cand
+        found = sorted(at.parent.glob("*.asf"))
+        if len(found) == 1:
+            return found[0]
     raise MocapFileError(
         amc,
         None,
         f"cannot find its ASF skeleton file: put {subject}.asf beside it (looked for "
-        f"{subject}.asf and a single .asf in {amc.parent}), or convert it with the ASF named "
+        f"{subject}.asf and a single .asf in {' and in '.join(str(p.parent) for p in places)}), "
+        "or convert it with the ASF named "
         "first: mocapkit convert SUBJECT.asf TAKE.amc OUT",
     )
 
