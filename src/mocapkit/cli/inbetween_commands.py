@@ -193,12 +193,14 @@ def inbetween_cmd(
         ends = "after" if a == 0 else "before" if b == q.num_frames else ""
         where = f"the two frames {ends} the gap" if ends else "the gap's ends"
         path = "ground path (from its start velocity over the gap)" if ends else "ground path"
+        mixed = len(res.blended_from) > 1
+        weight = f", weight {res.blended_from[0]['weight']:.2f}" if mixed else ""
         say(
             f"best library segment: {res.source} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
             f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at {where}, {path} "
-            f"{res.path_miss_m:.2f} m off; {res.candidates} candidates in "
-            f"{res.search_seconds:.2f} s"
+            f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
+            f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
     # the segments that count in the mean: the others (weight < 0.005) are only named by number,
     # so that the list and the "N library segments averaged" line agree
@@ -248,11 +250,13 @@ def inbetween_cmd(
         n = len(counted)
         what = res.source if n == 1 else f"{n} library segments averaged (weighted by score)"
         within = ""
-        if method == "auto" and b - a > kalman_max_frames(res.motion):
-            within = (
-                f"; a gap over {DEFAULT_CONFIG.kalman_max_seconds:g} s is not given to the "
-                "Kalman transition"
-            )
+        if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
+            scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}"
+            if method == "auto":
+                within = (
+                    f"; a gap over {DEFAULT_CONFIG.kalman_max_seconds:g} s is not given to the "
+                    "Kalman transition"
+                )
         elif method == "auto":
             within = f"; the library fill is kept: its L-score is not over {margin:g}x the Kalman's"
         say(f"filled frames {a}:{b} from {what} ({scores}{within})")
