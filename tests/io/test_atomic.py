@@ -244,3 +244,27 @@ def test_a_folder_made_meanwhile_by_another_writer_is_used(
     out = tmp_path / "new" / "deeper" / "x.json"
     atomic.atomic_write_text(out, "{}\n")
     assert out.read_text() == "{}\n"
+
+
+def test_a_folder_made_between_two_looks_at_it_is_no_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # CI flake (a Dask convert job): the folder was not there when one writer asked whether it
+    # was a folder, and there (made by another) when it asked whether anything was: "is a
+    # file, expected a folder"
+    target = tmp_path / "conv"
+    real = Path.is_dir
+    asked = []
+
+    def late(self: Path) -> bool:
+        if self == target and not asked:
+            asked.append(self)
+            result = real(self)
+            os.mkdir(self)  # the other writer, right after this look
+            return result
+        return real(self)
+
+    monkeypatch.setattr(Path, "is_dir", late)
+    out = target / "x.json"
+    atomic.atomic_write_text(out, "{}\n")
+    assert out.read_text() == "{}\n" and asked

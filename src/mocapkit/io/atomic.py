@@ -224,7 +224,8 @@ def _make_folders(directory: Path, target: Path) -> list[Path]:
     missing: list[Path] = []
     d = directory
     while not d.is_dir():
-        if d.exists() or d.is_symlink():
+        # made a folder meanwhile by another writer (a parallel job): not a file after all
+        if (d.exists() or d.is_symlink()) and not d.is_dir():
             raise OutputPathError(
                 target, f"cannot write here: {d} is a file, expected a folder", errno.ENOTDIR
             )
