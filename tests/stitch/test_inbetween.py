@@ -447,6 +447,57 @@ def test_offset_blend_carries_the_angular_velocity_offsets(blend):
     assert turn[int(np.ceil(blend / 3)) :].max() <= 0.005 + 1e-9
 
 
+@pytest.mark.parametrize("blend", [3, 8])
+def test_offset_blend_carries_the_translations_velocity_offsets(blend):
+    """The translations too: with the context moving at u0 (u1) per frame where the segment
+    stands still, the blended frames leave (reach) it at that speed (kept as the fade keeps
+    it), the ends met exactly, the term gone after ``blend``."""
+    from mocapkit.stitch.inbetween import _offset_blend
+
+    n, J = 20, 2
+    rots = np.tile(np.array([1.0, 0.0, 0.0, 0.0]), (n, J, 1))
+    trans = np.zeros((n, J, 3))
+    u0 = np.array([[0.5, 0.0, -0.2], [0.0, 0.1, 0.0]])  # file units per frame
+    u1 = np.array([[-0.3, 0.2, 0.0], [0.0, 0.0, 0.0]])
+    _, out = _offset_blend(rots, trans, rots[0], rots[-1], trans[0], trans[-1], blend,
+                           u0=u0, u1=u1)  # fmt: skip
+    keep = (1 - 1 / blend) ** 2
+    np.testing.assert_allclose(out[[0, -1]], trans[[0, -1]], atol=1e-12)
+    np.testing.assert_allclose(out[1] - out[0], u0 * keep, atol=1e-12)
+    np.testing.assert_allclose(out[-1] - out[-2], u1 * keep, atol=1e-12)
+    np.testing.assert_allclose(out[blend : n - blend], 0.0, atol=1e-12)
+
+
+def test_a_fill_leaves_the_context_moving_as_it_moved():
+    """library_fill: a clip whose body rises into the gap, filled from a segment standing still
+    in its pose at A-1, leaves A-1 rising at the context's speed (as the velocity term's fade
+    keeps it: the pelvis bobs on in step, not from rest)."""
+    from mocapkit.stitch.inbetween import Candidate, library_fill
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=1).motion
+    clip = walk.copy()
+    tr = clip.local_translations()
+    a, b = 20, 40
+    rise = 0.004  # metres per frame: 0.12 m/s
+    tr[:, 0, 1] += rise * np.minimum(np.arange(clip.num_frames), a - 1)
+    clip.translations = tr
+    clip.root_positions = tr[:, 0].copy()
+    from mocapkit.core.motion import Motion
+
+    rep = np.full(60, a - 1)  # the clip's frame A-1, held: a segment standing still there
+    t0 = clip.local_translations()[rep]
+    src = Motion(clip.skeleton, clip.rotations[rep], t0[:, 0], clip.frame_time, t0)
+    cand = Candidate(0, 5.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    fill = library_fill(clip, a, b, src, cand, up="Y",
+                        config=InbetweenConfig(blend_seconds=0.25))  # fmt: skip
+    y = np.concatenate([clip.root_positions[a - 2 : a, 1], fill.root_positions[:, 1]])
+    v = np.diff(y)
+    blend = clip.seconds_to_frames(0.25)
+    assert v[0] > rise  # the context's own step into A-1 (rising, and the walk's bob)
+    assert v[1] == pytest.approx(v[0] * (1 - 1 / blend) ** 2)  # leaves at its speed, faded
+    assert fill.root_positions[0, 1] > clip.root_positions[a - 1, 1]
+
+
 def test_turn_offset_is_the_clips_turn_less_the_segments_as_the_offset_carries_it():
     """The segment's turn is seen through the pose offset that puts it on the clip: a clip
     that is the segment turned by D, plus a turn of its own, differs from it by that turn."""

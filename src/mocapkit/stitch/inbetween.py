@@ -975,7 +975,18 @@ def _decay(n: int, length: int) -> np.ndarray:
 
 
 def _offset_blend(
-    rots, trans, r0, r1, t0, t1, blend: int, max_step: float = math.inf, v0=None, v1=None
+    rots,
+    trans,
+    r0,
+    r1,
+    t0,
+    t1,
+    blend: int,
+    max_step: float = math.inf,
+    v0=None,
+    v1=None,
+    u0=None,
+    u1=None,
 ):
     """Rotations/translations (n, J, ·) with the end offsets to (r0, t0) at index 0 and (r1, t1)
     at index n-1 blended in, each decaying from its end over ``blend`` frames, or for a joint's
@@ -994,7 +1005,19 @@ def _offset_blend(
     L2P at 5 / 15 / 30 / 45 frames 1.034 / 2.245 / 2.943 / 3.491 without, 1.010 / 2.220 /
     2.930 / 3.479 with, NPSS 0.0029 / 0.0419 / 0.1706 / 0.3269 without, 0.0025 / 0.0414 /
     0.1706 / 0.3276 with; fading as smoothstep times t, in one log with the pose offset:
-    1.062 / 2.233 / 2.939 / 3.488, NPSS 0.0028 / 0.0421 / 0.1728 / 0.3293)."""
+    1.062 / 2.233 / 2.939 / 3.488, NPSS 0.0028 / 0.0421 / 0.1728 / 0.3293).
+
+    ``u0``, ``u1`` ((J, 3) per frame, optional): the same for the translations (the context's
+    step per frame less the segment's), added as ``u t (1 - t/blend)^2``. Relies on: the body
+    moves with a continuous velocity; the pelvis rises and falls through a step at its own
+    pace, and a fill that meets its height but not its vertical speed bobs out of phase with
+    the context (tuning windows, person held out: the pelvis height alone made a third of L2P,
+    1.2 cm RMS off at 15 frames). L2P at 5 / 15 / 30 / 45 frames 1.033 / 2.208 / 2.934 /
+    3.474 without, 0.733 / 2.074 / 2.868 / 3.430 with; with the take's person and gait left
+    out of the library 1.352 / 2.766 / 3.859 / 4.611 without, 0.955 / 2.644 / 3.790 / 4.582
+    with. :func:`library_fill` reads both velocities the same way (the segment's from the
+    library frame before it, or after it), so that a capture filled from itself is itself;
+    the segment's step out of A-1 instead gave 0.763 / 2.065 / 2.868 / 3.432 but moved it."""
     n = rots.shape[0]
     w0 = _decay(n, blend)[:, None, None]
     w1 = w0[::-1]
@@ -1025,28 +1048,41 @@ def _offset_blend(
             vel = vel + 0.5 * v[None] * f  # the log is half the rotation vector
     out_r = rot.quat_normalize(rot.quat_mul(rot.quat_exp(vel), rot.quat_mul(off, rots)))
     out_t = trans + (t0 - trans[0])[None] * w0 + (t1 - trans[-1])[None] * w1
+    for u, f in ((u0, fade), (u1, -fade[::-1])):
+        if u is not None:
+            out_t = out_t + u[None] * f
     out_r[0], out_r[-1], out_t[0], out_t[-1] = r0, r1, t0, t1
     return out_r, out_t
 
 
-def _ground_warp(seg: Motion, ctx: Motion, i_start: int, i_end: int | None, up: str) -> Motion:
+def _ground_warp(
+    seg: Motion,
+    ctx: Motion,
+    i_start: int,
+    i_end: int | None,
+    up: str,
+    before: int = 0,
+    after: int = 0,
+) -> Motion:
     """``seg`` (n frames) moved over the ground by a transform growing linearly from the one
-    putting its frame 0 on ``ctx[i_start]`` (pelvis ground position and facing) to the one
-    putting its frame n-1 on ``ctx[i_end]``; ``i_end`` None: by the first alone."""
+    putting its frame ``before`` on ``ctx[i_start]`` (pelvis ground position and facing) to the
+    one putting its frame n-1-``after`` on ``ctx[i_end]``; ``i_end`` None: by the first alone.
+    The ``before`` and ``after`` frames beyond them go along (the growth carried on), so that
+    the segment's velocity there can be read."""
     from mocapkit import features
 
     n = seg.num_frames
-    T0 = features.ground_alignment(ctx, i_start, seg, 0, up=up)
+    T0 = features.ground_alignment(ctx, i_start, seg, before, up=up)
     moved = features.apply_ground_transform(seg, T0)
     if i_end is None:
         return moved
-    T1 = features.ground_alignment(ctx, i_end, moved, n - 1, up=up)
+    T1 = features.ground_alignment(ctx, i_end, moved, n - 1 - after, up=up)
     # T1 = rotation by dθ about the origin then a translation; spread it along the segment as a
     # rotation by u·dθ about the start pelvis then the translation that makes u = 1 exact.
-    p0 = features.root_trajectory(moved[:1], up)[0]
+    p0 = features.root_trajectory(moved[before : before + 1], up)[0]
     side, _, fwd = features.ground_frame(up)
     p0_3 = p0[0] * side + p0[1] * fwd
-    u = np.arange(n) / max(n - 1, 1)
+    u = (np.arange(n) - before) / max(n - 1 - before - after, 1)
     resid = T1.apply(p0_3) - p0_3  # where T1 moves the start pelvis (rotation included)
     out = moved.copy()
     q = np.stack([features.GroundTransform(a, np.zeros(3), up).quaternion for a in u * T1.angle])
@@ -1408,6 +1444,18 @@ def _back_to_clip(
     return out
 
 
+TRANSLATION_OFFSET_MAX_M_S = 2.0
+"""The largest translation velocity offset :func:`library_fill` carries into a fill (metres
+per second, per joint): on the tuning windows they were at most 0.88 m/s; a capture glitch that
+jumps the root would otherwise swing the fill by about a sixth of the jump per blend frame."""
+
+
+def _capped(v: np.ndarray, cap: float) -> np.ndarray:
+    """``v`` (..., 3) with each vector's length at most ``cap``."""
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v * np.minimum(1.0, cap / np.maximum(norm, 1e-300))
+
+
 def library_fill(
     clip: Motion,
     a: int,
@@ -1421,34 +1469,42 @@ def library_fill(
     """The ``b - a`` frames filling ``clip[a:b]`` from ``source`` (a library motion on the
     clip's skeleton) as :class:`Candidate` says: sampled, ground-warped onto frames a-1 and b,
     end offsets blended in (module docstring). Both motions in the same root convention."""
+    from mocapkit import features
+
     g = b - a
     if not (1 <= a < b <= clip.num_frames):
         raise ValueError(
             f"library_fill: gap {a}:{b} needs a frame before it (the clip has {clip.num_frames} "
             "frames); inbetween() fills a gap at the clip's start on the reversed clip"
         )
-    t = candidate.start + candidate.rate * np.arange(g + 2)
+    one_sided = b == clip.num_frames  # a gap at the clip's end: nothing to arrive at
+    # a frame of the library clip before (after) the segment where the clip has a second frame
+    # beside the gap: the velocity offsets of the joints' turns and translations
+    before = int(a >= 2 and candidate.start - candidate.rate >= 0)
+    end = candidate.start + candidate.rate * (g + 2)
+    after = int(not one_sided and b + 1 < clip.num_frames and end <= source.num_frames - 1)
+    t = candidate.start + candidate.rate * np.arange(-before, g + 2 + after)
     rots, trans = _sample(source, t)
     has_t = source.translations is not None or clip.translations is not None
     seg = Motion(clip.skeleton, rots, trans[:, 0], clip.frame_time, trans if has_t else None)
-    one_sided = b == clip.num_frames  # a gap at the clip's end: nothing to arrive at
-    seg = _ground_warp(seg, clip, a - 1, None if one_sided else b, up)
-    ct = clip.local_translations()
+    seg = _ground_warp(seg, clip, a - 1, None if one_sided else b, up, before, after)
+    ct, st = clip.local_translations(), seg.local_translations()
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
-    # the joints' angular-velocity offsets where the clip has a second frame beside the gap and
-    # the library clip a frame beyond the segment
-    v0 = v1 = None
-    t_out = (t[0] - candidate.rate, t[-1] + candidate.rate)
-    if a >= 2 and t_out[0] >= 0:
-        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1],
-                          _sample(source, t_out[:1])[0][0], rots[0], 1)  # fmt: skip
-    if b + 1 < clip.num_frames and t_out[1] <= source.num_frames - 1:
-        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1],
-                          rots[-1], _sample(source, t_out[1:])[0][0], 0)  # fmt: skip
+    v0 = v1 = u0 = u1 = None
+    if before:
+        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1], rots[0], rots[1], 1)
+        u0 = (ct[a - 1] - ct[a - 2]) - (st[1] - st[0])
+    if after:
+        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1], rots[-2], rots[-1], 0)
+        u1 = (ct[b + 1] - ct[b]) - (st[-1] - st[-2])
+    cap = TRANSLATION_OFFSET_MAX_M_S * clip.frame_time / features.metres_per_unit(clip, None)
+    u0, u1 = (None if u is None else _capped(u, cap) for u in (u0, u1))
+    keep = slice(before, seg.num_frames - after)
+    seg, st = seg[keep], st[keep]
     r, tr = _offset_blend(
-        seg.rotations, seg.local_translations(), clip.rotations[a - 1],
+        seg.rotations, st, clip.rotations[a - 1],
         None if one_sided else clip.rotations[b], ct[a - 1], None if one_sided else ct[b],
-        blend, math.radians(config.blend_max_speed_deg) * clip.frame_time, v0, v1,
+        blend, math.radians(config.blend_max_speed_deg) * clip.frame_time, v0, v1, u0, u1,
     )  # fmt: skip
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
 
