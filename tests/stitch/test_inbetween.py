@@ -1451,3 +1451,51 @@ def test_a_fill_already_raised_onto_the_floor_is_not_raised_again_for_its_swings
     t, w = _swing_clearance(walk, pos, planted, targets, weights, "Y", clearance,
                             np.ones((4, 1), bool))  # fmt: skip
     assert t[0, 0, 1] == targets[0, 0, 1] and w[0, 0] == 1.0
+
+
+def test_a_fill_looks_at_no_frame_past_its_future_context(humanoid):
+    """Review: with ``future_frames=1`` the velocity offsets at B read frame B+1 all the same.
+    The fill of the whole clip and of the clip cut after B are now one."""
+    from dataclasses import replace
+
+    walk, lib = humanoid
+    a, b = 40, 70
+    config = replace(DEFAULT_CONFIG, foot_lock=False)
+    full = inbetween(walk, (a, b), lib, up="Y", method="library", future_frames=1, config=config)
+    cut = inbetween(walk[: b + 1], (a, b), lib, up="Y", method="library", future_frames=1,
+                    config=config)  # fmt: skip
+    assert full.candidate == cut.candidate
+    np.testing.assert_allclose(full.motion.rotations[a:b], cut.motion.rotations[a:b], atol=1e-12)
+    np.testing.assert_allclose(full.motion.local_translations()[a:b],
+                               cut.motion.local_translations()[a:b], atol=1e-12)  # fmt: skip
+
+
+def test_velocity_offsets_are_bounded_and_scale_with_the_files_unit(humanoid):
+    """A capture glitch that jumps the root 0.5 m into frame A-1 moves the fill by at most
+    what the 2 m/s cap allows (about 4/27 of blend frames' worth of it), and a clip and
+    library in centimetres give the same fill as in metres, scaled."""
+    from mocapkit.core.motion import Motion
+    from mocapkit.stitch.inbetween import TRANSLATION_OFFSET_MAX_M_S, Candidate, library_fill
+
+    walk, lib = humanoid
+    a, b = 40, 70
+    cand = Candidate(0, 12.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    calm = library_fill(walk, a, b, lib[0], cand, up="Y")
+    jumped = walk.copy()
+    tr = jumped.local_translations()
+    tr[: a - 1, 0] -= np.array([0.5, 0.0, 0.0])  # the root 0.5 m back before A-1: a jump into it
+    jumped.translations, jumped.root_positions = tr, tr[:, 0].copy()
+    wild = library_fill(jumped, a, b, lib[0], cand, up="Y")
+    blend = walk.seconds_to_frames(DEFAULT_CONFIG.blend_seconds)
+    bound = TRANSLATION_OFFSET_MAX_M_S * walk.frame_time * blend * 4 / 27
+    moved = np.abs(wild.root_positions - calm.root_positions).max()
+    assert 0.5 * bound < moved <= bound + 1e-9
+
+    def cm(m: Motion) -> Motion:
+        t = m.local_translations() * 100.0
+        return Motion(m.skeleton.scaled(100.0), m.rotations.copy(), t[:, 0], m.frame_time, t)
+
+    big = library_fill(cm(walk), a, b, cm(lib[0]), cand, up="Y")
+    np.testing.assert_allclose(big.rotations, calm.rotations, atol=1e-9)
+    np.testing.assert_allclose(big.local_translations(), 100 * calm.local_translations(),
+                               atol=1e-7)  # fmt: skip

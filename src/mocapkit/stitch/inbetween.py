@@ -69,8 +69,9 @@ joint's larger rotation offset over more frames, so that the correction turns it
 :attr:`InbetweenConfig.blend_max_speed_deg`), so
 frames A-1 and B of the result are the context's exactly and the frames between are the
 library's motion. Where the clip has a second frame beside the gap, the joints'
-angular-velocity offsets are carried too (:func:`_offset_blend` ``v0``, ``v1``), so the fill
-leaves and reaches the context at its own angular velocity. Between the two blends the pelvis
+angular-velocity and translations' velocity offsets are carried too (:func:`_offset_blend`
+``v0``, ``v1``, ``u0``, ``u1``; the latter capped at :data:`TRANSLATION_OFFSET_MAX_M_S`), so
+the fill leaves and reaches the context at its own velocity. Between the two blends the pelvis
 is kept at the clip's own level (its mean height before the gap,
 :attr:`InbetweenConfig.level_seconds`, not the library person's), the legs turned so that the
 feet stay where the segments put them (:func:`_to_level`). The fills of the
@@ -1013,7 +1014,7 @@ def _offset_blend(
     pace, and a fill that meets its height but not its vertical speed bobs out of phase with
     the context (tuning windows, person held out: the pelvis height alone made a third of L2P,
     1.2 cm RMS off at 15 frames). L2P at 5 / 15 / 30 / 45 frames 1.033 / 2.208 / 2.934 /
-    3.474 without, 0.733 / 2.074 / 2.868 / 3.430 with; with the take's person and gait left
+    3.474 without, 0.734 / 2.074 / 2.868 / 3.430 with; with the take's person and gait left
     out of the library 1.352 / 2.766 / 3.859 / 4.611 without, 0.955 / 2.644 / 3.790 / 4.582
     with. :func:`library_fill` reads both velocities the same way (the segment's from the
     library frame before it, or after it), so that a capture filled from itself is itself;
@@ -1465,10 +1466,13 @@ def library_fill(
     *,
     up: str,
     config: InbetweenConfig = DEFAULT_CONFIG,
+    future_frames: int | None = None,
 ) -> Motion:
     """The ``b - a`` frames filling ``clip[a:b]`` from ``source`` (a library motion on the
     clip's skeleton) as :class:`Candidate` says: sampled, ground-warped onto frames a-1 and b,
-    end offsets blended in (module docstring). Both motions in the same root convention."""
+    end offsets blended in (module docstring). Both motions in the same root convention.
+    ``future_frames``: how many frames from B on may be looked at (None: all the clip has);
+    the velocity offsets at B need two."""
     from mocapkit import features
 
     g = b - a
@@ -1482,7 +1486,8 @@ def library_fill(
     # beside the gap: the velocity offsets of the joints' turns and translations
     before = int(a >= 2 and candidate.start - candidate.rate >= 0)
     end = candidate.start + candidate.rate * (g + 2)
-    after = int(not one_sided and b + 1 < clip.num_frames and end <= source.num_frames - 1)
+    seen = clip.num_frames - b if future_frames is None else min(future_frames, clip.num_frames - b)
+    after = int(not one_sided and seen >= 2 and end <= source.num_frames - 1)
     t = candidate.start + candidate.rate * np.arange(-before, g + 2 + after)
     rots, trans = _sample(source, t)
     has_t = source.translations is not None or clip.translations is not None
@@ -1491,11 +1496,12 @@ def library_fill(
     ct, st = clip.local_translations(), seg.local_translations()
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
     v0 = v1 = u0 = u1 = None
+    sr = seg.rotations  # as warped: the root turns with the warp's growing heading correction
     if before:
-        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1], rots[0], rots[1], 1)
+        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1], sr[0], sr[1], 1)
         u0 = (ct[a - 1] - ct[a - 2]) - (st[1] - st[0])
     if after:
-        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1], rots[-2], rots[-1], 0)
+        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1], sr[-2], sr[-1], 0)
         u1 = (ct[b + 1] - ct[b]) - (st[-1] - st[-2])
     cap = TRANSLATION_OFFSET_MAX_M_S * clip.frame_time / features.metres_per_unit(clip, None)
     u0, u1 = (None if u is None else _capped(u, cap) for u in (u0, u1))
@@ -1979,7 +1985,8 @@ def inbetween(
     lib_ends, lfill = (math.nan, math.nan), None
     if cands:
         lfill = _average_fills(
-            [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config)
+            [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config,
+                          future_frames=len(ctx.future))
              for c in cands], [c.score for c in cands],
         )  # fmt: skip
         levels = [
