@@ -958,7 +958,8 @@ def test_poses_far_off_the_context_warn_too():
     cfg = DEFAULT_CONFIG
 
     def cand(pose_m):
-        return Candidate(0, 10.0, 1.0, 1.0, 0.0, 0.0, 0.0, 3 * (pose_m / cfg.pose_tolerance_m) ** 2)
+        pose = 3 * cfg.pose_weight * (pose_m / cfg.pose_tolerance_m) ** 2
+        return Candidate(0, 10.0, 1.0, 1.0, 0.0, 0.0, 0.0, pose)
 
     pose, path, warning = _fit_of(cand(0.186), cfg, 1.0, one_sided=True)
     assert pose == pytest.approx(0.186) and path == 0.0

@@ -257,9 +257,15 @@ class InbetweenConfig:
     15 and 13.25 / 5.04 at 20: past about 0.3 s it strays further than a straight
     interpolation, and over 290 frames it put a walker's pelvis 3 m below the floor (newcomer
     report). A longer gap with no library fill is refused, and "auto" keeps the library fill."""
-    pose_weight: float = 1.0
+    pose_weight: float = 2.0
     """Weight of the pose term: the candidate's body-local poses at i = -1, 0 (on the last two
-    past frames A-2, A-1) and g+1 (on the first future frame B) against the context's."""
+    past frames A-2, A-1) and g+1 (on the first future frame B) against the context's. Chosen
+    again once the fill carried the context's velocities (session 27; tuning windows, L2P at
+    5 / 15 / 30 / 45 frames): with the take's person left out of the library 0.734 / 2.074 /
+    2.868 / 3.430 at 1, 0.751 / 2.056 / 2.790 / 3.286 at 2, 0.742 / 2.080 / 2.758 / 3.255 at 3,
+    0.759 / 2.164 / 2.942 / 3.552 at 0.5; with its person and gait left out 0.955 / 2.644 /
+    3.790 / 4.582 at 1, 0.940 / 2.616 / 3.674 / 4.499 at 2. The foot skate rose by up to 0.6
+    cm/s at 30 and 45 frames."""
     pose_tolerance_m: float = 0.05
     """Per-joint RMS position difference that costs as much as ``pose_weight`` per frame."""
     lscore_weight: float = 0.0
