@@ -52,7 +52,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from mocapkit.io.atomic import atomic_write_text
+from mocapkit.io.atomic import atomic_write_text, same_file
 
 FORMAT = "mocapkit-provenance-1"
 SUFFIX = ".provenance.json"
@@ -132,7 +132,8 @@ class Provenance:
         are added, and ``parameters["earlier"]`` lists the tools and parameters that made
         ``file``, oldest first. Unchanged when ``earlier`` is of another frame rate or shorter
         than the frames copied (then it is not this file's sidecar any more)."""
-        copied = [s for s in self.segments if s.kind == "clip" and _same(s.source, file)]
+        copied = [s for s in self.segments if s.kind == "clip" and s.source is not None
+                  and same_file(s.source, file)]  # fmt: skip
         if not copied or not _close(earlier.fps, self.fps):
             return self
         if any(s.backwards or (s.source_stop or 0) > earlier.frames for s in copied):
@@ -176,16 +177,6 @@ class Provenance:
         return atomic_write_text(side, to_json_text(data) + "\n")
 
 
-def _same(a: str | None, b: str) -> bool:
-    """Whether the paths ``a`` and ``b`` name one file (one that is gone: the same path)."""
-    if a is None:
-        return False
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return os.path.abspath(a) == os.path.abspath(b)
-
-
 def _close(x: float, y: float) -> bool:
     return abs(x - y) <= 1e-6 * max(abs(x), abs(y))
 
@@ -195,7 +186,7 @@ def _traced_ends(t: TransitionTaken, earlier: Provenance, file: str) -> Transiti
     named as that clip's frame."""
 
     def back(name: str, frame: int) -> tuple[str, int]:
-        if _same(name, file):
+        if same_file(name, file):
             for x in earlier.segments:
                 if x.kind == "clip" and x.output_start <= frame < x.output_stop:
                     return str(x.source), frame - x.output_start + int(x.source_start or 0)

@@ -608,11 +608,3 @@ def report_lines(json_path: str | None) -> Callable[[str], None]:
     so that a script reads JSON alone."""
     to_err = json_path == "-"
     return lambda line: click.echo(line, err=to_err)
-
-
-def same_file(a: str | Path, b: str | Path) -> bool:
-    """``a`` and ``b`` name one file (under any spelling or link)."""
-    try:
-        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
-    except OSError:
-        return False

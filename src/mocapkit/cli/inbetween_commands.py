@@ -22,7 +22,6 @@ from mocapkit.cli.common import (
     naming,
     one_line,
     report_lines,
-    same_file,
     up_option,
     warn_if_up_disagrees,
     write_json,
@@ -30,7 +29,7 @@ from mocapkit.cli.common import (
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
-from mocapkit.io.atomic import all_or_nothing, check_outputs
+from mocapkit.io.atomic import all_or_nothing, check_outputs, same_file
 from mocapkit.provenance import Provenance, find_provenance
 from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS, kalman_max_frames
 from mocapkit.stitch.search import check_same_skeleton

@@ -22,7 +22,6 @@ from mocapkit.cli.common import (
     one_line,
     plot_output,
     report_lines,
-    same_file,
     up_option,
     warn_if_up_disagrees,
     write_json,
@@ -30,7 +29,7 @@ from mocapkit.cli.common import (
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
-from mocapkit.io.atomic import all_or_nothing, check_outputs
+from mocapkit.io.atomic import all_or_nothing, check_outputs, same_file
 from mocapkit.stitch.library import SHARD_FILES
 from mocapkit.stitch.lscore import DEFAULT_W
 from mocapkit.stitch.search import SCORES
