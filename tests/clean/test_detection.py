@@ -252,6 +252,39 @@ def test_cancelling_steps_never_pair_an_exit_with_a_later_entry() -> None:
     assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.35, sides, 31)[30:60, 0].all()
 
 
+def test_cancelling_steps_leave_one_frame_pops_to_the_spike_rule() -> None:
+    """A toe that pops for one frame at each foot strike (Bandai-1 walk-back_angry): the exit of
+    one pop and the entry of the next cancel across the stance between them, but each pop's
+    two sides are each other's partners. Only the larger side is a peak of the jump size, so
+    the pairing must know the frame beside it. A two-frame error still pairs its own ends."""
+    F = 200
+    q = _turning(F, J=1, seed=6)
+    bad = q.copy()
+    pop = rot.rotvec_to_quat(np.array([np.radians(11.0), 0.0, 0.0]))
+    for f in (57, 88, 190):  # the last pop is near the take's end
+        bad[f, 0] = rot.quat_mul(q[f, 0], pop)
+    devs = [mdm_mod.step_deviations(bad, f) for f in ("body", "parent")]
+    peaks = mdm_mod.step_peaks(mdm_mod.jump_size(bad), 1.45, np.radians(3.0), 97.0)
+    assert set(np.flatnonzero(peaks[:, 0])) <= {57, 58, 88, 89, 190, 191}
+    assert peaks[57:59, 0].any() and peaks[88:90, 0].any()
+    spikes = mdm_mod.one_frame_spikes(peaks, devs, 0.3)
+    assert np.array_equal(spikes, peaks)
+    used = np.zeros(peaks.shape, dtype=bool)
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, used_out=used, pop_tol=0.3).any()
+    assert np.array_equal(used, peaks)  # paired with the frame beside them: no cut-off either
+    sides = np.where(peaks, 1, 0).astype(np.int8)
+    assert not mdm_mod.cut_off_steps(peaks, used, sides, 45).any()
+    two = q.copy()
+    two[57:59, 0] = rot.quat_mul(q[57:59, 0], pop)  # two frames turned: ends two frames apart
+    devs2 = [mdm_mod.step_deviations(two, f) for f in ("body", "parent")]
+    peaks2 = np.zeros_like(peaks)
+    peaks2[[57, 59], 0] = True
+    assert not mdm_mod.one_frame_spikes(peaks2, devs2, 0.3).any()
+    assert np.array_equal(
+        np.flatnonzero(mdm_mod.cancelling_steps(peaks2, devs2, 45, 0.45)[:, 0]), [57, 58]
+    )
+
+
 def test_cancelling_steps_pair_a_misread_error_that_nothing_flanks() -> None:
     """Where the words match the turned stretch, the digression is lower inside an error than
     around it and the sides read its entry as an exit (and its exit as an entry). Two wrong-way

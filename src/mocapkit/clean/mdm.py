@@ -570,6 +570,7 @@ def cancelling_steps(
     sides: np.ndarray | None = None,
     sided_frames: int = 0,
     used_out: np.ndarray | None = None,
+    pop_tol: float = 0.0,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -603,11 +604,20 @@ def cancelling_steps(
     offset recall 0.972 -> 0.989 local, 0.982 -> 0.995 small, bend precision unchanged;
     validation half, seeds 0-2: no figure changed).
 
-    ``used_out`` ((F, J) bool, optional) receives the peaks that paired."""
+    A peak whose own neighbour frame's deviation cancels it to within ``pop_tol``
+    (:func:`one_frame_spikes`) is one side of a one-frame pop: its other side is that
+    neighbour, which :func:`jump_size`'s local maxima leave out, so it pairs with no farther
+    peak (the spike rule judges it). A natural toe pop at foot strike, one frame each step,
+    otherwise paired the exit of one pop with the entry of the next across the stance between
+    (Bandai-1 validation half, walk-back_angry's toes, session 26). ``pop_tol`` 0: off.
+
+    ``used_out`` ((F, J) bool, optional) receives the peaks that paired (a one-frame spike's
+    with its neighbour)."""
     out = np.zeros(peaks.shape, dtype=bool)
     F = peaks.shape[0]
+    spikes = one_frame_spikes(peaks, deviations, pop_tol)
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
-        ps = np.flatnonzero(peaks[:, j])
+        ps = np.flatnonzero(peaks[:, j] & ~spikes[:, j])
         pairs = []
         for i, a in enumerate(ps):
             for e in ps[i + 1 :]:
@@ -636,6 +646,28 @@ def cancelling_steps(
                 out[a:e, j] = True
         if used_out is not None:
             used_out[sorted(used), j] = True
+    if used_out is not None:
+        used_out |= spikes  # paired with the frame beside them
+    return out
+
+
+def one_frame_spikes(peaks: np.ndarray, deviations: Sequence[np.ndarray], tol: float) -> np.ndarray:
+    """(F, J) bool: the ``peaks`` whose step deviation is cancelled by the one of a frame beside
+    them, ``|v[f] + v[f ± 1]| < tol * min(|v[f]|, |v[f ± 1]|)`` in one of ``deviations``' frames
+    (:func:`step_deviations`). A frame displaced by ``d`` alone gives ``v = 1.5 d`` into it and
+    ``-1.5 d`` out of it; a stretch of two or more frames gives ``v ~ 0`` beside its ends."""
+    peaks = np.asarray(peaks, dtype=bool)
+    out = np.zeros(peaks.shape, dtype=bool)
+    F = peaks.shape[0]
+    for f, j in zip(*np.nonzero(peaks), strict=True):
+        for g in (f - 1, f + 1):
+            if not 0 <= g < F:
+                continue
+            for v in deviations:
+                a, b = v[f, j], v[g, j]
+                small = min(np.linalg.norm(a), np.linalg.norm(b))
+                if small > 0 and np.linalg.norm(a + b) < tol * small:
+                    out[f, j] = True
     return out
 
 

@@ -38,7 +38,10 @@ class CancellingJumps:
     reads as an entry, a cut-off error's frames must digress somewhat.) Jumps are not measured
     on a take's first and last two frames, so an error entered at frame 1 looks cut off too:
     where the step out of frame 0 cancels the stretch's jump, frame 0 is left out (the same at
-    the end)."""
+    the end). A jump that is one side of a one-frame pop (:attr:`Evidence.pops`, the frame
+    beside it deviating the opposite way) pairs with nothing farther: a toe popping for one
+    frame at each foot strike paired the exit of one pop with the entry of the next across
+    the stance; a one-frame spike is the spike rule's."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
@@ -128,12 +131,15 @@ class CancellingJumps:
         # a jump is a change of the frame-to-frame turn (a difference of two rotation vectors,
         # so up to 360 deg), not a turn itself
         parts = [f"jump (change of its turn per frame) here {deg(ev.jump_size[frame, joint])}"]
+
+        def peak(p: int) -> str:
+            pop = ", one side of a one-frame pop: pairs with no other" if ev.pops[p, joint] else ""
+            return f"frame {p} ({deg(ev.jump_size[p, joint])}{pop})"
+
         if len(before):
-            parts.append(
-                f"last jump peak frame {before[-1]} ({deg(ev.jump_size[before[-1], joint])})"
-            )
+            parts.append(f"last jump peak {peak(before[-1])}")
         if len(after):
-            parts.append(f"next jump peak frame {after[0]} ({deg(ev.jump_size[after[0], joint])})")
+            parts.append(f"next jump peak {peak(after[0])}")
         # a pair's frames lie between two jumps, so a run reaching the take's first or last
         # frame is an error cut off there (jumps are undefined on the two frames at each end)
         run = run_around(self.cells(ev)[:, joint], frame)

@@ -131,6 +131,12 @@ class DetectConfig:
     pair_seconds: float = 1.5
     #: Two jumps cancel when ``|v_in + v_out| < pair_tol * min(|v_in|, |v_out|)``.
     pair_tol: float = 0.45
+    #: A jump is one side of a one-frame pop, and pairs with no farther jump, when the frame
+    #: beside it deviates the opposite way to within ``|v_f + v_g| < pop_tol * min(|v_f|,
+    #: |v_g|)``: a pop's two deviations are equal and opposite but for the joint's own
+    #: acceleration. Bandai-1 tuning half: the natural toe pops of its clean takes cancel to
+    #: 0.04-0.22; an injected 5-frame spike's entry at a heel strike to 0.42 (0: off).
+    pop_tol: float = 0.3
     #: A jump counts when it exceeds this many times the joint's ``pair_quantile`` of jumps.
     pair_ratio: float = 1.45
     #: Percentile of the joint's jumps the pair ratio is measured against.

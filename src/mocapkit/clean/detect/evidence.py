@@ -252,9 +252,18 @@ class Evidence:
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
         used = np.zeros(self.shape, dtype=bool)
         cells = mdm_mod.cancelling_steps(
-            self.jump_peaks, devs, span, self.config.pair_tol, sides, word, used
-        )
+            self.jump_peaks, devs, span, self.config.pair_tol, sides, word, used,
+            self.config.pop_tol,
+        )  # fmt: skip
         return cells, used, sides
+
+    @cached_property
+    def pops(self) -> np.ndarray:
+        """(F, J) bool: the jump peaks that are one side of a one-frame pop, the frame beside
+        them deviating the opposite way (:func:`mdm.one_frame_spikes`, ``pop_tol``): they pair
+        with no farther jump."""
+        devs = [self.body_deviations, self.parent_deviations]
+        return mdm_mod.one_frame_spikes(self.jump_peaks, devs, self.config.pop_tol)
 
     @cached_property
     def cancelling(self) -> np.ndarray:
