@@ -412,6 +412,47 @@ def test_offset_blend_meets_ends_and_limits_speed(angle, n, blend, speed):
         assert turn.max() <= 1.5 * angle / (n - 1) + 1e-6
 
 
+@settings(max_examples=30, deadline=None)
+@given(
+    a0=st.floats(0.0, 2.0),
+    a1=st.floats(-2.0, 2.0),
+    keep=st.floats(0.0, 1.0),
+    n=st.integers(30, 80),
+    speed=st.floats(0.05, 0.5),
+)
+def test_offset_blend_holds_a_share_of_the_ends_mean_offset(a0, a1, keep, n, speed):
+    """Between the two end blends the correction is ``keep`` times the mean of the two end
+    offsets (a person's own way of holding a joint, measured at both ends); the ends are still
+    met exactly; each end blends into the held share no faster than ``max_step`` where the
+    gap has room; a gap with one end holds nothing of it."""
+    from mocapkit.core import rotations as rot
+    from mocapkit.stitch.inbetween import _offset_blend
+
+    J, blend = 2, 5
+    rng = np.random.default_rng(n)
+    rots = rot.quat_normalize(rng.normal(size=(n, J, 4)))
+    axis = np.array([0.0, 0.6, 0.8])
+    r0 = rot.quat_mul(rot.quat_exp(np.broadcast_to(axis * a0 / 2, (J, 3))), rots[0])
+    r1 = rot.quat_mul(rot.quat_exp(np.broadcast_to(axis * a1 / 2, (J, 3))), rots[-1])
+    zeros = np.zeros((n, J, 3))
+    out, _ = _offset_blend(rots, zeros, r0, r1, zeros[0], zeros[-1], blend, speed, keep=keep)
+    np.testing.assert_allclose(out[0], r0, atol=1e-12)
+    np.testing.assert_allclose(out[-1], r1, atol=1e-12)
+    corr = rot.quat_mul(out, rot.quat_inv(rots))
+    corr = np.where(corr[..., :1] < 0, -corr, corr)
+    held = keep * (a0 + a1) / 2
+    lengths = [max(blend, int(np.ceil(1.5 * abs(a - held) / speed))) for a in (a0, a1)]
+    if sum(lengths) <= n - 1:  # both blends fit: the middle holds the share, changes slowly
+        mid = n // 2 if lengths[0] <= n // 2 <= n - 1 - lengths[1] else lengths[0]
+        np.testing.assert_allclose(
+            2 * rot.quat_log(corr[mid]), np.tile(axis * held, (J, 1)), atol=1e-9
+        )
+        step = rot.quat_mul(corr[1:], rot.quat_inv(corr[:-1]))
+        assert (2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0))).max() <= speed + 1e-6
+    one, _ = _offset_blend(rots, zeros, r0, None, zeros[0], None, blend, speed, keep=keep)
+    np.testing.assert_allclose(one[-1], rots[-1], atol=1e-12)  # nothing held to the free end
+
+
 @pytest.mark.parametrize("blend", [3, 8])
 def test_offset_blend_carries_the_angular_velocity_offsets(blend):
     """Inertialization carries the velocity offset too: with the context turning a joint at
@@ -1223,7 +1264,8 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     assert np.abs(P_low[:, effs] - T[:, effs]).max() < 0.05 * drop  # feet where they were
     a, b = 40, 70
     mid = slice(a + 12, b - 12)  # past the end offsets' blend (of the rotations too)
-    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1)
+    # the segment's own leg poses in the middle (none of the ends' offsets held there)
+    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1, offset_keep=0.0)
     out = {}
     for level in (0.5, 0.0):
         res = inbetween(walk, (a, b), [low], up="Y", method="library",

@@ -63,14 +63,16 @@ rotations, lerp of translations) and moved over the ground by a transform that v
 gap: at i = 0 it puts the segment's pelvis ground position and facing on the context's at A-1,
 at i = g+1 on the context's at B, in between the heading and position corrections grow linearly
 with i. The remaining differences of every joint's local rotation (``log(q_ctx q_seg⁻¹)``) and
-local translation at both ends are then blended in (inertialization: each end's offset decays to
-zero over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights; a
-joint's larger rotation offset over more frames, so that the correction turns it no faster than
-:attr:`InbetweenConfig.blend_max_speed_deg`), so
-frames A-1 and B of the result are the context's exactly and the frames between are the
-library's motion. Where the clip has a second frame beside the gap, the joints'
-angular-velocity and translations' velocity offsets are carried too (:func:`_offset_blend`
-``v0``, ``v1``, ``u0``, ``u1``; the latter capped at :data:`TRANSLATION_OFFSET_MAX_M_S`), so
+local translation at both ends are then blended in (inertialization: each end's offset decays
+over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights; a joint's
+larger rotation offset over more frames, so that the correction turns it no faster than
+:attr:`InbetweenConfig.blend_max_speed_deg`), so frames A-1 and B of the result are the
+context's exactly and the frames between are the library's motion turned by a share of the two
+ends' mean rotation offset held across the middle (:attr:`InbetweenConfig.offset_keep`: the
+clip's person holds their joints their own way). Where the clip has a second frame beside the
+gap, the joints' angular-velocity and translations' velocity offsets are carried too
+(:func:`_offset_blend` ``v0``, ``v1``, ``u0``, ``u1``; the latter capped at
+:data:`TRANSLATION_OFFSET_MAX_M_S`), so
 the fill leaves and reaches the context at its own velocity. Between the two blends the pelvis
 is kept at the clip's own level (its mean height before the gap,
 :attr:`InbetweenConfig.level_seconds`, not the library person's), the legs turned so that the
@@ -204,6 +206,31 @@ class InbetweenConfig:
     of a long gap is the library's own motion (tuning takes, L2P / interpolation at 15 and 30
     frames: 0.61 and 0.48 at 0.25 s, 0.60 and 0.47 at 0.15 s with more foot skate, 0.70 and
     0.58 at 1 s)."""
+    offset_keep: float = 0.35
+    """Share of the two ends' mean pose offset (each joint's rotation, context less segment)
+    held between the end blends, where the blends alone leave the segment's own pose; each end
+    blends into it. Relies on: part of what sets a library person's poses apart from the
+    clip's is the person (how they carry their arms, turn out their feet, lean), the same at
+    both ends and in the frames between; the rest is the moment's (the step's phase) and
+    fades. The mean of the two ends still holds some of the moment's, so only a share is held.
+    A gap at the clip's start or end has one end, one measurement, and holds none. Tuning
+    windows, the take's person left out of the library, at 15 / 30 / 45 frames:
+
+    ===== ====================== ====================== ======================== ==============
+    keep  L2P                    L2Q                    NPSS                     skate cm/s
+    ===== ====================== ====================== ======================== ==============
+    0     2.056 / 2.790 / 3.286  0.470 / 0.670 / 0.779  0.0417 / 0.1676 / 0.3261 33.2/33.0/33.7
+    0.35  2.025 / 2.731 / 3.218  0.455 / 0.638 / 0.703  0.0400 / 0.1588 / 0.2903 32.8/32.4/32.8
+    0.5   2.022 / 2.761 / 3.233  0.451 / 0.625 / 0.667  0.0394 / 0.1543 / 0.2729 32.6/32.2/32.2
+    0.7   2.034 / 2.846 / 3.287  0.447 / 0.615 / 0.628  0.0388 / 0.1530 / 0.2509 32.3/31.6/32.2
+    ===== ====================== ====================== ======================== ==============
+
+    (the truth's skate 31.6). With its person and gait left out, L2P 2.616 / 3.674 / 4.499 at
+    0, 2.562 / 3.623 / 4.441 at 0.35, 2.552 / 3.639 / 4.452 at 0.5, 2.556 / 3.725 / 4.504 at
+    0.7. 0.35 is better than 0 on every figure; more is better on all but L2P at 30 and 45
+    frames, the issue's weakest target. On one-sided gaps (end / start, 15 / 30 frames, person
+    left out) holding a share of the one end's offset (half) cost L2P: 3.392 / 4.823 and
+    3.649 / 5.332 -> 3.403 / 4.885 and 3.693 / 5.472."""
     blend_max_speed_deg: float = 90.0
     """Fastest a joint's end correction may turn (degrees per second): a larger offset fades
     over more frames than ``blend_seconds`` (up to the whole gap), so that removing it never
@@ -994,12 +1021,16 @@ def _offset_blend(
     v1=None,
     u0=None,
     u1=None,
+    keep: float = 0.0,
 ):
     """Rotations/translations (n, J, ·) with the end offsets to (r0, t0) at index 0 and (r1, t1)
     at index n-1 blended in, each decaying from its end over ``blend`` frames, or for a joint's
     rotation over as many more frames (at most n - 1) as keep the correction's angular speed
     under ``max_step`` radians per frame (smoothstep's steepest slope is 1.5 / length).
     ``r1`` and ``t1`` None: no end at index n-1 to meet (a gap at the clip's end).
+
+    ``keep``: the share of the two ends' mean rotation offset held in the middle
+    (:attr:`InbetweenConfig.offset_keep`; none with ``r1`` None).
 
     ``v0``, ``v1`` ((J, 3) radians per frame, optional): the joints' angular-velocity offsets
     (the context's turn per frame less the segment's) at index 0 and n-1, carried as
@@ -1028,7 +1059,8 @@ def _offset_blend(
     n = rots.shape[0]
     w0 = _decay(n, blend)[:, None, None]
     w1 = w0[::-1]
-    if r1 is None:  # nothing to meet at the far end: its offset is none
+    one_sided = r1 is None
+    if one_sided:  # nothing to meet at the far end: its offset is none
         r1, t1 = rots[-1], trans[-1]
     d0 = rot.quat_mul(r0, rot.quat_inv(rots[0]))
     d1 = rot.quat_mul(r1, rot.quat_inv(rots[-1]))
@@ -1041,7 +1073,12 @@ def _offset_blend(
         x = np.clip(np.arange(n)[:, None] / np.maximum(length[None], 1), 0.0, 1.0)
         return (1.0 - x * x * (3.0 - 2.0 * x))[..., None]
 
-    off = rot.quat_exp(l0[None] * decay(l0) + l1[None] * decay(l1)[::-1])
+    # each end's offset blends into the share of their mean held between them (none with one
+    # end only), over as many frames as the difference needs to turn no joint too fast
+    held = np.zeros_like(l0) if one_sided else keep * 0.5 * (l0 + l1)
+    e0, e1 = decay(l0 - held), decay(l1 - held)[::-1]
+    mid = np.clip(1.0 - e0 - e1, 0.0, 1.0)
+    off = rot.quat_exp(l0[None] * e0 + l1[None] * e1 + held[None] * mid)
     # the velocity offsets: t (1 - t/L)^2 leaves at slope 1, is gone with slope 0 at L = blend
     # and swings back at most 1/3 as fast, so offsets capped at 3 max_step never turn a joint
     # faster than max_step; a left factor of its own, exact however large the pose offset
@@ -1517,6 +1554,7 @@ def library_fill(
         seg.rotations, st, clip.rotations[a - 1],
         None if one_sided else clip.rotations[b], ct[a - 1], None if one_sided else ct[b],
         blend, math.radians(config.blend_max_speed_deg) * clip.frame_time, v0, v1, u0, u1,
+        config.offset_keep,
     )  # fmt: skip
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
 
