@@ -655,7 +655,8 @@ def one_frame_spikes(peaks: np.ndarray, deviations: Sequence[np.ndarray], tol: f
     """(F, J) bool: the ``peaks`` whose step deviation is cancelled by the one of a frame beside
     them, ``|v[f] + v[f ± 1]| < tol * min(|v[f]|, |v[f ± 1]|)`` in one of ``deviations``' frames
     (:func:`step_deviations`). A frame displaced by ``d`` alone gives ``v = 1.5 d`` into it and
-    ``-1.5 d`` out of it; a stretch of two or more frames gives ``v ~ 0`` beside its ends."""
+    ``-1.5 d`` out of it (ratio 0); the entry of a longer stretch gives ``d`` with ``-d/2`` on
+    either side (ratio 1), or 0 inside a stretch of two frames."""
     peaks = np.asarray(peaks, dtype=bool)
     out = np.zeros(peaks.shape, dtype=bool)
     F = peaks.shape[0]

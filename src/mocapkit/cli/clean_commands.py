@@ -244,8 +244,9 @@ def clean_command(
     every window of the context; joints whose rotation digresses from their nearest neighbours'
     mean are flagged (rule "mdm": stretches with MDM > threshold, or abrupt cells, that hold a
     near-certain or abrupt cell; an abrupt cell may lie below the threshold), and so,
-    whatever their MDM, are pops (a jump away and back by the same turn: cancelling-jumps),
-    noise bursts, joints held still while their neighbours move on (frozen; a dropout repeats
+    whatever their MDM, are stretches turned by one rotation (a jump away and, within 1.5 s,
+    back by the same turn: cancelling-jumps; a one-frame pop is left to the spike rule), noise
+    bursts, joints held still while their neighbours move on (frozen; a dropout repeats
     one value bit for bit), knees or elbows bent the wrong way, and spikes (a joint off its own
     smooth path for at most 1/15 s by 20 to 40 deg, more the more the joint itself jumps).
     Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is natural: no step

@@ -342,6 +342,8 @@ class DetectConfig:
             raise ValueError(f"max_run must be >= 1, got {self.max_run}")
         if not (self.gain > 0 and self.weight_power >= 0 and self.pair_tol >= 0):
             raise ValueError("gain must be > 0, weight_power and pair_tol >= 0")
+        if not self.pop_tol >= 0:
+            raise ValueError(f"pop_tol must be >= 0 (0: off), got {self.pop_tol}")
         if self.stage1_threshold is not None and not 0.0 <= self.stage1_threshold <= 1.0:
             raise ValueError(f"stage1_threshold must lie in [0, 1], got {self.stage1_threshold}")
         if self.detect not in DETECT_MODES:
