@@ -424,7 +424,8 @@ def test_offset_blend_holds_a_share_of_the_ends_mean_offset(a0, a1, keep, n, spe
     """Between the two end blends the correction is ``keep`` times the mean of the two end
     offsets (a person's own way of holding a joint, measured at both ends); the ends are still
     met exactly; each end blends into the held share no faster than ``max_step`` where the
-    gap has room; a gap with one end holds nothing of it."""
+    gap has room for both blends, and where it has not, the correction goes straight from one
+    end's offset to the other's over the whole gap; a gap with one end holds nothing."""
     from mocapkit.core import rotations as rot
     from mocapkit.stitch.inbetween import _offset_blend
 
@@ -440,17 +441,24 @@ def test_offset_blend_holds_a_share_of_the_ends_mean_offset(a0, a1, keep, n, spe
     np.testing.assert_allclose(out[-1], r1, atol=1e-12)
     corr = rot.quat_mul(out, rot.quat_inv(rots))
     corr = np.where(corr[..., :1] < 0, -corr, corr)
+    step = rot.quat_mul(corr[1:], rot.quat_inv(corr[:-1]))
+    turn = (2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0))).max()
     held = keep * (a0 + a1) / 2
-    lengths = [max(blend, int(np.ceil(1.5 * abs(a - held) / speed))) for a in (a0, a1)]
-    if sum(lengths) <= n - 1:  # both blends fit: the middle holds the share, changes slowly
-        mid = n // 2 if lengths[0] <= n // 2 <= n - 1 - lengths[1] else lengths[0]
+
+    def frames(a: float, slack: float) -> int:  # the blend's length, give or take rounding
+        return min(max(blend, int(np.ceil(1.5 * abs(a - held) / speed + slack))), n - 1)
+
+    if frames(a0, 1e-6) + frames(a1, 1e-6) <= n - 1:  # both fit: the middle holds the share
+        mid = frames(a0, 1e-6)
         np.testing.assert_allclose(
             2 * rot.quat_log(corr[mid]), np.tile(axis * held, (J, 1)), atol=1e-9
         )
-        step = rot.quat_mul(corr[1:], rot.quat_inv(corr[:-1]))
-        assert (2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0))).max() <= speed + 1e-6
+        assert turn <= speed + 1e-6
+    elif frames(a0, -1e-6) + frames(a1, -1e-6) > n - 1:  # they overlap: straight across
+        assert turn <= 1.5 * abs(a1 - a0) / (n - 1) + 1e-6
     one, _ = _offset_blend(rots, zeros, r0, None, zeros[0], None, blend, speed, keep=keep)
-    np.testing.assert_allclose(one[-1], rots[-1], atol=1e-12)  # nothing held to the free end
+    none, _ = _offset_blend(rots, zeros, r0, None, zeros[0], None, blend, speed, keep=0.0)
+    np.testing.assert_allclose(one, none, atol=1e-12)  # one end: nothing held
 
 
 @pytest.mark.parametrize("blend", [3, 8])

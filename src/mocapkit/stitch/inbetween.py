@@ -63,7 +63,7 @@ rotations, lerp of translations) and moved over the ground by a transform that v
 gap: at i = 0 it puts the segment's pelvis ground position and facing on the context's at A-1,
 at i = g+1 on the context's at B, in between the heading and position corrections grow linearly
 with i. The remaining differences of every joint's local rotation (``log(q_ctx q_seg⁻¹)``) and
-local translation at both ends are then blended in (inertialization: each end's offset decays
+local translation at both ends are then blended in (inertialization: each end's offset fades
 over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights; a joint's
 larger rotation offset over more frames, so that the correction turns it no faster than
 :attr:`InbetweenConfig.blend_max_speed_deg`), so frames A-1 and B of the result are the
@@ -220,17 +220,19 @@ class InbetweenConfig:
     keep  L2P                    L2Q                    NPSS                     skate cm/s
     ===== ====================== ====================== ======================== ==============
     0     2.056 / 2.790 / 3.286  0.470 / 0.670 / 0.779  0.0417 / 0.1676 / 0.3261 33.2/33.0/33.7
-    0.35  2.025 / 2.731 / 3.218  0.455 / 0.638 / 0.703  0.0400 / 0.1588 / 0.2903 32.8/32.4/32.8
-    0.5   2.022 / 2.761 / 3.233  0.451 / 0.625 / 0.667  0.0394 / 0.1543 / 0.2729 32.6/32.2/32.2
+    0.35  2.045 / 2.751 / 3.218  0.451 / 0.629 / 0.698  0.0391 / 0.1569 / 0.2845 32.7/32.4/32.8
+    0.5   2.032 / 2.763 / 3.233  0.444 / 0.623 / 0.666  0.0382 / 0.1549 / 0.2723 32.5/32.2/32.2
     0.7   2.034 / 2.846 / 3.287  0.447 / 0.615 / 0.628  0.0388 / 0.1530 / 0.2509 32.3/31.6/32.2
     ===== ====================== ====================== ======================== ==============
 
-    (the truth's skate 31.6). With its person and gait left out, L2P 2.616 / 3.674 / 4.499 at
-    0, 2.562 / 3.623 / 4.441 at 0.35, 2.552 / 3.639 / 4.452 at 0.5, 2.556 / 3.725 / 4.504 at
-    0.7. 0.35 is better than 0 on every figure; more is better on all but L2P at 30 and 45
-    frames, the issue's weakest target. On one-sided gaps (end / start, 15 / 30 frames, person
-    left out) holding a share of the one end's offset (half) cost L2P: 3.392 / 4.823 and
-    3.649 / 5.332 -> 3.403 / 4.885 and 3.693 / 5.472."""
+    (the truth's skate 31.6; 0.7 measured before a joint's overlapping blends were made to
+    span the gap, which moved 0.35 from 2.025 / 2.731 / 3.218). With its person and gait left
+    out, L2P 2.616 / 3.674 / 4.499 at 0, 2.583 / 3.627 / 4.440 at 0.35, 2.564 / 3.636 / 4.452
+    at 0.5, 2.556 / 3.725 / 4.504 at 0.7. 0.35 is better than 0 on every figure;
+    more is better on all but L2P at 30 and 45 frames, the issue's weakest target. On
+    one-sided gaps (end / start, 15 / 30 frames, person left out) holding a share of the one
+    end's offset (half) cost L2P: 3.392 / 4.823 and 3.649 / 5.332 -> 3.403 / 4.885 and 3.693
+    / 5.472."""
     blend_max_speed_deg: float = 90.0
     """Fastest a joint's end correction may turn (degrees per second): a larger offset fades
     over more frames than ``blend_seconds`` (up to the whole gap), so that removing it never
@@ -1024,13 +1026,15 @@ def _offset_blend(
     keep: float = 0.0,
 ):
     """Rotations/translations (n, J, ·) with the end offsets to (r0, t0) at index 0 and (r1, t1)
-    at index n-1 blended in, each decaying from its end over ``blend`` frames, or for a joint's
+    at index n-1 blended in, each decaying from its end over ``blend`` frames (a translation's
+    to zero; a joint's rotation offset into ``keep`` times the two ends' mean offset, held in
+    the middle: :attr:`InbetweenConfig.offset_keep`, none with ``r1`` None), or for a joint's
     rotation over as many more frames (at most n - 1) as keep the correction's angular speed
-    under ``max_step`` radians per frame (smoothstep's steepest slope is 1.5 / length).
+    under ``max_step`` radians per frame (smoothstep's steepest slope is 1.5 / length), the
+    length set by the change from the end's offset to the held one. Where a joint's two
+    blends would overlap, each spans the whole gap: the correction goes straight from one
+    end's offset to the other's, as slowly as the gap allows.
     ``r1`` and ``t1`` None: no end at index n-1 to meet (a gap at the clip's end).
-
-    ``keep``: the share of the two ends' mean rotation offset held in the middle
-    (:attr:`InbetweenConfig.offset_keep`; none with ``r1`` None).
 
     ``v0``, ``v1`` ((J, 3) radians per frame, optional): the joints' angular-velocity offsets
     (the context's turn per frame less the segment's) at index 0 and n-1, carried as
@@ -1067,16 +1071,24 @@ def _offset_blend(
     l0 = rot.quat_log(np.where(d0[..., :1] < 0, -d0, d0))  # (J, 3), half the angle
     l1 = rot.quat_log(np.where(d1[..., :1] < 0, -d1, d1))
 
-    def decay(log: np.ndarray) -> np.ndarray:  # (n, J, 1) per joint, from index 0
+    def frames(log: np.ndarray) -> np.ndarray:  # (J,) frames for a change of ``log``
         angle = 2.0 * np.linalg.norm(log, axis=-1)
-        length = np.clip(np.ceil(1.5 * angle / max_step), blend, max(n - 1, blend))
+        return np.clip(np.ceil(1.5 * angle / max_step), blend, max(n - 1, blend))
+
+    def decay(length: np.ndarray) -> np.ndarray:  # (n, J, 1) per joint, from index 0
         x = np.clip(np.arange(n)[:, None] / np.maximum(length[None], 1), 0.0, 1.0)
         return (1.0 - x * x * (3.0 - 2.0 * x))[..., None]
 
     # each end's offset blends into the share of their mean held between them (none with one
-    # end only), over as many frames as the difference needs to turn no joint too fast
+    # end only), over as many frames as the difference needs to turn no joint too fast; where
+    # the two blends would overlap, each spans the gap, so the correction goes straight from
+    # one end's offset to the other's, as slowly as the gap allows
     held = np.zeros_like(l0) if one_sided else keep * 0.5 * (l0 + l1)
-    e0, e1 = decay(l0 - held), decay(l1 - held)[::-1]
+    n0, n1 = frames(l0 - held), frames(l1 - held)
+    if not one_sided:
+        overlap = n0 + n1 > n - 1
+        n0, n1 = np.where(overlap, max(n - 1, 1), n0), np.where(overlap, max(n - 1, 1), n1)
+    e0, e1 = decay(n0), decay(n1)[::-1]
     mid = np.clip(1.0 - e0 - e1, 0.0, 1.0)
     off = rot.quat_exp(l0[None] * e0 + l1[None] * e1 + held[None] * mid)
     # the velocity offsets: t (1 - t/L)^2 leaves at slope 1, is gone with slope 0 at L = blend
