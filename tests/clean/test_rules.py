@@ -162,6 +162,9 @@ def test_cancelling_jumps() -> None:
         assert ev.pops[:, 1].any() == one
         if one:
             assert not ev.cut_off[:, 1].any()
+            peak = int(np.flatnonzero(ev.pops[:, 1])[0])
+            text = CancellingJumps().describe(ev, peak, 1)
+            assert f"one side of a one-frame pop with frame {2 * 285 + 1 - peak}" in text
         else:
             assert ev.cut_off[spike.stop :, 1].all()  # the candidate the rule must refuse
         assert not CancellingJumps().cells(ev)[spike.stop :, 1].any()
@@ -541,6 +544,9 @@ def test_noise_bursts() -> None:
     f = int(np.flatnonzero(ev.noise_bursts[:, 1])[0])
     assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}:")
     assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
+    # what a burst needs, as the rule counts it: a run spanning more than noise_seconds
+    need = f"for more than {NoiseBursts().min_seconds:g} s ({ev.frames(0.2, 2) + 1} frames or more)"
+    assert need in NoiseBursts().describe(ev, 70, 1)
     # the frame before a burst is rough from the burst's first step, but not noisy itself
     assert f"beside the burst on frames {f}:" in NoiseBursts().describe(ev, f - 1, 1)
     assert "beside" not in NoiseBursts().describe(ev, f - 3, 1)

@@ -653,23 +653,31 @@ def cancelling_steps(
 
 def one_frame_spikes(peaks: np.ndarray, deviations: Sequence[np.ndarray], tol: float) -> np.ndarray:
     """(F, J) bool: the ``peaks`` whose step deviation is cancelled by the one of a frame beside
-    them, ``|v[f] + v[f ± 1]| < tol * min(|v[f]|, |v[f ± 1]|)`` in one of ``deviations``' frames
-    (:func:`step_deviations`). A frame displaced by ``d`` alone gives ``v = 1.5 d`` into it and
-    ``-1.5 d`` out of it (ratio 0); the entry of a longer stretch gives ``d`` with ``-d/2`` on
-    either side (ratio 1), or 0 inside a stretch of two frames."""
+    them (:func:`pop_partner`)."""
     peaks = np.asarray(peaks, dtype=bool)
     out = np.zeros(peaks.shape, dtype=bool)
-    F = peaks.shape[0]
     for f, j in zip(*np.nonzero(peaks), strict=True):
-        for g in (f - 1, f + 1):
-            if not 0 <= g < F:
-                continue
-            for v in deviations:
-                a, b = v[f, j], v[g, j]
-                small = min(np.linalg.norm(a), np.linalg.norm(b))
-                if small > 0 and np.linalg.norm(a + b) < tol * small:
-                    out[f, j] = True
+        out[f, j] = pop_partner(deviations, int(f), int(j), tol) is not None
     return out
+
+
+def pop_partner(deviations: Sequence[np.ndarray], f: int, j: int, tol: float) -> int | None:
+    """The frame beside ``f`` (``f - 1`` or ``f + 1``) whose step deviation cancels joint
+    ``j``'s at ``f``, ``|v[f] + v[g]| < tol * min(|v[f]|, |v[g]|)`` in one of ``deviations``'
+    frames (:func:`step_deviations`), or None. A frame displaced by ``d`` alone gives ``v =
+    1.5 d`` into it and ``-1.5 d`` out of it (ratio 0): the two sides of a one-frame pop; the
+    entry of a longer stretch gives ``d`` with ``-d/2`` on either side (ratio 1), or 0 inside
+    a stretch of two frames."""
+    F = deviations[0].shape[0]
+    for g in (f - 1, f + 1):
+        if not 0 <= g < F:
+            continue
+        for v in deviations:
+            a, b = v[f, j], v[g, j]
+            small = min(np.linalg.norm(a), np.linalg.norm(b))
+            if small > 0 and np.linalg.norm(a + b) < tol * small:
+                return g
+    return None
 
 
 def _flanked(

@@ -132,8 +132,19 @@ class CancellingJumps:
         # so up to 360 deg), not a turn itself
         parts = [f"jump (change of its turn per frame) here {deg(ev.jump_size[frame, joint])}"]
 
+        devs = [ev.body_deviations, ev.parent_deviations]
+
         def peak(p: int) -> str:
-            pop = ", one side of a one-frame pop: pairs with no other" if ev.pops[p, joint] else ""
+            g = (
+                mdm_mod.pop_partner(devs, p, joint, ev.config.pop_tol)
+                if ev.pops[p, joint]
+                else None
+            )
+            pop = (
+                ""
+                if g is None
+                else f", one side of a one-frame pop with frame {g}: pairs with no other"
+            )
             return f"frame {p} ({deg(ev.jump_size[p, joint])}{pop})"
 
         if len(before):

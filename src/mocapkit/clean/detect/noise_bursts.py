@@ -53,9 +53,12 @@ class NoiseBursts:
         flags.flag(self.name, ev.noise_bursts)
 
     def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
+        # a run counts when it spans more than min_seconds (mdm.noise_bursts: b - a >= frames)
+        frames = ev.frames(self.min_seconds, 2) + 1
         need = (
             f"above {deg(ev.noise_level[joint])} (the larger of {self.min_deg:g} deg and "
-            f"{self.ratio:g} x the joint's median) for {self.min_seconds:g} s"
+            f"{self.ratio:g} x the joint's median) for more than {self.min_seconds:g} s "
+            f"({frames} frames or more)"
         )
         run = run_around(ev.noise_bursts[:, joint], frame)
         rough = run_around(ev.rough_runs[:, joint], frame)
