@@ -1550,3 +1550,38 @@ def test_velocity_offsets_are_bounded_and_scale_with_the_files_unit(humanoid):
     np.testing.assert_allclose(big.rotations, calm.rotations, atol=1e-9)
     np.testing.assert_allclose(big.local_translations(), 100 * calm.local_translations(),
                                atol=1e-7)  # fmt: skip
+
+
+def test_a_contact_cut_at_the_gaps_edge_is_the_contexts(humanoid):
+    """A contact of the fill that reaches the frame before B, with the context's foot low and
+    slow at B (its heel rising: too short a run for the detector), is marked planted at B so
+    the lock anchors it where the context plants the foot; not where the foot is high or fast
+    at B, nor where the fill's contact ends earlier. The same at A-1."""
+    from mocapkit.features import character_height
+    from mocapkit.stitch.inbetween import _planted_at_ends
+
+    walk, _ = humanoid
+    H = character_height(walk, "Y")
+    F, a, b = 40, 10, 30
+    pos = np.zeros((F, 1, 3))
+    pos[:, 0, 2] = np.arange(F) * 0.001 * H  # 0.03 heights per second at 30 fps: slow
+    flags = np.zeros((F, 1), dtype=bool)
+    flags[20:30, 0] = True  # the fill plants the foot up to B-1
+    floor = np.zeros(1)
+    ex = walk[:F]
+    out = _planted_at_ends(ex, pos, flags, "Y", a, b, floor)
+    assert out[b, 0] and out[20:30, 0].all() and out.sum() == 11
+    high = pos.copy()
+    high[b:, 0, 1] = 0.05 * H  # off the floor at B
+    assert not _planted_at_ends(ex, high, flags, "Y", a, b, floor)[b, 0]
+    fast = pos.copy()
+    fast[b + 1 :, 0, 2] += 0.05 * H  # 1.5 heights per second from B on
+    assert not _planted_at_ends(ex, fast, flags, "Y", a, b, floor)[b, 0]
+    early = flags.copy()
+    early[28:30, 0] = False  # the fill lifts the foot before B
+    assert not _planted_at_ends(ex, pos, early, "Y", a, b, floor)[b, 0]
+    start = np.zeros((F, 1), dtype=bool)
+    start[a : a + 5, 0] = True  # a contact from the gap's first frame: A-1 is its start
+    assert _planted_at_ends(ex, pos, start, "Y", a, b, floor)[a - 1, 0]
+    unknown = _planted_at_ends(ex, pos, start, "Y", a, b, np.full(1, np.nan))
+    assert np.array_equal(unknown, start)  # no floor known for the joint: left as it was
