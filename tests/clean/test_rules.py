@@ -545,7 +545,7 @@ def test_noise_bursts() -> None:
     assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}:")
     assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
     # what a burst needs, as the rule counts it: a run spanning more than noise_seconds
-    need = f"for more than {NoiseBursts().min_seconds:g} s ({ev.frames(0.2, 2) + 1} frames or more)"
+    need = f"for {ev.frames(0.2, 2) + 1} frames or more ({(ev.frames(0.2, 2) + 1) / ev.fps:.2f} s)"
     assert need in NoiseBursts().describe(ev, 70, 1)
     # the frame before a burst is rough from the burst's first step, but not noisy itself
     assert f"beside the burst on frames {f}:" in NoiseBursts().describe(ev, f - 1, 1)

@@ -668,6 +668,8 @@ def pop_partner(deviations: Sequence[np.ndarray], f: int, j: int, tol: float) ->
     1.5 d`` into it and ``-1.5 d`` out of it (ratio 0): the two sides of a one-frame pop; the
     entry of a longer stretch gives ``d`` with ``-d/2`` on either side (ratio 1), or 0 inside
     a stretch of two frames."""
+    if not deviations:
+        return None
     F = deviations[0].shape[0]
     for g in (f - 1, f + 1):
         if not 0 <= g < F:

@@ -1289,7 +1289,9 @@ def _planted_at_ends(
     detector cut (a heel already rising at B, a toe just down at A-1), so the lock anchors it
     where the context plants the foot, not where the fill put it. Relies on: a foot on the
     floor at the gap's edge and on the floor in the fill's frame beside it has not moved
-    between (:attr:`InbetweenConfig.contact_at_ends`)."""
+    between (:attr:`InbetweenConfig.contact_at_ends`). Where the next context frame out lies
+    beyond ``ex`` (a gap ending at the clip's next-to-last frame), the speed is unknown and
+    the frame is left."""
     from mocapkit.features import character_height, ground_frame
 
     _, u, _ = ground_frame(up)

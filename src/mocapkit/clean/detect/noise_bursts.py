@@ -53,12 +53,13 @@ class NoiseBursts:
         flags.flag(self.name, ev.noise_bursts)
 
     def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
-        # a run counts when it spans more than min_seconds (mdm.noise_bursts: b - a >= frames)
-        frames = ev.frames(self.min_seconds, 2) + 1
+        # a run counts from one frame more than noise_seconds rounds to (mdm.noise_bursts:
+        # b - a >= frames), as the evidence counts it
+        frames = ev.frames(ev.config.noise_seconds, 2) + 1
         need = (
             f"above {deg(ev.noise_level[joint])} (the larger of {self.min_deg:g} deg and "
-            f"{self.ratio:g} x the joint's median) for more than {self.min_seconds:g} s "
-            f"({frames} frames or more)"
+            f"{self.ratio:g} x the joint's median) for {frames} frames or more "
+            f"({frames / ev.fps:.2f} s)"
         )
         run = run_around(ev.noise_bursts[:, joint], frame)
         rough = run_around(ev.rough_runs[:, joint], frame)
