@@ -544,7 +544,13 @@ def test_noise_bursts() -> None:
     f = int(np.flatnonzero(ev.noise_bursts[:, 1])[0])
     assert NoiseBursts().describe(ev, f, 1).startswith(f"in a burst on frames {f}:")
     assert NoiseBursts().describe(ev, 70, 1).startswith("roughness ")
-    # what a burst needs, as the rule counts it: a run spanning more than noise_seconds
+    # what a burst needs, as the rule counts it: roughness over one frame more than
+    # noise_seconds rounds to (a run of N - 1 such frames is not a burst, one of N is)
+    n = ev.frames(0.2, 2) + 1
+    r, c = np.zeros((80, 1)), np.zeros((80, 1))
+    r[10 : 10 + n - 1, 0] = r[40 : 40 + n, 0] = 1.0
+    found = mdm_mod.noise_bursts(r, c, 0.5, ev.frames(0.2, 2))[:, 0]
+    assert not found[:35].any() and found[40 : 40 + n].any()
     need = f"for {ev.frames(0.2, 2) + 1} frames or more ({(ev.frames(0.2, 2) + 1) / ev.fps:.2f} s)"
     assert need in NoiseBursts().describe(ev, 70, 1)
     # the frame before a burst is rough from the burst's first step, but not noisy itself
