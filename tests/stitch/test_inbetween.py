@@ -1034,6 +1034,7 @@ def test_cli_says_when_no_library_file_could_be_used(files, tmp_path):
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
                       tmp_path / "nope.bvh", "--out", tmp_path / "o.bvh")  # fmt: skip
     assert code == 2 and "no usable library file" in se and "besides the clip" not in se
+    assert se.count("nope.bvh: cannot read file") == 1  # said once (newcomer report: twice)
     # the JSON error names why (newcomer report: only "see the errors above", on stderr)
     code, so, _ = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
                       tmp_path / "nope.bvh", "--out", tmp_path / "o.bvh",

@@ -137,13 +137,16 @@ def inbetween_cmd(
     if not library and method != "kalman":
         raise CLIError("--library is needed (only --method kalman fills a gap without one)")
     lib_paths, unnamed = expand_library(library, MOTION_SUFFIXES)
-    for why in unnamed:  # a library job goes on past a bad --library item
-        click.echo(f"mocapkit: error: --library: {why}", err=True)
     others = [p for p in lib_paths if not same_file(p, clip)]
+    fails = not others and method != "kalman"
+    # a library job goes on past a bad --library item, one line each; where none is left, the
+    # error line names the first (not said twice)
+    for why in unnamed[1:] if fails else unnamed:
+        click.echo(f"mocapkit: error: --library: {why}", err=True)
     if len(others) < len(lib_paths):
         click.echo(f"mocapkit: note: {clip} left out of the library (it is the clip)", err=True)
         lib_paths = others
-    if not lib_paths and method != "kalman":
+    if fails:
         if unnamed:
             more = f"; {len(unnamed) - 1} more above" if len(unnamed) > 1 else ""
             raise CLIError(f"--library: no usable library file ({unnamed[0]}{more})")
@@ -172,9 +175,10 @@ def inbetween_cmd(
             kept.append((p, m))
         except ValueError as e:
             skipped.append(one_line(e))
-    for why in skipped:
+    none_kept = not kept and method != "kalman"
+    for why in skipped[1:] if none_kept else skipped:
         click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
-    if not kept and method != "kalman":
+    if none_kept:
         why = f" ({skipped[0]}{f'; {len(skipped) - 1} more above' if len(skipped) > 1 else ''})"
         raise CLIError(
             f"--library: no library motion with {clip}'s skeleton could be read"
