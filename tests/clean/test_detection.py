@@ -270,9 +270,9 @@ def test_cancelling_steps_leave_one_frame_pops_to_the_spike_rule() -> None:
     spikes = mdm_mod.one_frame_spikes(peaks, devs, 0.3)
     assert np.array_equal(spikes, peaks)
     used = np.zeros(peaks.shape, dtype=bool)
-    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, used_out=used, pop_tol=0.3).any()
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, used_out=used, pops=spikes).any()
     assert np.array_equal(used, peaks)  # paired with the frame beside them: no cut-off either
-    # with pop_tol 0 (off) the exit of one pop pairs with the entry of the next, as it did
+    # without the pops (pop_tol 0) the exit of one pop pairs with the entry of the next
     assert mdm_mod.cancelling_steps(peaks, devs, 45, 0.45)[60:85, 0].all()
     with pytest.raises(ValueError, match="pop_tol"):
         DetectConfig(pop_tol=-0.1)

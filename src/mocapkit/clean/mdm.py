@@ -570,7 +570,7 @@ def cancelling_steps(
     sides: np.ndarray | None = None,
     sided_frames: int = 0,
     used_out: np.ndarray | None = None,
-    pop_tol: float = 0.0,
+    pops: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -604,18 +604,18 @@ def cancelling_steps(
     offset recall 0.972 -> 0.989 local, 0.982 -> 0.995 small, bend precision unchanged;
     validation half, seeds 0-2: no figure changed).
 
-    A peak whose own neighbour frame's deviation cancels it to within ``pop_tol``
-    (:func:`one_frame_spikes`) is one side of a one-frame pop: its other side is that
-    neighbour, which :func:`jump_size`'s local maxima leave out, so it pairs with no farther
-    peak (the spike rule judges it). A natural toe pop at foot strike, one frame each step,
-    otherwise paired the exit of one pop with the entry of the next across the stance between
-    (Bandai-1 validation half, walk-back_angry's toes, session 26). ``pop_tol`` 0: off.
+    ``pops`` ((F, J) bool, optional: :func:`one_frame_spikes` of the peaks): a peak whose own
+    neighbour frame's deviation cancels it is one side of a one-frame pop: its other side is
+    that neighbour, which :func:`jump_size`'s local maxima leave out, so it pairs with no
+    farther peak (the spike rule judges it). A natural toe pop at foot strike, one frame each
+    step, otherwise paired the exit of one pop with the entry of the next across the stance
+    between (Bandai-1 validation half, walk-back_angry's toes, session 26). None: none.
 
     ``used_out`` ((F, J) bool, optional) receives the peaks that paired (a one-frame spike's
     with its neighbour)."""
     out = np.zeros(peaks.shape, dtype=bool)
     F = peaks.shape[0]
-    spikes = one_frame_spikes(peaks, deviations, pop_tol)
+    spikes = np.zeros(peaks.shape, dtype=bool) if pops is None else np.asarray(pops, bool)
     for j in np.flatnonzero(np.asarray(peaks).any(axis=0)):
         ps = np.flatnonzero(peaks[:, j] & ~spikes[:, j])
         pairs = []
@@ -647,7 +647,7 @@ def cancelling_steps(
         if used_out is not None:
             used_out[sorted(used), j] = True
     if used_out is not None:
-        used_out |= spikes  # paired with the frame beside them
+        used_out |= spikes & peaks  # paired with the frame beside them
     return out
 
 

@@ -252,9 +252,8 @@ class Evidence:
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
         used = np.zeros(self.shape, dtype=bool)
         cells = mdm_mod.cancelling_steps(
-            self.jump_peaks, devs, span, self.config.pair_tol, sides, word, used,
-            self.config.pop_tol,
-        )  # fmt: skip
+            self.jump_peaks, devs, span, self.config.pair_tol, sides, word, used, self.pops
+        )
         return cells, used, sides
 
     @cached_property
