@@ -325,7 +325,8 @@ def library_without(lib, drop: set[int]):
     for W in lib.warped:
         keep = ~np.isin(W.clip, sorted(drop))
         warped.append(type(W)(W.rate, np.ascontiguousarray(W.feats[keep]), W.ground[keep],
-                              W.heading[keep], W.clip[keep], W.time[keep]))  # fmt: skip
+                              W.heading[keep], W.clip[keep], W.time[keep],
+                              None if W.pelvis is None else W.pelvis[keep]))  # fmt: skip
     return replace(
         lib,
         warped=tuple(warped),

@@ -4,6 +4,7 @@ the exact meeting of the context poses, the Kalman fallback and the CLI's gap ch
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -44,8 +45,9 @@ def _lerp(a: np.ndarray, t: np.ndarray) -> np.ndarray:
     return a[i0] * (1 - f) + a[i1] * f
 
 
-def _synthetic_library(seed: int, lengths, m: int, rates) -> InbetweenLibrary:
-    """Random-walk features, ground paths and headings, 'warped' per rate (arrays only)."""
+def _synthetic_library(seed: int, lengths, m: int, rates, pelvis: bool = False) -> InbetweenLibrary:
+    """Random-walk features, ground paths and headings, 'warped' per rate (arrays only); with
+    ``pelvis`` the second feature column is the pelvis height (the bob term's)."""
     rng = np.random.default_rng(seed)
     clips = [
         (
@@ -64,7 +66,8 @@ def _synthetic_library(seed: int, lengths, m: int, rates) -> InbetweenLibrary:
                 (_lerp(x, t).astype(np.float32), _lerp(gp, t), _lerp(h, t), np.full(len(t), i), t)
             )
         cols = [np.concatenate(c) for c in zip(*parts, strict=True)]
-        warped.append(_Warped(float(r), np.ascontiguousarray(cols[0]), *cols[1:]))
+        heights = cols[0][:, 1].astype(float) if pelvis else None
+        warped.append(_Warped(float(r), np.ascontiguousarray(cols[0]), *cols[1:], heights))
     return InbetweenLibrary((), tuple(f"c{i}" for i in range(len(lengths))), "Y", tuple(warped), 0)
 
 
@@ -104,14 +107,17 @@ def _random_context(rng, m):
 
 def _brute_force_case(seed: int, lscore_weight: float, one_sided: bool):
     """A config with every score term, a random-walk library of three clips (9 to 30 frames,
-    three warps) and a random context, without future frames when ``one_sided``."""
+    three warps, the second feature column a pelvis height) and a random context (30 fps),
+    without future frames when ``one_sided``."""
     config = InbetweenConfig(
-        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0
-    )
-    lib = _synthetic_library(3, (30, 9, 26), 6, config.warps)
+        warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0,
+        bob_weight=1.0, bob_tolerance_m_s2=20.0,
+    )  # fmt: skip
+    lib = _synthetic_library(3, (30, 9, 26), 6, config.warps, pelvis=True)
     ctx = _random_context(np.random.default_rng(seed), 6)
+    ctx = replace(ctx, frame_time=1 / 30, pelvis=ctx.past[:, 1].copy())
     if one_sided:  # a gap at the clip's end: nothing after it
-        ctx = GapContext(ctx.past, ctx.past[:0], np.full(2, np.nan), float("nan"), ctx.velocity)
+        ctx = replace(ctx, future=ctx.past[:0], travel=np.full(2, np.nan), turn=float("nan"))
     return config, lib, ctx
 
 
@@ -132,7 +138,8 @@ def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
     # the reported L-scores are the segment's own, whatever their weight in the score
     with_ls = inbetween_naive.inbetween_scores_reference(
         ctx, gap, lib, 5,
-        InbetweenConfig(warps=config.warps, pose_weight=0.0, travel_weight=0.0, lscore_weight=1.0),
+        InbetweenConfig(warps=config.warps, pose_weight=0.0, travel_weight=0.0, lscore_weight=1.0,
+                        bob_weight=0.0),
         0.01,
     )  # fmt: skip
     own = next(x for x in with_ls if (x[1], x[3]) == (best.clip, best.rate)
@@ -158,6 +165,63 @@ def test_search_of_a_gap_at_the_clips_end_matches_brute_force(gap, lscore_weight
     # the last frame of a library clip may be the last gap frame (none is needed on B)
     ends = {(x[1], x[3]): x[2] for x in ref}
     assert any(t + r * gap > (n - 1) - r for (c, r), t in ends.items() for n in [(30, 9, 26)[c]])
+
+
+@pytest.mark.parametrize("one_sided", [False, True])
+def test_search_with_bob_term_alone_matches_brute_force(one_sided):
+    """The bob term alone (the pelvis' vertical acceleration over s-2 .. s against A-3 .. A-1):
+    the search's candidates and scores are the brute force's, and it decides the ranking."""
+    config, lib, ctx = _brute_force_case(40 + one_sided, 0.0, one_sided)
+    config = replace(config, pose_weight=0.0, travel_weight=0.0)
+    top, count = search_inbetween_top(ctx, 4, lib, 3, w=5, config=config, metres_per_unit=0.01)
+    ref = inbetween_naive.inbetween_scores_reference(ctx, 4, lib, 5, config, 0.01)
+    assert count == len(ref) and ref[0][0] < ref[-1][0]  # the term ranks the candidates
+    best = top[0]
+    assert (best.clip, best.rate) == (ref[0][1], ref[0][3])
+    assert best.start == pytest.approx(ref[0][2]) and best.score == pytest.approx(ref[0][0])
+
+
+def _bobbing_library(level: float) -> InbetweenLibrary:
+    """One 'walk' of 120 frames whose only feature is a pelvis bobbing 2 cm about ``level``
+    with a period of 15 frames (30 fps, cm)."""
+    t = np.arange(120.0)
+    h = level + 2.0 * np.sin(2 * np.pi * t / 15)
+    feats = np.zeros((120, 3), np.float32)
+    feats[:, 1] = h
+    ground = np.c_[np.zeros(120), 4.0 * t]  # straight ahead
+    W = _Warped(1.0, feats, ground, np.zeros(120), np.zeros(120, np.int32), t, h)
+    return InbetweenLibrary((), ("walk",), "Y", (W,), 120)
+
+
+def test_bob_term_finds_the_phase_of_a_person_standing_higher():
+    """A context bobbing 1.5 cm above the library's level, rising through its own level: the pose
+    term alone (heights) picks a library frame at the same height, high above the library's level,
+    the wrong part of the bob; with the bob term the chosen frame is in the context's phase (the
+    same vertical acceleration, so the same height about the level)."""
+    lib = _bobbing_library(90.0)
+    phase = 0.0  # frames into the period at A-1: rising through the level
+    k = np.arange(-4, 1) + phase
+    past_h = 91.5 + 2.0 * np.sin(2 * np.pi * k / 15)
+    past = np.zeros((5, 3))
+    past[:, 1] = past_h
+    ctx = GapContext(past, past[:0], np.full(2, np.nan), float("nan"), np.array([0.0, 4.0]),
+                     1 / 30, past_h)  # fmt: skip
+    base = InbetweenConfig(warps=(1.0,), travel_weight=0.0, pose_weight=1.0, bob_weight=0.0)
+    wrong, _ = search_inbetween(ctx, 5, lib, config=base, metres_per_unit=0.01)
+    right, _ = search_inbetween(
+        ctx, 5, lib, config=replace(base, bob_weight=5.0), metres_per_unit=0.01
+    )
+
+    def about_level(start: float) -> float:  # the library's height about its level, / 2 cm
+        return float(np.sin(2 * np.pi * start / 15))
+
+    want = np.sin(2 * np.pi * phase / 15)
+    assert abs(about_level(wrong.start) - want) > 0.5
+    assert abs(about_level(right.start) - want) < 0.15
+    # the same search with fewer than three past frames has no bob term: the pose term's pick
+    two = replace(ctx, past=past[-2:], pelvis=past_h[-2:])
+    assert search_inbetween(two, 5, lib, config=replace(base, bob_weight=5.0),
+                            metres_per_unit=0.01)[0].start == wrong.start  # fmt: skip
 
 
 def test_top_k_sorted_and_apart():
