@@ -10,10 +10,12 @@ with the L-scores by the textbook RTS smoother of naive.py (one dimension at a t
 ground-path term from the pelvis path and heading, and the pose term as the squared distances
 of frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
 divided by (joints x tolerance²), times pose_weight; with pelvis heights in the library and
-the context (three past frames or more, a frame time), plus the bob term: bob_weight times the
-squared difference of the pelvis' second differences over frames s-2, s-1, s and A-3, A-2, A-1
-over the squared tolerance (per frame², file units), over s-1, s, s+1 where frame s-2 is
-outside s's clip. Returns every candidate, best first.
+the context (2k + 1 past frames or more, a frame time; k frames = half bob_span_seconds), plus
+the bob term: bob_weight times the squared difference of the pelvis' second differences over
+frames c-k, c, c+k and A-1-2k, A-1-k, A-1 over the squared tolerance (per (k frames)², file
+units), c = s-k, or s where s-k is outside s's clip, moved into the clip as far as needed to
+have c-k and c+k in it (no term in a clip of fewer than 2k + 1 frames). Returns every
+candidate, best first.
 
 A context with no future frames (a gap at the clip's end) has no L_end, no displacement or
 turn in the ground-path term (its velocity is the warped segment's, not the library's own),
@@ -56,15 +58,12 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
     if not one_sided:
         refs.append((np.asarray(ctx.future[0]), g + 1))
     last = g if one_sided else g + 1
-    bob = (
-        config.bob_weight > 0
-        and ctx.pelvis is not None
-        and len(ctx.pelvis) >= 3
-        and ctx.frame_time is not None
-    )
+    bob = config.bob_weight > 0 and ctx.pelvis is not None and ctx.frame_time is not None
     if bob:
+        k = max(1, round(config.bob_span_seconds / 2 / ctx.frame_time))
         hc = ctx.pelvis
-        ctx_acc = hc[-1] - 2 * hc[-2] + hc[-3]
+        bob = len(hc) >= 2 * k + 1
+        ctx_acc = hc[-1] - 2 * hc[-1 - k] + hc[-1 - 2 * k] if bob else 0.0
     out = []
     for W in library.warped:
         N, m = W.feats.shape
@@ -94,13 +93,14 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
             score += config.travel_weight * travel
             pose = sum(float(np.sum((W.feats[s + k].astype(float) - c) ** 2)) for c, k in refs)
             score += config.pose_weight * (3 / len(refs)) * pose / ((m / 3) * ptol**2)
-            if with_bob:  # the pelvis' vertical acceleration over s-2, s-1, s against A-3 .. A-1
+            if with_bob:  # the pelvis' vertical acceleration on A-1-2k, A-1-k, A-1
                 h = W.pelvis
-                if s >= 2 and W.clip[s - 2] == W.clip[s]:
-                    seg = h[s] - 2 * h[s - 1] + h[s - 2]
-                else:  # the clip's second frame: over s-1, s, s+1
-                    seg = h[s + 1] - 2 * h[s] + h[s - 1]
-                btol = config.bob_tolerance_m_s2 * ctx.frame_time**2 / metres_per_unit
+                lo = min(i for i in range(N) if W.clip[i] == W.clip[s])  # s's clip: lo .. hi
+                hi = max(i for i in range(N) if W.clip[i] == W.clip[s])
+                c = s - k if s - k >= lo else s  # a frame of s's clip
+                c = min(max(c, lo + k), hi - k)  # as near it as the clip allows
+                seg = h[c + k] - 2 * h[c] + h[c - k] if lo + k <= hi - k else ctx_acc
+                btol = config.bob_tolerance_m_s2 * (k * ctx.frame_time) ** 2 / metres_per_unit
                 score += config.bob_weight * (seg - ctx_acc) ** 2 / btol**2
             out.append((float(score), int(W.clip[s]), float(W.time[s]), float(W.rate)))
     out.sort(key=lambda x: x[0])

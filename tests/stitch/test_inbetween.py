@@ -168,11 +168,16 @@ def test_search_of_a_gap_at_the_clips_end_matches_brute_force(gap, lscore_weight
 
 
 @pytest.mark.parametrize("one_sided", [False, True])
-def test_search_with_bob_term_alone_matches_brute_force(one_sided):
-    """The bob term alone (the pelvis' vertical acceleration over s-2 .. s against A-3 .. A-1):
-    the search's candidates and scores are the brute force's, and it decides the ranking."""
+@pytest.mark.parametrize("fps", [30, 120])
+def test_search_with_bob_term_alone_matches_brute_force(one_sided, fps):
+    """The bob term alone (the pelvis' vertical acceleration over the frames on A-1-2k, A-1-k,
+    A-1; k = 1 at 30 fps, 4 at 120): the search's candidates and scores are the brute force's,
+    and it decides the ranking."""
     config, lib, ctx = _brute_force_case(40 + one_sided, 0.0, one_sided)
     config = replace(config, pose_weight=0.0, travel_weight=0.0)
+    if fps == 120:  # nine past frames or more
+        past = np.cumsum(np.random.default_rng(fps).normal(size=(10, 6)), 0)
+        ctx = replace(ctx, past=past, pelvis=past[:, 1].copy(), frame_time=1 / 120)
     top, count = search_inbetween_top(ctx, 4, lib, 3, w=5, config=config, metres_per_unit=0.01)
     ref = inbetween_naive.inbetween_scores_reference(ctx, 4, lib, 5, config, 0.01)
     assert count == len(ref) and ref[0][0] < ref[-1][0]  # the term ranks the candidates

@@ -26,10 +26,11 @@ position and heading removed):
   frames A-2, A-1 and B, over the number of joints and the squared
   :attr:`InbetweenConfig.pose_tolerance_m`, times :attr:`InbetweenConfig.pose_weight`: the
   pose and velocity the segment starts with, and the pose it must arrive at;
-* ``bob``: the pelvis' vertical acceleration over the candidate's frames i = -2, -1, 0 against
-  the context's over A-3, A-2, A-1 (:attr:`InbetweenConfig.bob_tolerance_m_s2`, weighted by
-  :attr:`InbetweenConfig.bob_weight`): the phase of the body's rise and fall with each step,
-  whatever the person's pelvis level;
+* ``bob``: the pelvis' vertical acceleration over the candidate's frames i = -2k, -k, 0
+  against the context's over A-1-2k, A-1-k, A-1 (k = 1 at 30 fps:
+  :attr:`InbetweenConfig.bob_span_seconds`; :attr:`InbetweenConfig.bob_tolerance_m_s2`,
+  weighted by :attr:`InbetweenConfig.bob_weight`): the phase of the body's rise and fall with
+  each step, whatever the person's pelvis level;
 * ``travel``: the ground path: the pelvis' ground displacement and heading change from frame
   A-1 to B, in the body frame at A-1, against the candidate's from i = 0 to g+1, and the pelvis'
   ground velocity at the last past frame against the candidate's at i = 0
@@ -338,6 +339,12 @@ class InbetweenConfig:
     bob_tolerance_m_s2: float = 1.4
     """Pelvis vertical acceleration difference that costs as much as :attr:`bob_weight`:
     about half the peak of a walk's (3 m/s²)."""
+    bob_span_seconds: float = 1 / 15
+    """The bob term's acceleration is measured over three frames this far apart end to end
+    (three frames in a row at 30 fps, every fourth at 120 fps): the bob's period is about half
+    a second, and the heights of frames closer together differ by little more than the noise
+    of the capture (a second difference of three frames in a row at 120 fps turns 0.5 mm of
+    noise into about 17 m/s²)."""
     lscore_weight: float = 0.0
     """Weight of the two L-scores in the candidate score (module docstring: why 0)."""
     poor_fit_path_m: float = 0.5
@@ -430,8 +437,8 @@ class InbetweenConfig:
             raise ValueError(f"travel_weight must be >= 0, got {self.travel_weight}")
         if not (self.pose_weight >= 0 and self.lscore_weight >= 0 and self.pose_tolerance_m > 0):
             raise ValueError("pose_weight and lscore_weight must be >= 0, pose_tolerance_m > 0")
-        if not (self.bob_weight >= 0 and self.bob_tolerance_m_s2 > 0):
-            raise ValueError("bob_weight must be >= 0, bob_tolerance_m_s2 > 0")
+        if not (self.bob_weight >= 0 and self.bob_tolerance_m_s2 > 0 and self.bob_span_seconds > 0):
+            raise ValueError("bob_weight must be >= 0, bob_tolerance_m_s2 and bob_span_seconds > 0")
         if not (
             self.poor_fit_path_m > 0 and self.poor_fit_speed_m_s > 0 and self.poor_fit_pose_m > 0
         ):
@@ -953,34 +960,53 @@ def _pose_costs(
     return cost
 
 
+def _bob_frames(frame_time: float, config: InbetweenConfig) -> int:
+    """k: the bob term measures the pelvis' vertical acceleration over frames i-k, i, i+k."""
+    return max(1, round(config.bob_span_seconds / 2 / frame_time))
+
+
+def _library_bob(W: _Warped, k: int) -> np.ndarray:
+    """(N,) the pelvis' vertical second difference over frames c-k, c, c+k (file units), c the
+    frame nearest i whose frames c-k and c+k are in i's clip (NaN in a clip of fewer than
+    2k + 1 frames); cached on ``W`` per k."""
+    cache = W.__dict__.setdefault("_bob", {})
+    if k not in cache:
+        N = W.clip.shape[0]
+        edge = np.flatnonzero(np.diff(W.clip)) + 1  # first frame of each clip but the first
+        first = np.repeat(np.r_[0, edge], np.diff(np.r_[0, edge, N]))
+        last = np.repeat(np.r_[edge - 1, N - 1], np.diff(np.r_[0, edge, N]))
+        c = np.clip(np.arange(N), first + k, last - k)
+        ok = first + k <= last - k
+        c = np.where(ok, c, np.arange(N))
+        h = W.pelvis
+        acc = h[np.clip(c + k, 0, N - 1)] - 2.0 * h[c] + h[np.clip(c - k, 0, N - 1)]
+        cache[k] = np.where(ok, acc, np.nan)
+    return cache[k]
+
+
 def _bob_costs(W: _Warped, ctx: GapContext, config: InbetweenConfig, mpu: float) -> np.ndarray:
     """(N,) per warped frame s (the frame on A-1): the bob term
     (:attr:`InbetweenConfig.bob_weight`), the squared difference of the pelvis' vertical
-    acceleration over frames s-2, s-1, s and the context's over A-3, A-2, A-1, per squared
-    tolerance (over frames s-1, s, s+1 where s-2 is not in s's clip: a frame later, a fifteenth
-    of a walk's bob; inf at the library's last frame). Zero everywhere where the term is off,
-    the context has fewer than three past frames or no frame time, or the library no pelvis
-    heights."""
+    acceleration over the candidate's frames on A-1-2k, A-1-k, A-1 and the context's, per
+    squared tolerance (k frames: half :attr:`InbetweenConfig.bob_span_seconds`; where its clip
+    starts later, over the first such frames it has, and none in a clip too short). Zero
+    everywhere where the term is off, the context has too few past frames or no frame time,
+    or the library no pelvis heights."""
     N = W.feats.shape[0]
-    if (
-        config.bob_weight == 0
-        or W.pelvis is None
-        or ctx.pelvis is None
-        or len(ctx.pelvis) < 3
-        or ctx.frame_time is None
-    ):
+    if config.bob_weight == 0 or W.pelvis is None or ctx.pelvis is None or ctx.frame_time is None:
         return np.zeros(N)
-    tol = config.bob_tolerance_m_s2 * ctx.frame_time**2 / mpu  # file units per frame²
-    h, hc = W.pelvis, ctx.pelvis[-3:]
-    if N < 3:
-        return np.full(N, np.inf)
-    acc = np.full(N, np.inf)
-    acc[1:-1] = h[2:] - 2.0 * h[1:-1] + h[:-2]  # centred on frame i = 1 .. N-2
-    own = np.full(N, np.inf)  # centred on s-1, or on s at a clip's second frame
-    own[2:] = np.where(W.clip[2:] == W.clip[:-2], acc[1:-1], acc[2:])
-    own[1] = acc[1]
-    d = own - (hc[2] - 2.0 * hc[1] + hc[0])
-    return np.where(np.isfinite(d), config.bob_weight * d**2 / tol**2, np.inf)
+    k = _bob_frames(ctx.frame_time, config)
+    hc = ctx.pelvis
+    if len(hc) < 2 * k + 1:
+        return np.zeros(N)
+    acc = _library_bob(W, k)
+    s = np.arange(N)
+    centre = np.maximum(s - k, 0)
+    d = np.where(W.clip[centre] == W.clip, acc[centre], acc) - (
+        hc[-1] - 2.0 * hc[-1 - k] + hc[-1 - 2 * k]
+    )
+    tol = config.bob_tolerance_m_s2 * (k * ctx.frame_time) ** 2 / mpu  # file units per (k frames)²
+    return np.where(np.isfinite(d), config.bob_weight * d**2 / tol**2, 0.0)
 
 
 def search_inbetween(
