@@ -1263,6 +1263,30 @@ def test_foot_lock_correction_turns_no_faster_than_the_limit(seed, jump):
     np.testing.assert_allclose(out[:8, :2], before[:8, :2], atol=1e-12)
 
 
+@pytest.mark.parametrize("limit", [30.0, 180.0])
+def test_the_foot_locks_corrections_turn_no_faster_than_lock_max_speed_deg(humanoid, limit):
+    """End to end: the legs' rotations of a locked fill differ from the same fill unlocked by a
+    correction that changes by at most lock_max_speed_deg per second from frame to frame (the
+    end offsets' own limit, blend_max_speed_deg, is another)."""
+    from mocapkit.body import body_of
+    from mocapkit.core import rotations as rot
+
+    walk, lib = humanoid
+    a, b = 60, 90
+    config = replace(DEFAULT_CONFIG, lock_max_speed_deg=limit, blend_max_speed_deg=90.0)
+    locked = inbetween(walk, (a, b), lib, up="Y", method="library", config=config).motion
+    free = inbetween(walk, (a, b), lib, up="Y", method="library",
+                     config=replace(config, foot_lock=False)).motion  # fmt: skip
+    body = body_of(walk)
+    legs = [j for name in ("hip", "knee", "ankle") for j in body.both(name)]
+    d = rot.quat_mul(locked.rotations[a - 1 : b + 1, legs],
+                     rot.quat_inv(free.rotations[a - 1 : b + 1, legs]))  # fmt: skip
+    step = rot.quat_mul(d[1:], rot.quat_inv(d[:-1]))
+    turn = np.degrees(2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0)))
+    assert turn.max() <= limit * walk.frame_time + 1e-6
+    assert np.abs(d[..., 1:]).max() > 1e-3  # the lock corrected something
+
+
 def test_the_api_refuses_what_it_cannot_fill_in_one_line():
     """Newcomer report (API): a library prepared at another frame rate was used silently, NaN in
     the clip gave a contradictory 'no library clip is long enough', infinite or NaN settings

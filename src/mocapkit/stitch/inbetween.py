@@ -251,7 +251,8 @@ class InbetweenConfig:
     0.58 at 90°/s, 0.66, 0.51, 0.52 at 45°/s; L2P 0.47, 0.49, 0.52 without the limit, 0.47,
     0.50, 0.52 at 90°/s, 0.48, 0.51, 0.53 at 45°/s.
 
-    The foot lock's corrections of the legs obey it too: a hold let go of within a frame or
+    The foot lock's corrections of the legs obeyed it too, and now obey their own limit
+    (:attr:`lock_max_speed_deg`). The history: a hold let go of within a frame or
     two (near the gap's end the context's foot can be far from the fill's) snapped a knee from
     straight to 146° (newcomer report: a Bandai-1 walk filled at 80:110, knee acceleration 9.1
     cm/frame² against 1.9 unlocked; 5.1 with the limit, 7.5 at 270°/s). On the tuning takes
@@ -261,6 +262,21 @@ class InbetweenConfig:
     report: Foot_L 40-81 deg in one frame on Bandai-1 walk-back/walk-left fills; now within 3
     deg of the fill's own largest step); tuning takes at 15, 30, 45 frames: L2P 2.160, 2.594,
     3.169 and foot skate 38.3, 38.8, 40.9 cm/s (38.6, 39.3, 41.5 before)."""
+    lock_max_speed_deg: float = 180.0
+    """Fastest the foot lock's corrections of the legs may turn (degrees per second), as
+    :attr:`blend_max_speed_deg` limits the end offsets: a hold let go of within a frame or two
+    snapped a knee (see there). A walk's hips and knees swing at a few hundred degrees per
+    second, so a correction of this speed is not seen on top; a slower one lags the hold and
+    the foot slides. Tuning windows (at 15 / 30 / 45 frames; the take's person and gait left
+    out of the library): foot skate 35.4 / 36.7 / 43.1 cm/s at 90, 33.4 / 35.0 / 41.2 at 180,
+    32.4 / 33.9 / 39.9 at 360, 32.3 / 33.7 / 39.5 without a limit (the truth's 31.6); the
+    legs' largest angular acceleration in a window (degrees per frame², median / 99th
+    percentile / largest) 12.4 / 21.9 / 38.2 at 90, 13.0 / 21.4 / 41.3 at 180, 14.6 / 32.7 /
+    44.0 at 360, 14.6 / 43.9 / 70.6 without (the truth's 15.6 / 26.9 / 27.6): up to 180 the
+    corrections jolt the legs no more than the captured steps do. With the person alone left
+    out, foot skate 32.2 / 32.9 / 31.9 at 90, 30.8 / 31.3 / 30.6 at 180 (the truth's 31.6);
+    L2P 0.731 / 2.004 / 2.752 / 3.276 at 5 / 15 / 30 / 45 frames at 90, 0.740 / 2.009 /
+    2.758 / 3.281 at 180."""
     foot_lock: bool = True
     """Hold the feet the filled frames plant still (IK on the legs, :mod:`mocapkit.ik`): the
     ground warp and the end offsets move the whole body a little every frame, and the Kalman
@@ -427,8 +443,8 @@ class InbetweenConfig:
             raise ValueError("lock_context_seconds and lock_ramp_seconds must be >= 0")
         if not (self.window_seconds > 0 and self.blend_seconds >= 0):
             raise ValueError("window_seconds must be > 0 and blend_seconds >= 0")
-        if not self.blend_max_speed_deg > 0:
-            raise ValueError(f"blend_max_speed_deg must be > 0, got {self.blend_max_speed_deg}")
+        if not (self.blend_max_speed_deg > 0 and self.lock_max_speed_deg > 0):
+            raise ValueError("blend_max_speed_deg and lock_max_speed_deg must be > 0")
         if not self.warps or any(not (0.25 <= r <= 4.0) for r in self.warps):
             raise ValueError(f"warps must be speed factors in [0.25, 4], got {self.warps}")
         if not (self.travel_tolerance_m > 0 and self.turn_tolerance_deg > 0):
@@ -1380,7 +1396,7 @@ def _lock_feet(
     weights = weights * (x * x * (3 - 2 * x))[:, None]
     res = ik.solve(ex, chains, targets, weights, lock.ik, body)
     legs = sorted({j for c in chains for j in c.joints})
-    step = math.radians(config.blend_max_speed_deg) * motion.frame_time
+    step = math.radians(config.lock_max_speed_deg) * motion.frame_time
     # frames a-1 .. b: the correction is none at both (context), and ramps within the gap
     # (a-1 .. b-1 at the clip's end, where the last frame keeps its own)
     span = slice(a - 1 - lo, min(b + 1, hi) - lo)
