@@ -10,12 +10,12 @@ with the L-scores by the textbook RTS smoother of naive.py (one dimension at a t
 ground-path term from the pelvis path and heading, and the pose term as the squared distances
 of frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
 divided by (joints x tolerance²), times pose_weight; with pelvis heights in the library and
-the context (2k + 1 past frames or more, a frame time; k frames = half bob_span_seconds), plus
-the bob term: bob_weight times the squared difference of the pelvis' second differences over
-frames c-k, c, c+k and A-1-2k, A-1-k, A-1 over the squared tolerance (per (k frames)², file
-units), c = s-k, or s where s-k is outside s's clip, moved into the clip as far as needed to
-have c-k and c+k in it (no term in a clip of fewer than 2k + 1 frames). Returns every
-candidate, best first.
+the context (three past frames or more, a frame time), plus the bob term: bob_weight times
+the squared differences of the pelvis' vertical acceleration and speed, over the frames
+end-2k_s, end-k_s, end of the candidate (end = s, or s+1 on its clip's second frame) and
+A-1-2k_s, A-1-k_s, A-1 of the context, over their tolerances (metres), where k_s is half
+bob_span_seconds in frames, or less where the candidate's clip or the context has fewer
+frames before. Returns every candidate, best first.
 
 A context with no future frames (a gap at the clip's end) has no L_end, no displacement or
 turn in the ground-path term (its velocity is the warped segment's, not the library's own),
@@ -60,10 +60,9 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
     last = g if one_sided else g + 1
     bob = config.bob_weight > 0 and ctx.pelvis is not None and ctx.frame_time is not None
     if bob:
-        k = max(1, round(config.bob_span_seconds / 2 / ctx.frame_time))
-        hc = ctx.pelvis
-        bob = len(hc) >= 2 * k + 1
-        ctx_acc = hc[-1] - 2 * hc[-1 - k] + hc[-1 - 2 * k] if bob else 0.0
+        hc = np.asarray(ctx.pelvis, float)
+        bob = len(hc) >= 3
+        k = min(max(1, round(config.bob_span_seconds / 2 / ctx.frame_time)), (len(hc) - 1) // 2)
     out = []
     for W in library.warped:
         N, m = W.feats.shape
@@ -93,15 +92,21 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
             score += config.travel_weight * travel
             pose = sum(float(np.sum((W.feats[s + k].astype(float) - c) ** 2)) for c, k in refs)
             score += config.pose_weight * (3 / len(refs)) * pose / ((m / 3) * ptol**2)
-            if with_bob:  # the pelvis' vertical acceleration on A-1-2k, A-1-k, A-1
-                h = W.pelvis
-                lo = min(i for i in range(N) if W.clip[i] == W.clip[s])  # s's clip: lo .. hi
-                hi = max(i for i in range(N) if W.clip[i] == W.clip[s])
-                c = s - k if s - k >= lo else s  # a frame of s's clip
-                c = min(max(c, lo + k), hi - k)  # as near it as the clip allows
-                seg = h[c + k] - 2 * h[c] + h[c - k] if lo + k <= hi - k else ctx_acc
-                btol = config.bob_tolerance_m_s2 * (k * ctx.frame_time) ** 2 / metres_per_unit
-                score += config.bob_weight * (seg - ctx_acc) ** 2 / btol**2
+            if with_bob:  # the pelvis' vertical motion ending on A-1, the context's and s's
+                h, dt = W.pelvis, ctx.frame_time
+                lo = min(i for i in range(N) if W.clip[i] == W.clip[s])  # s's clip starts here
+                ks = min(k, max(1, (s - lo) // 2))  # as long a span as its clip has
+                end = s if s - lo >= 2 else s + 1  # on the clip's second frame: a frame later
+                seg_acc = (h[end] - 2 * h[end - ks] + h[end - 2 * ks]) / (ks * dt) ** 2
+                seg_vel = (h[end] - h[end - 2 * ks]) / (2 * ks * dt)
+                ctx_acc = (hc[-1] - 2 * hc[-1 - ks] + hc[-1 - 2 * ks]) / (ks * dt) ** 2
+                ctx_vel = (hc[-1] - hc[-1 - 2 * ks]) / (2 * ks * dt)
+                cost = ((seg_acc - ctx_acc) * metres_per_unit / config.bob_tolerance_m_s2) ** 2
+                if config.bob_speed_tolerance_m_s > 0:
+                    cost += (
+                        (seg_vel - ctx_vel) * metres_per_unit / config.bob_speed_tolerance_m_s
+                    ) ** 2
+                score += config.bob_weight * cost
             out.append((float(score), int(W.clip[s]), float(W.time[s]), float(W.rate)))
     out.sort(key=lambda x: x[0])
     return out

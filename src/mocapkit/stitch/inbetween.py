@@ -134,7 +134,7 @@ skates beyond the takes' own (the issue's bound for a fill).
 
 **Feet.** Finally the feet the filled frames plant are held by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
-:attr:`InbetweenConfig.blend_max_speed_deg`. A held foot moves as the library segments'
+:attr:`InbetweenConfig.lock_max_speed_deg`. A held foot moves as the library segments'
 planted feet moved (their roll and settling, weighted), so the lock takes out only the slide
 that fitting them to the context added: a fill that is a capture as it was stays so. A foot
 the filled frames plant below the clip's own floor (where the context plants it) is raised
@@ -262,21 +262,21 @@ class InbetweenConfig:
     report: Foot_L 40-81 deg in one frame on Bandai-1 walk-back/walk-left fills; now within 3
     deg of the fill's own largest step); tuning takes at 15, 30, 45 frames: L2P 2.160, 2.594,
     3.169 and foot skate 38.3, 38.8, 40.9 cm/s (38.6, 39.3, 41.5 before)."""
-    lock_max_speed_deg: float = 180.0
+    lock_max_speed_deg: float = 90.0
     """Fastest the foot lock's corrections of the legs may turn (degrees per second), as
     :attr:`blend_max_speed_deg` limits the end offsets: a hold let go of within a frame or two
-    snapped a knee (see there). A walk's hips and knees swing at a few hundred degrees per
-    second, so a correction of this speed is not seen on top; a slower one lags the hold and
-    the foot slides. Tuning windows (at 15 / 30 / 45 frames; the take's person and gait left
-    out of the library): foot skate 35.4 / 36.7 / 43.1 cm/s at 90, 33.4 / 35.0 / 41.2 at 180,
-    32.4 / 33.9 / 39.9 at 360, 32.3 / 33.7 / 39.5 without a limit (the truth's 31.6); the
-    legs' largest angular acceleration in a window (degrees per frame², median / 99th
-    percentile / largest) 12.4 / 21.9 / 38.2 at 90, 13.0 / 21.4 / 41.3 at 180, 14.6 / 32.7 /
-    44.0 at 360, 14.6 / 43.9 / 70.6 without (the truth's 15.6 / 26.9 / 27.6): up to 180 the
-    corrections jolt the legs no more than the captured steps do. With the person alone left
-    out, foot skate 32.2 / 32.9 / 31.9 at 90, 30.8 / 31.3 / 30.6 at 180 (the truth's 31.6);
-    L2P 0.731 / 2.004 / 2.752 / 3.276 at 5 / 15 / 30 / 45 frames at 90, 0.740 / 2.009 /
-    2.758 / 3.281 at 180."""
+    snapped a knee (see there). Slower, the lock lags its holds and the feet slide; faster, the
+    knees jolt. Tuning windows (at 15 / 30 / 45 frames; the take's person and gait left out of
+    the library): foot skate 35.4 / 36.7 / 43.1 cm/s at 90, 33.4 / 35.0 / 41.2 at 180, 32.4 /
+    33.9 / 39.9 at 360, 32.3 / 33.7 / 39.5 without a limit (the truth's 31.6); the legs'
+    largest angular acceleration in a window (degrees per frame², median / 99th percentile /
+    largest) 12.4 / 21.9 / 38.2 at 90, 13.0 / 21.4 / 41.3 at 180, 14.6 / 32.7 / 44.0 at 360,
+    14.6 / 43.9 / 70.6 without (the truth's 15.6 / 26.9 / 27.6). On the held-out test split
+    180 lowered foot skate by 0.6-2.2 cm/s (session 29). But on whole Bandai-1 walks filled at
+    80:110 from bandai2 (12 takes, as a user fills them), 180 against 90 lowered the filled
+    frames' foot skate only from 33.9 to 33.1 cm/s while the knees' largest acceleration rose
+    from 3.7 to 4.4 cm/frame² on average and up to 9.8 (a take's own largest: 5.2), over the
+    take's own in 3 takes of 12: a knee that jolts is seen, so 90 stays."""
     foot_lock: bool = True
     """Hold the feet the filled frames plant still (IK on the legs, :mod:`mocapkit.ik`): the
     ground warp and the end offsets move the whole body a little every frame, and the Kalman
@@ -333,28 +333,47 @@ class InbetweenConfig:
     pose_tolerance_m: float = 0.05
     """Per-joint RMS position difference that costs as much as ``pose_weight`` per frame."""
     bob_weight: float = 1.0
-    """Weight of the bob term: the candidate's pelvis vertical acceleration at i = -1 (over its
-    frames on A-3, A-2, A-1) against the context's (:func:`_bob_costs`). Relies on: the pelvis rises
-    and falls once per step, lowest just after a foot strikes and highest at mid-stance, nearly a
-    sinusoid, whose acceleration (minus its height about the level times the square of its
-    frequency) fixes the bob's phase and size whatever the level. The pose term compares heights,
-    and people's pelvis levels differ by about as much as the bob itself (1-2 cm; Bandai-2 walks:
-    0.6 cm standard deviation between takes), so a library person standing lower matches the
-    context's rise with their own top. The benchmark's L2P is mostly the trunk's heights (the
-    library's spread of them is 2-3 cm), so a fill bobbing out of phase is its largest error.
-    Tuning windows, L2P at 5 / 15 / 30 / 45 frames, with the take's person and gait left out
-    of the library: 0.940 / 2.583 / 3.627 / 4.440 without the term, 0.916 / 2.455 / 3.413 /
-    4.395 with it; with its person left out: 0.751 / 2.045 / 2.751 / 3.218 without, 0.731 /
-    2.004 / 2.752 / 3.276 with (its 11 run windows worse: 2.862 / 4.428 at 15 / 30 frames
-    without, about 3.1 / 4.7 with). Weight over the squared tolerance, in that order: 0.25,
-    0.5 (this default), 1 and 4 per (m/s²)² gave 2.500 / 3.462, 2.456 / 3.403, 2.454 / 3.378
-    and 2.479 / 3.380 at 15 / 30 frames (person and gait left out). Its cost: L2Q at 15
-    frames 0.489 -> 0.512 (person and gait left out) and 0.451 -> 0.460 (person), NPSS at 15
-    frames 0.0461 -> 0.0495 and 0.0391 -> 0.0405; at 30 and 45 frames both are about the
-    same."""
+    """Weight of the bob term: the pelvis' vertical acceleration and speed over the candidate's
+    frames on A-1-2k, A-1-k, A-1 against the context's (:func:`_bob_costs`;
+    :attr:`bob_span_seconds`). Relies on: at a walk the pelvis rises and falls once per step,
+    lowest just after a foot strikes and highest at mid-stance, nearly a sinusoid, whose
+    acceleration (its height about the level times minus the square of its angular frequency)
+    and speed fix the bob's phase and size whatever the level. The pose term compares heights,
+    and people's pelvis levels differ by about as much as the bob itself (1-2 cm; Bandai-2
+    walks: 0.6 cm standard deviation between takes), so a library person standing lower matches
+    the context's rise with their own top. A run's flight is a free fall (-g whatever its
+    phase), so the term tells a run's phase less well: the tuning's run windows are worse with
+    it when the library holds runs (below). The benchmark's L2P is mostly the trunk's and
+    knees' heights (the library's spread of them is 2-3 cm; 75-84% of the squared error), so a
+    fill bobbing out of phase is its largest error. Tuning windows, L2P at 5 / 15 / 30 / 45
+    frames, with the take's person and gait left out of the library: 0.940 / 2.583 / 3.627 /
+    4.440 without the term, 0.917 / 2.460 / 3.419 / 4.400 with the acceleration alone, 0.875 /
+    2.451 / 3.376 / 4.347 with the speed too; with its person left out: 0.751 / 2.045 / 2.751 /
+    3.218, 0.740 / 2.009 / 2.758 / 3.281 and 0.743 / 1.999 / 2.718 / 3.272 (its 11 run windows
+    worse: 2.862 / 4.428 at 15 / 30 frames without, about 3.1 / 4.7 with the acceleration).
+    The acceleration's weight over its squared tolerance (the speed not yet in it; 0.51 per
+    (m/s²)² by default): 0.25, 0.5, 1 and 4 gave 2.500 / 3.462, 2.456 / 3.403, 2.454 / 3.378 and
+    2.479 / 3.380 at 15 / 30 frames (person and gait left out). Its cost: L2Q at 15 frames 0.489
+    -> 0.522 (person and gait left out) and 0.451 -> 0.473 (person), NPSS at 15 frames 0.0461
+    -> 0.0508 and 0.0391 -> 0.0421; at 30 and 45 frames both are about the same. (The
+    figures with the speed were measured with the foot lock at 180 deg/s; with the defaults,
+    0.874 / 2.441 / 3.371 / 4.343 with the person and gait left out, 0.738 / 1.993 / 2.712 /
+    3.267 with the person.)"""
     bob_tolerance_m_s2: float = 1.4
     """Pelvis vertical acceleration difference that costs as much as :attr:`bob_weight`:
     about half the peak of a walk's (3 m/s²)."""
+    bob_speed_tolerance_m_s: float = 0.2
+    """Pelvis vertical speed difference (over the same frames) that costs as much as
+    :attr:`bob_weight`. The acceleration is the same on the bob's way up and its way down (the
+    height about the level, times minus the square of its angular frequency); the speed tells
+    them apart, and does not depend on the level either (reviewer: a context falling through
+    its bob got a rising candidate). About the peak of a walk's (0.02 m at 12 rad/s: 0.25
+    m/s). Tuning windows (foot lock at 180 deg/s), L2P at 5 / 15 / 30 / 45 frames, the take's
+    person and gait left out:
+    0.917 / 2.460 / 3.419 / 4.400 without (acceleration only), 0.851 / 2.489 / 3.399 / 4.370
+    at 0.1, 0.875 / 2.451 / 3.376 / 4.347 at 0.2; its person left out: 0.740 / 2.009 / 2.758 /
+    3.281 without, 0.736 / 2.081 / 2.682 / 3.202 at 0.1, 0.743 / 1.999 / 2.718 / 3.272 at 0.2
+    (NPSS at 15 frames 0.0494 -> 0.0508 and 0.0403 -> 0.0421 at 0.2). 0: acceleration only."""
     bob_span_seconds: float = 1 / 15
     """The bob term's acceleration is measured over three frames this far apart end to end
     (three frames in a row at 30 fps, every fourth at 120 fps): the bob's period is about half
@@ -453,8 +472,16 @@ class InbetweenConfig:
             raise ValueError(f"travel_weight must be >= 0, got {self.travel_weight}")
         if not (self.pose_weight >= 0 and self.lscore_weight >= 0 and self.pose_tolerance_m > 0):
             raise ValueError("pose_weight and lscore_weight must be >= 0, pose_tolerance_m > 0")
-        if not (self.bob_weight >= 0 and self.bob_tolerance_m_s2 > 0 and self.bob_span_seconds > 0):
-            raise ValueError("bob_weight must be >= 0, bob_tolerance_m_s2 and bob_span_seconds > 0")
+        if not (
+            self.bob_weight >= 0
+            and self.bob_tolerance_m_s2 > 0
+            and self.bob_span_seconds > 0
+            and self.bob_speed_tolerance_m_s >= 0
+        ):
+            raise ValueError(
+                "bob_weight and bob_speed_tolerance_m_s must be >= 0, bob_tolerance_m_s2 and "
+                "bob_span_seconds > 0"
+            )
         if not (
             self.poor_fit_path_m > 0 and self.poor_fit_speed_m_s > 0 and self.poor_fit_pose_m > 0
         ):
@@ -891,17 +918,13 @@ def gap_context(
     )  # fmt: skip
 
 
-def pelvis_heights(feats: np.ndarray, skeleton: Skeleton, up: str) -> np.ndarray | None:
+def pelvis_heights(feats: np.ndarray, skeleton: Skeleton, up: str) -> np.ndarray:
     """(n,) the pelvis height in body-local features ``feats`` (n, 3 x feature joints) of
-    :func:`mocapkit.stitch.search.motion_features` (which keep heights); None where the
-    pelvis is not a feature joint."""
+    :func:`mocapkit.stitch.search.motion_features` (which keep heights; the pelvis is one of
+    :func:`mocapkit.stitch.search.body_joints`)."""
     from mocapkit import features
 
-    idx = list(feature_joint_indices(skeleton, None))
-    pelvis = features.pelvis_index(skeleton)
-    if pelvis not in idx:
-        return None
-    k = idx.index(pelvis)
+    k = list(feature_joint_indices(skeleton, None)).index(features.pelvis_index(skeleton))
     return np.asarray(feats[:, 3 * k : 3 * k + 3], np.float64) @ features.ground_frame(up)[1]
 
 
@@ -977,52 +1000,56 @@ def _pose_costs(
 
 
 def _bob_frames(frame_time: float, config: InbetweenConfig) -> int:
-    """k: the bob term measures the pelvis' vertical acceleration over frames i-k, i, i+k."""
+    """k: the bob term measures the pelvis' vertical motion over frames i-2k, i-k, i."""
     return max(1, round(config.bob_span_seconds / 2 / frame_time))
 
 
-def _library_bob(W: _Warped, k: int) -> np.ndarray:
-    """(N,) the pelvis' vertical second difference over frames c-k, c, c+k (file units), c the
-    frame nearest i whose frames c-k and c+k are in i's clip (NaN in a clip of fewer than
-    2k + 1 frames); cached on ``W`` per k."""
+def _bob_spans(W: _Warped, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per warped frame s (on A-1): the span k_s (frames) over which its clip has frames s-2k_s
+    .. s (k_s <= k; 1 where it has fewer, and then the frames s-1, s, s+1), and the frame
+    ``end`` the three frames end at (s, or s+1 at a clip's second frame); cached per k."""
     cache = W.__dict__.setdefault("_bob", {})
     if k not in cache:
         N = W.clip.shape[0]
         edge = np.flatnonzero(np.diff(W.clip)) + 1  # first frame of each clip but the first
         first = np.repeat(np.r_[0, edge], np.diff(np.r_[0, edge, N]))
-        last = np.repeat(np.r_[edge - 1, N - 1], np.diff(np.r_[0, edge, N]))
-        c = np.clip(np.arange(N), first + k, last - k)
-        ok = first + k <= last - k
-        c = np.where(ok, c, np.arange(N))
-        h = W.pelvis
-        acc = h[np.clip(c + k, 0, N - 1)] - 2.0 * h[c] + h[np.clip(c - k, 0, N - 1)]
-        cache[k] = np.where(ok, acc, np.nan)
+        off = np.arange(N) - first
+        ks = np.clip(off // 2, 1, k)
+        end = np.where(off >= 2, np.arange(N), np.minimum(np.arange(N) + 1, N - 1))
+        cache[k] = (ks, end)
     return cache[k]
 
 
 def _bob_costs(W: _Warped, ctx: GapContext, config: InbetweenConfig, mpu: float) -> np.ndarray:
     """(N,) per warped frame s (the frame on A-1): the bob term
-    (:attr:`InbetweenConfig.bob_weight`), the squared difference of the pelvis' vertical
-    acceleration over the candidate's frames on A-1-2k, A-1-k, A-1 and the context's, per
-    squared tolerance (k frames: half :attr:`InbetweenConfig.bob_span_seconds`; where its clip
-    starts later, over the first such frames it has, and none in a clip too short). Zero
-    everywhere where the term is off, the context has too few past frames or no frame time,
-    or the library no pelvis heights."""
+    (:attr:`InbetweenConfig.bob_weight`), the squared differences of the pelvis' vertical
+    acceleration and velocity over the candidate's frames on A-1-2k, A-1-k, A-1 and the
+    context's, per squared tolerance (k frames: half :attr:`InbetweenConfig.bob_span_seconds`,
+    or as many as the candidate's clip or the context have before A-1; a candidate on its
+    clip's second frame is measured a frame later, over s-1, s, s+1). Zero everywhere where
+    the term is off, the context has fewer than three past frames or no frame time, or the
+    library no pelvis heights."""
     N = W.feats.shape[0]
     if config.bob_weight == 0 or W.pelvis is None or ctx.pelvis is None or ctx.frame_time is None:
         return np.zeros(N)
-    k = _bob_frames(ctx.frame_time, config)
-    hc = ctx.pelvis
-    if len(hc) < 2 * k + 1:
+    hc = np.asarray(ctx.pelvis, np.float64)
+    if len(hc) < 3:
         return np.zeros(N)
-    acc = _library_bob(W, k)
-    s = np.arange(N)
-    centre = np.maximum(s - k, 0)
-    d = np.where(W.clip[centre] == W.clip, acc[centre], acc) - (
-        hc[-1] - 2.0 * hc[-1 - k] + hc[-1 - 2 * k]
-    )
-    tol = config.bob_tolerance_m_s2 * (k * ctx.frame_time) ** 2 / mpu  # file units per (k frames)²
-    return np.where(np.isfinite(d), config.bob_weight * d**2 / tol**2, 0.0)
+    k = min(_bob_frames(ctx.frame_time, config), (len(hc) - 1) // 2)
+    ks, end = _bob_spans(W, k)
+    h = W.pelvis
+    dt = ctx.frame_time
+    i0, i1 = np.maximum(end - 2 * ks, 0), np.maximum(end - ks, 0)
+    acc = (h[end] - 2.0 * h[i1] + h[i0]) / (ks * dt) ** 2  # file units / s²
+    vel = (h[end] - h[i0]) / (2 * ks * dt)  # at the middle frame, file units / s
+    j = np.arange(1, k + 1)
+    c_acc = (hc[-1] - 2.0 * hc[-1 - j] + hc[-1 - 2 * j]) / (j * dt) ** 2  # per span 1..k
+    c_vel = (hc[-1] - hc[-1 - 2 * j]) / (2 * j * dt)
+    da = (acc - c_acc[ks - 1]) * mpu / config.bob_tolerance_m_s2
+    cost = da**2
+    if config.bob_speed_tolerance_m_s > 0:
+        cost = cost + ((vel - c_vel[ks - 1]) * mpu / config.bob_speed_tolerance_m_s) ** 2
+    return config.bob_weight * cost
 
 
 def search_inbetween(
@@ -1587,7 +1614,7 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
     foot lock lets go of within a frame or two (a knee held straight, then its own 146 deg), or
     a correction that turns the other way from one frame to the next (-18 deg, then +21 deg
     about the foot's axis), otherwise snaps the leg; the correction is not part of the motion,
-    and turns no faster than the end offsets do (:attr:`InbetweenConfig.blend_max_speed_deg`).
+    and turns no faster than :attr:`InbetweenConfig.lock_max_speed_deg`.
 
     Two steps, on the correction's rotation vector: its angle is capped by an envelope that
     grows at most ``max_step`` a frame from every frame where it is smaller (so it fades
