@@ -90,33 +90,33 @@ def inbetween_cmd(
     """Replace frames A:B of CLIP (B excluded) by motion found in the library.
 
     Every segment of every library clip (also played backwards), of the gap's length and of
-    nearby lengths time-warped to fit, is scored by how well its body-local poses match the
-    last two frames before the gap and the first frame after it, plus how the body travels
-    over the ground across the gap. The best segments (six) are each moved over the
-    ground onto both ends, their remaining pose differences blended away, and averaged, the
-    better-scored counting more (a segment with score s weighs exp(-(s - best) / (best + 1)),
-    the score's unit being the pose and path tolerances: an exact match still shares its
-    weight with segments within about one unit of it), so the result meets the context poses
-    exactly; a gap over 1.5 s is filled by the best segment
-    alone (averaged segments drift out of step over a few strides, and their feet slide).
-    The legs are then fitted by IK: planted feet held and never below the clip's floor,
-    swinging feet passing over it no lower than the segments lifted them.
-    The gap needs at least 3 frames of the clip before it and 1 after it, or is at the
-    clip's start (0:B, 3 frames after it) or end (A:F, 3 frames before it): such a gap is
-    filled from the one side, by the best segment alone, continuing the clip's motion and
-    free at the other end. With --method auto the
-    Kalman transition of stitching fills a gap of up to 0.3 s instead, and says so, when the
-    library fill's two-sided L-score (smoothness at both junctions, lower is better) is more
-    than 4x the Kalman transition's own. A warning says when the best segment's path over
-    the ground misses the clip's by more than 0.5 m (0.35 m per second of a gap over 1.4 s),
-    or its poses beside the gap by more than 12 cm RMS per joint: the library then holds
-    nothing like the motion around the gap.
-    OUT gets a provenance sidecar naming the library files and frames used (``mocapkit view
-    OUT`` marks them); when CLIP has a sidecar of its own (a take filled before), the earlier
-    fills are traced into it. --json writes the same with the scores. A library file that cannot be
-    read, or has another skeleton, gets one error line and is left out; the gap is still
-    filled from the others, and the exit status is then 2. CLIP and library files may be
-    .bvh, .npz or CMU .amc (with its subject's .asf beside it).
+    nearby lengths time-warped to fit, is scored by how well its body-local poses match the last
+    two frames before the gap and the first frame after it, how the pelvis rises and falls with
+    the steps just before the gap (its vertical speed and acceleration, whatever the person's
+    height), and how the body travels over the ground across the gap. The best segments (six)
+    are each moved over the ground onto both ends, their remaining pose differences blended
+    away, and averaged, the better-scored counting more (a segment with score s weighs exp(-(s -
+    best) / (best + 1)), the score's unit being the pose and path tolerances: an exact match
+    still shares its weight with segments within about one unit of it), so the result meets the
+    context poses exactly; a gap over 1.5 s is filled by the best segment alone (averaged
+    segments drift out of step over a few strides, and their feet slide). The legs are then
+    fitted by IK: planted feet held and raised onto the clip's floor (as far as the legs may
+    turn at 90 deg/s, so a fill from an unlike library can leave a foot a little low), swinging
+    feet passing over it no lower than the segments lifted them. The gap needs at least 3 frames
+    of the clip before it and 1 after it, or is at the clip's start (0:B, 3 frames after it) or
+    end (A:F, 3 frames before it): such a gap is filled from the one side, by the best segment
+    alone, continuing the clip's motion and free at the other end. With --method auto the Kalman
+    transition of stitching fills a gap of up to 0.3 s instead, and says so, when the library
+    fill's two-sided L-score (smoothness at both junctions, lower is better) is more than 4x the
+    Kalman transition's own. A warning says when the best segment's path over the ground misses
+    the clip's by more than 0.5 m (0.35 m per second of a gap over 1.4 s), or its poses beside
+    the gap by more than 12 cm RMS per joint: the library then holds nothing like the motion
+    around the gap. OUT gets a provenance sidecar naming the library files and frames used
+    (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
+    before), the earlier fills are traced into it. --json writes the same with the scores. A
+    library file that cannot be read, or has another skeleton, gets one error line and is left
+    out; the gap is still filled from the others, and the exit status is then 2. CLIP and
+    library files may be .bvh, .npz or CMU .amc (with its subject's .asf beside it).
 
     \b
     Examples:
