@@ -1275,7 +1275,7 @@ def test_foot_lock_correction_turns_no_faster_than_the_limit(seed, jump):
     np.testing.assert_allclose(out[:8, :2], before[:8, :2], atol=1e-12)
 
 
-@pytest.mark.parametrize("limit", [30.0, 180.0])
+@pytest.mark.parametrize("limit", [30.0, DEFAULT_CONFIG.lock_max_speed_deg, 180.0])
 def test_the_foot_locks_corrections_turn_no_faster_than_lock_max_speed_deg(humanoid, limit):
     """End to end: the legs' rotations of a locked fill differ from the same fill unlocked by a
     correction that changes by at most lock_max_speed_deg per second from frame to frame (the

@@ -26,10 +26,11 @@ position and heading removed):
   frames A-2, A-1 and B, over the number of joints and the squared
   :attr:`InbetweenConfig.pose_tolerance_m`, times :attr:`InbetweenConfig.pose_weight`: the
   pose and velocity the segment starts with, and the pose it must arrive at;
-* ``bob``: the pelvis' vertical acceleration over the candidate's frames i = -2k, -k, 0
-  against the context's over A-1-2k, A-1-k, A-1 (k = 1 at 30 fps:
-  :attr:`InbetweenConfig.bob_span_seconds`; :attr:`InbetweenConfig.bob_tolerance_m_s2`,
-  weighted by :attr:`InbetweenConfig.bob_weight`): the phase of the body's rise and fall with
+* ``bob``: the pelvis' vertical acceleration and speed over the candidate's frames i = -2k,
+  -k, 0 against the context's over A-1-2k, A-1-k, A-1 (k = 1 at 30 fps:
+  :attr:`InbetweenConfig.bob_span_seconds`; :attr:`InbetweenConfig.bob_tolerance_m_s2` and
+  :attr:`InbetweenConfig.bob_speed_tolerance_m_s`, weighted by
+  :attr:`InbetweenConfig.bob_weight`): the phase of the body's rise and fall with
   each step, whatever the person's pelvis level;
 * ``travel``: the ground path: the pelvis' ground displacement and heading change from frame
   A-1 to B, in the body frame at A-1, against the candidate's from i = 0 to g+1, and the pelvis'
@@ -272,7 +273,7 @@ class InbetweenConfig:
     largest angular acceleration in a window (degrees per frame², median / 99th percentile /
     largest) 12.4 / 21.9 / 38.2 at 90, 13.0 / 21.4 / 41.3 at 180, 14.6 / 32.7 / 44.0 at 360,
     14.6 / 43.9 / 70.6 without (the truth's 15.6 / 26.9 / 27.6). On the held-out test split
-    180 lowered foot skate by 0.6-2.2 cm/s (session 29). But on whole Bandai-1 walks filled at
+    180 lowered foot skate by 0.6-2.2 cm/s. But on whole Bandai-1 walks filled at
     80:110 from bandai2 (12 takes, as a user fills them), 180 against 90 lowered the filled
     frames' foot skate only from 33.9 to 33.1 cm/s while the knees' largest acceleration rose
     from 3.7 to 4.4 cm/frame² on average and up to 9.8 (a take's own largest: 5.2), over the
@@ -356,7 +357,8 @@ class InbetweenConfig:
     2.479 / 3.380 at 15 / 30 frames (person and gait left out). Its cost: L2Q at 15 frames 0.489
     -> 0.522 (person and gait left out) and 0.451 -> 0.473 (person), NPSS at 15 frames 0.0461
     -> 0.0508 and 0.0391 -> 0.0421; at 30 and 45 frames both are about the same. (The
-    figures with the speed were measured with the foot lock at 180 deg/s; with the defaults,
+    figures with the acceleration alone and with the speed were measured with the foot lock at
+    180 deg/s, the sweep of weights at 90; with the defaults,
     0.874 / 2.441 / 3.371 / 4.343 with the person and gait left out, 0.738 / 1.993 / 2.712 /
     3.267 with the person.)"""
     bob_tolerance_m_s2: float = 1.4
@@ -375,11 +377,13 @@ class InbetweenConfig:
     3.281 without, 0.736 / 2.081 / 2.682 / 3.202 at 0.1, 0.743 / 1.999 / 2.718 / 3.272 at 0.2
     (NPSS at 15 frames 0.0494 -> 0.0508 and 0.0403 -> 0.0421 at 0.2). 0: acceleration only."""
     bob_span_seconds: float = 1 / 15
-    """The bob term's acceleration is measured over three frames this far apart end to end
-    (three frames in a row at 30 fps, every fourth at 120 fps): the bob's period is about half
-    a second, and the heights of frames closer together differ by little more than the noise
-    of the capture (a second difference of three frames in a row at 120 fps turns 0.5 mm of
-    noise into about 17 m/s²)."""
+    """The bob term's acceleration and speed are measured over three frames this far apart end
+    to end (three frames in a row at 30 fps, every fourth at 120 fps): the bob's period is
+    about half a second, and the heights of frames closer together differ by little more than
+    the noise of the capture (a second difference of three frames in a row at 120 fps turns
+    0.5 mm of noise into about 17 m/s²). Where a candidate's clip, or the context, has fewer
+    frames before A-1, the span is as long as they have: noisier, on a clip's first frames
+    and on gaps that start a fraction of a second into the clip."""
     lscore_weight: float = 0.0
     """Weight of the two L-scores in the candidate score (module docstring: why 0)."""
     poor_fit_path_m: float = 0.5
@@ -1023,7 +1027,7 @@ def _bob_spans(W: _Warped, k: int) -> tuple[np.ndarray, np.ndarray]:
 def _bob_costs(W: _Warped, ctx: GapContext, config: InbetweenConfig, mpu: float) -> np.ndarray:
     """(N,) per warped frame s (the frame on A-1): the bob term
     (:attr:`InbetweenConfig.bob_weight`), the squared differences of the pelvis' vertical
-    acceleration and velocity over the candidate's frames on A-1-2k, A-1-k, A-1 and the
+    acceleration and speed over the candidate's frames on A-1-2k, A-1-k, A-1 and the
     context's, per squared tolerance (k frames: half :attr:`InbetweenConfig.bob_span_seconds`,
     or as many as the candidate's clip or the context have before A-1; a candidate on its
     clip's second frame is measured a frame later, over s-1, s, s+1). Zero everywhere where
@@ -1116,7 +1120,6 @@ def search_inbetween_top(
         valid &= ok & (W.clip[first] == W.clip) & (W.clip[last] == W.clip)
         pose = _pose_costs(W, ctx, g, config, metres_per_unit)
         bob = _bob_costs(W, ctx, config, metres_per_unit)
-        valid &= np.isfinite(bob)
         lw = config.lscore_weight
         lsum = lw * (ls + le) if lw > 0 else np.zeros(N)
         total = np.where(valid, lsum + travel + pose + bob, np.inf)
