@@ -132,6 +132,26 @@ def test_lenient_reports_repairs(walk_bvh: Path, tmp_path: Path) -> None:
     assert "warnings" not in json.loads(run("info", "--json", str(walk_bvh))[1])
 
 
+def test_a_lenient_run_that_fails_says_what_it_repaired_first(walk_bvh: Path, tmp_path: Path):
+    """A repair may be why a command fails (a header's frame count cut to the one row that
+    follows leaves a take too short to clean): the repairs are printed above the error line,
+    which stays the last line; other warnings are not, and a plain failure is one line."""
+    lines = walk_bvh.read_text().splitlines()
+    first = next(i for i, x in enumerate(lines) if x.startswith("Frame Time")) + 1
+    short = tmp_path / "short.bvh"
+    short.write_text("\n".join(lines[: first + 1]) + "\n")  # one row of many
+    code, _, err = run("clean", "--lenient", str(short), "--report", str(tmp_path / "r.json"))
+    err_lines = err.strip().splitlines()
+    assert code == 2, err
+    assert err_lines[-1].startswith(f"mocapkit: error: {short}") and "too short" in err_lines[-1]
+    assert any(x.startswith("mocapkit: repaired: ") and "rows of motion data" in x
+               for x in err_lines[:-1])  # fmt: skip
+    assert all(x.startswith("mocapkit: repaired: ") for x in err_lines[:-1])
+    assert not (tmp_path / "r.json").exists()
+    code, _, err = run("clean", str(short), "--report", str(tmp_path / "r.json"))  # not lenient
+    assert code == 2 and err.strip().count("\n") == 0, err
+
+
 def test_every_subcommand_has_an_example() -> None:
     for cmd in main.commands:
         code, out, _ = run(cmd, "--help")

@@ -92,7 +92,9 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     Warnings raised meanwhile are printed once each when the command ends: a
     :class:`~mocapkit.io.RepairWarning` as ``mocapkit: repaired: ...``, others as
     ``mocapkit: warning: ...``; numpy's overflow/invalid-value RuntimeWarnings are dropped. When
-    the command fails only the error line is printed, and a command asked to print its JSON
+    the command fails only the repairs (which may be why: a header's frame count cut to the
+    rows that follow leaves a take too short) and the error line are printed, and a command
+    asked to print its JSON
     result (``--json`` as a flag, or ``--json -``) prints ``{"error": LINE}`` there instead,
     so that a script reading standard output always gets JSON.
     """
@@ -116,17 +118,22 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
                 _flush_warnings(caught)
                 raise
             except click.ClickException:
+                _flush_warnings(caught, repairs_only=True)
                 raise
             except MocapFileError as e:
+                _flush_warnings(caught, repairs_only=True)
                 raise CLIError(one_line(e)) from None
             except BrokenPipeError as e:  # `mocapkit ... | head`: the reader has gone
                 if not _stdout_broken():  # another pipe (a socket): an error like any other
+                    _flush_warnings(caught, repairs_only=True)
                     raise CLIError(one_line(os_error_line(e))) from None
                 _quiet_stdout()
                 raise click.exceptions.Exit(1) from None
             except OSError as e:
+                _flush_warnings(caught, repairs_only=True)
                 raise CLIError(one_line(os_error_line(e))) from None
             except (ValueError, KeyError, ImportError) as e:
+                _flush_warnings(caught, repairs_only=True)
                 raise CLIError(one_line(exception_text(e))) from None
             _flush_warnings(caught)
             return result
@@ -156,7 +163,9 @@ def _quiet_stdout() -> None:
         pass
 
 
-def _flush_warnings(caught: Sequence[warnings.WarningMessage]) -> None:
+def _flush_warnings(caught: Sequence[warnings.WarningMessage], repairs_only: bool = False) -> None:
+    if repairs_only:
+        caught = [w for w in caught if issubclass(w.category, RepairWarning)]
     for line in _warning_lines(caught):
         click.echo(line, err=True)
 
