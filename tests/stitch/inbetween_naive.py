@@ -110,3 +110,21 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
             out.append((float(score), int(W.clip[s]), float(W.time[s]), float(W.rate)))
     out.sort(key=lambda x: x[0])
     return out
+
+
+def local_linear_reference(Y, X, w, rank: int, ridge: float):
+    """The local linear estimate at X = 0 of fills ``Y`` (k, n) from mismatches ``X`` (k, d),
+    written out: weights ``w`` normalised; the mismatches' ``rank`` main directions from the
+    eigenvectors of their weighted covariance; then weighted least squares of Y on an
+    intercept and the mismatches along those directions, measured from the context (so the
+    intercept is the estimate there), with ``ridge**2`` added to the slopes only."""
+    Y, X, w = (np.asarray(v, float) for v in (Y, X, w))
+    w = w / w.sum()
+    mean = np.sum(w[:, None] * X, axis=0)
+    cov = sum(wi * np.outer(x - mean, x - mean) for wi, x in zip(w, X, strict=True))
+    vals, vecs = np.linalg.eigh(cov)
+    P = vecs[:, np.argsort(vals)[::-1][:rank]]
+    D = np.hstack([np.ones((len(X), 1)), X @ P])  # the context is at X = 0
+    pen = np.diag([0.0] + [ridge**2] * rank)
+    beta = np.linalg.solve(D.T @ (w[:, None] * D) + pen, D.T @ (w[:, None] * Y))
+    return beta[0]

@@ -21,13 +21,16 @@ from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.io import read_motion, write_motion
 from mocapkit.stitch.inbetween import (
     DEFAULT_CONFIG,
+    Candidate,
     GapContext,
     InbetweenConfig,
     InbetweenLibrary,
     _Warped,
     check_gap,
+    fill_weights,
     gap_context,
     inbetween,
+    neighbour_weights,
     prepare_library,
     search_inbetween,
     search_inbetween_top,
@@ -262,6 +265,65 @@ def test_top_k_sorted_and_apart():
         assert (cand.clip, cand.rate) == (c, r)
         assert cand.start == pytest.approx(t) and cand.score == pytest.approx(score, rel=1e-4)
 
+    for cand in top:  # what fill_weights regresses on: frames s-1, s, s+g+1 less the context's
+        W = lib.warp(cand.rate)
+        (i,) = np.flatnonzero((W.clip == cand.clip) & np.isclose(W.time, cand.start))
+        want = W.feats[[i - 1, i, i + gap + 1]] - np.concatenate([ctx.past[-2:], ctx.future[:1]])
+        np.testing.assert_allclose(cand.mismatch, want.ravel(), atol=1e-5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    k=st.integers(3, 12),
+    rank=st.integers(0, 4),
+    ridge=st.sampled_from([1e-4, 0.007, 0.05]),
+)
+def test_fill_weights_are_the_local_linear_estimate(seed, k, rank, ridge):
+    """fill_weights combine fills into the weighted ridge regression's value at the context
+    (inbetween_naive's normal equations); they sum to 1; rank 0 gives the score weights."""
+    rng = np.random.default_rng(seed)
+    d, mpu = 9, 0.01
+    X = rng.normal(0.0, 3.0, (k, d)) + rng.normal(0.0, 2.0, d)  # file units, off-centre
+    cands = [
+        Candidate(0, float(i), 1.0, float(sc), 0.0, 0.0, 0.0, 0.0, x)
+        for i, (sc, x) in enumerate(zip(np.sort(rng.uniform(0, 5, k)), X, strict=True))
+    ]
+    Y = rng.normal(size=(k, 7))
+    config = InbetweenConfig(regression_rank=rank, regression_ridge_m=ridge)
+    w = fill_weights(cands, config, mpu)
+    assert w.sum() == pytest.approx(1.0)
+    score_w = neighbour_weights([c.score for c in cands])
+    r = min(rank, k - 2)
+    if r < 1:
+        np.testing.assert_allclose(w, score_w / score_w.sum())
+        return
+    ref = inbetween_naive.local_linear_reference(Y, X * mpu / np.sqrt(d), score_w, r, ridge)
+    np.testing.assert_allclose(w @ Y, ref, atol=1e-8 * (1 + np.abs(ref).max()))
+
+
+def test_fill_weights_remove_a_one_sided_bias():
+    """Fills that change linearly with the mismatch, candidates all on one side of the context:
+    the score-weighted mean is off by the mismatches' mean effect, the local linear estimate
+    finds the fill of a candidate that matched exactly."""
+    rng = np.random.default_rng(3)
+    k, d, mpu = 10, 6, 0.01
+    X = rng.normal(4.0, 1.0, (k, d))  # every candidate a few cm ahead of the context
+    B = rng.normal(size=(d, 5))
+    truth = rng.normal(size=5)
+    Y = truth + X @ B
+    cands = [Candidate(0, float(i), 1.0, 1.0 + 0.1 * i, 0.0, 0.0, 0.0, 0.0, x)
+             for i, x in enumerate(X)]  # fmt: skip
+    mean_w = neighbour_weights([c.score for c in cands])
+    biased = (mean_w / mean_w.sum()) @ Y
+    fixed = fill_weights(cands, InbetweenConfig(regression_rank=d, regression_ridge_m=1e-6), mpu)
+    assert np.abs(biased - truth).max() > 1.0
+    np.testing.assert_allclose(fixed @ Y, truth, atol=1e-3)
+    same = [replace(c, mismatch=np.ones(d)) for c in cands]  # no spread: the mean, unchanged
+    np.testing.assert_allclose(fill_weights(same, DEFAULT_CONFIG, mpu), mean_w / mean_w.sum())
+    unknown = [replace(c, mismatch=None) for c in cands]  # hand-made candidates: the mean
+    np.testing.assert_allclose(fill_weights(unknown, DEFAULT_CONFIG, mpu), mean_w / mean_w.sum())
+
 
 @pytest.fixture(scope="module")
 def humanoid():
@@ -346,7 +408,9 @@ def test_the_clips_own_take_in_the_library_fills_the_gap_alone(humanoid):
     assert abs(sum(weights) - 1.0) < 1e-3
     assert res.difference_to(walk) < 1e-6  # the take's own frames
     alike = inbetween(walk, (a, b), lib, up="Y", method="library", config=config)
-    assert all(0.05 < x["weight"] < 0.5 for x in alike.blended_from)  # walks alike: shared
+    for x in alike.blended_from:  # walks alike share the weight; far worse ones count for nothing
+        near = x["score"] < 2.0 * alike.blended_from[0]["score"] + 1.0
+        assert 0.05 < x["weight"] < 0.5 if near else abs(x["weight"]) < 0.005, x
 
 
 def test_fallback_when_kalman_scores_lower(humanoid):
@@ -863,9 +927,11 @@ def test_cli_lists_as_many_averaged_segments_as_it_says(files, monkeypatch):
     assert code == 0, se
     import re
 
-    n = int(re.search(r"from (\d+) library segments averaged", so).group(1))
-    assert n == 1 + so.count("averaged with:") and "weight 0.00" not in so
-    assert "2 more candidate(s) weighed under 0.005" in so
+    n = int(re.search(r"from (\d+) library segments combined", so).group(1))
+    assert n == 1 + so.count("combined with:") and "weight 0.00" not in so
+    assert "weight -0.00" not in so
+    more = re.search(r"(\d+) more candidate\(s\) weighing less than 0.005 either way", so)
+    assert more and n + int(more.group(1)) == DEFAULT_CONFIG.neighbours and int(more.group(1)) >= 2
 
 
 def test_cli_writes_motion_and_sidecar(files):

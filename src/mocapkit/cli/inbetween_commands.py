@@ -93,13 +93,17 @@ def inbetween_cmd(
     nearby lengths time-warped to fit, is scored by how well its body-local poses match the last
     two frames before the gap and the first frame after it, how the pelvis rises and falls with
     the steps just before the gap (its vertical speed and acceleration, whatever the person's
-    height), and how the body travels over the ground across the gap. The best segments (six)
-    are each moved over the ground onto both ends, their remaining pose differences blended
-    away, and averaged, the better-scored counting more (a segment with score s weighs exp(-(s -
-    best) / (best + 1)), the score's unit being the pose and path tolerances: an exact match
-    still shares its weight with segments within about one unit of it), so the result meets the
-    context poses exactly; a gap over 1.5 s is filled by the best segment alone (averaged
-    segments drift out of step over a few strides, and their feet slide). The legs are then
+    height), and how the body travels over the ground across the gap. The best segments
+    (twelve) are each moved over the ground onto both ends, their remaining pose differences
+    blended away, and combined: the better-scored count more (a segment with score s weighs
+    exp(-(s - best) / (best + 1)), the score's unit being the pose and path tolerances: an
+    exact match still shares its weight with segments within about one unit of it), and the
+    weights are then corrected so that what the segments have in common in missing the clip
+    beside the gap (all a little ahead in their step, say) is not carried into the fill (a
+    regression of the fills on those misses, read at no miss; some weights are then
+    negative). Every segment meets the context poses, so the result does exactly; a gap over
+    1.5 s is filled by the best segment alone (combined segments drift out of step over a few
+    strides, and their feet slide). The legs are then
     fitted by IK: planted feet held and raised onto the clip's floor (as far as the legs may
     turn at 90 deg/s, so a fill from an unlike library can leave a foot a little low), swinging
     feet passing over it no lower than the segments lifted them. The gap needs at least 3 frames
@@ -205,20 +209,20 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
-    # the segments that count in the mean: the others (weight < 0.005) are only named by number,
-    # so that the list and the "N library segments averaged" line agree
-    counted = [x for x in res.blended_from if x["weight"] >= 0.005]
+    # the segments that count in the fill: the others (|weight| < 0.005) are only named by
+    # number, so that the list and the "N library segments combined" line agree
+    counted = [x for x in res.blended_from if abs(x["weight"]) >= 0.005]
     for x in counted[1:]:
         f0, f1 = x["source_frames"]
         say(
-            f"  averaged with: {x['source']} frames {f0}:{f1}"
+            f"  combined with: {x['source']} frames {f0}:{f1}"
             f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
             f"score {x['score']:.4g}, weight {x['weight']:.2f}"
         )
     if len(res.blended_from) > len(counted) and counted:
         say(
-            f"  ({len(res.blended_from) - len(counted)} more candidate(s) weighed under 0.005 "
-            "against the best: see --json)"
+            f"  ({len(res.blended_from) - len(counted)} more candidate(s) weighing less than "
+            "0.005 either way: see --json)"
         )
     if res.warning:
         a, b = res.gap
@@ -251,7 +255,7 @@ def inbetween_cmd(
         )
     else:
         n = len(counted)
-        what = res.source if n == 1 else f"{n} library segments averaged (weighted by score)"
+        what = res.source if n == 1 else f"{n} library segments combined (weights in --json)"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
             scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}"

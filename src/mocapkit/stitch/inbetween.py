@@ -84,10 +84,14 @@ the fill leaves and reaches the context at its own velocity. Between the two ble
 is kept at the clip's own level (its mean height before the gap,
 :attr:`InbetweenConfig.level_seconds`, not the library person's), the legs turned so that the
 feet stay where the segments put them (:func:`_to_level`). The fills of the
-:attr:`InbetweenConfig.neighbours` candidates are averaged
-(normalised quaternion sum, mean translation), each weighted by its score
-(:func:`neighbour_weights`): each meets the context exactly, so their mean does too, and it is
-the better estimate of the unknown motion where the candidates disagree.
+:attr:`InbetweenConfig.neighbours` candidates are combined
+(normalised weighted quaternion sum, weighted mean translation) with the weights of
+:func:`fill_weights`: each candidate's score weight (:func:`neighbour_weights`), corrected by a
+local linear regression of the fills on how each candidate's poses beside the gap miss the
+context's, read at no miss, so that what the candidates share in missing it is not carried
+into the fill. The weights sum to 1 and each fill meets the context exactly, so the
+combination does too; where the candidates disagree it is the better estimate of the unknown
+motion.
 On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the root on the
 body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are written
 back in the clip's own convention (its root interpolated between A-1 and B, the joint below
@@ -172,6 +176,7 @@ __all__ = [
     "InbetweenLibrary",
     "NoLibraryFitError",
     "check_gap",
+    "fill_weights",
     "gap_context",
     "inbetween",
     "kalman_fill",
@@ -419,19 +424,40 @@ class InbetweenConfig:
     second of gap at 2, 3 and 4 s: from the locomotion library at most 0.21, 0.21, 0.18 m/s
     (over 0.5 m in 8% and 14% of windows at 3 and 4 s), from hand gestures at least 0.56, 0.57,
     0.54 m/s; 0.35 m/s is about their geometric mean."""
-    neighbours: int = 6
+    neighbours: int = 12
     """How many of the best non-overlapping candidates fill the gap together: each is
-    ground-warped and end-blended on its own, then their poses are averaged (rotations by
-    normalised quaternion sum, translations by mean). On the tuning takes (foot lock off, the
-    take's style in the library) L2P over interpolation at 15 and 30 frames was 0.27 and 0.32
-    with one, 0.23 and 0.28 with three, 0.23 and 0.28 with five. With the style left out
-    (``--tune``, as the test's styles are not in the library), at 5, 15, 30 and 45 frames:
-    L2P 1.02, 2.19, 2.71, 3.33 with three, 1.00, 2.19, 2.64, 3.24 with six, 0.97, 2.21, 2.63,
-    3.29 with ten; NPSS 0.0028, 0.0422, 0.148, 0.281 with three, 0.0027, 0.0425, 0.140, 0.275
-    with six; foot skate up to 2 cm/s higher with six, up to 4 cm/s with ten. Where the
-    library holds no segment like the gap, the neighbours disagree and their mean is the
-    better guess."""
+    ground-warped and end-blended on its own, then their poses are combined (rotations by
+    normalised weighted quaternion sum, translations by weighted mean) with the weights of
+    :func:`fill_weights`. Twelve since that regression (:attr:`regression_rank`), which needs
+    more candidates than directions to fit. As a plain mean (rank 0), on the tuning windows
+    (``--tune``: the take's person and gait left out; its person left out), L2P at 5 / 15 /
+    30 / 45 frames was 0.874 / 2.441 / 3.371 / 4.343 and 0.738 / 1.993 / 2.712 / 3.267 with
+    six, 0.853 / 2.409 / 3.369 / 4.231 and 0.712 / 1.981 / 2.672 / 3.236 with twelve; regressed
+    over twelve, see :attr:`regression_rank`. Earlier (foot lock off, the style left out): L2P
+    1.02, 2.19, 2.71, 3.33 with three, 1.00, 2.19, 2.64, 3.24 with six, 0.97, 2.21, 2.63, 3.29
+    with ten; foot skate up to 2 cm/s higher with six, up to 4 cm/s with ten. Where the
+    library holds no segment like the gap, the neighbours disagree and their combination is
+    the better guess."""
 
+    regression_rank: int = 3
+    """Main directions of the candidates' mismatches the fill is regressed on
+    (:func:`fill_weights`; at most the number of candidates less 2); 0: the score-weighted mean
+    of the fills. Tuning windows (``bench_inbetween.py --tune``), L2P at 5 / 15 / 30 / 45
+    frames, the take's person and gait left out of the library: 0.874 / 2.441 / 3.371 / 4.343
+    as the mean of six, 0.855 / 2.327 / 3.275 / 4.212 regressed over twelve at rank 3, 0.857 /
+    2.328 / 3.261 / 4.245 at rank 2; the person left out: 0.738 / 1.993 / 2.712 / 3.267, 0.722
+    / 1.913 / 2.579 / 3.121, 0.721 / 1.930 / 2.616 / 3.174. L2Q and NPSS lower at every
+    length, foot skate within 0.4 cm/s but at 45 frames (-2.4 and +0.9). Chosen first on the
+    averaged segments alone (no pelvis level, no foot lock), ranks 1-5 over 8-20 candidates,
+    ridge 0.0006-0.007 m: twelve at rank 3 was within 1% of the best everywhere."""
+    regression_ridge_m: float = 0.007
+    """Ridge of that regression (metres, RMS over the mismatch's coordinates, squared where it
+    is added to the candidates' weighted spread along each direction): about the spread of
+    close candidates' mismatches, so that a direction they hardly spread along is not
+    extrapolated on. Tuning windows, L2P at 5 / 15 / 30 / 45 frames (person and gait left out;
+    person left out): 0.012 m 0.844 / 2.326 / 3.280 / 4.200 and 0.712 / 1.916 / 2.602 / 3.143,
+    0.02 m 0.841 / 2.352 / 3.310 / 4.210 and 0.710 / 1.935 / 2.629 / 3.173 (0.007 m: see
+    :attr:`regression_rank`); on the segments alone, 0.004 m was 0.6% worse than 0.007."""
     average_max_seconds: float = 1.5
     """Longest gap filled by averaging :attr:`neighbours` segments; a longer one is filled by
     the best segment alone. Segments of slightly different cadences drift out of step over a
@@ -503,6 +529,11 @@ class InbetweenConfig:
             raise ValueError(f"fallback_margin must be > 0, got {self.fallback_margin}")
         if not self.neighbours >= 1:
             raise ValueError(f"neighbours must be an int >= 1, got {self.neighbours!r}")
+        if not (self.regression_rank >= 0 and self.regression_ridge_m > 0):
+            raise ValueError(
+                "regression_rank must be >= 0 and regression_ridge_m > 0, got "
+                f"{self.regression_rank!r}, {self.regression_ridge_m!r}"
+            )
 
 
 DEFAULT_CONFIG = InbetweenConfig()
@@ -843,6 +874,10 @@ class Candidate:
     lscore_end: float
     travel: float
     pose: float = 0.0
+    mismatch: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """(3m,) the segment's body-local features (file units) on its frames s-1, s and s+g+1 less
+    the context's on A-2, A-1 and B (2m: no B at the clip's end); what :func:`fill_weights`
+    regresses the fill on. None: not known (hand-made candidates)."""
 
     @property
     def lscore(self) -> float:
@@ -1153,7 +1188,12 @@ def search_inbetween_top(
             l1 = math.nan
         elif config.lscore_weight == 0:
             l1 = float(window_lscores(X[i + g - wl + 1 : i + g + 1], ctx.future, 0, model)[0])
-        chosen.append(Candidate(c, t, W.rate, score, l0, l1, tr, po))
+        mis = None  # the frames fill_weights regresses on: s-1, s (, s+g+1) against A-2, A-1 (, B)
+        if ctx.past.shape[0] >= 2:
+            rows = [i - 1, i] + ([] if ctx.one_sided else [i + g + 1])
+            Cm = np.concatenate([ctx.past[-2:], ctx.future[:1]])
+            mis = (X[rows].astype(np.float64) - Cm).ravel()
+        chosen.append(Candidate(c, t, W.rate, score, l0, l1, tr, po, mis))
         if len(chosen) == k:
             break
     return chosen, count
@@ -1589,8 +1629,10 @@ that its contacts are judged with some of the motion around them."""
 def _source_segments(onpath: Motion, a: int, b: int, lib: InbetweenLibrary, cands, up: str):
     """Each candidate's library motion over frames a-1-m .. b+m of the clip (m =
     :data:`SOURCE_MARGIN`, as the fill samples it; held at the library clip's ends), put on
-    the clip's pelvis ground position and facing at frame a-1, with its normalised weight and
-    the heights at which its library clip plants its feet (:attr:`InbetweenLibrary.floors`)."""
+    the clip's pelvis ground position and facing at frame a-1, with its normalised score
+    weight (:func:`neighbour_weights`: positive, as the planted feet's drift and the swing
+    clearance divide by them) and the heights at which its library clip plants its feet
+    (:attr:`InbetweenLibrary.floors`)."""
     from mocapkit import features
 
     w = neighbour_weights([c.score for c in cands])
@@ -1898,14 +1940,13 @@ def _to_level(
     return lifted
 
 
-def _average_fills(fills: Sequence[Motion], scores: Sequence[float] | None = None) -> Motion:
+def _average_fills(fills: Sequence[Motion], weights: Sequence[float] | None = None) -> Motion:
     """The weighted mean of fills of the same frames: local rotations by the normalised weighted
     sum of the quaternions (each put in the first fill's hemisphere), local translations by the
-    weighted mean. Weights: :func:`neighbour_weights` of the candidates' ``scores`` (equal
-    without)."""
+    weighted mean. ``weights``: :func:`fill_weights` (equal without)."""
     if len(fills) == 1:
         return fills[0]
-    w = np.ones(len(fills)) if scores is None else neighbour_weights(scores)
+    w = np.ones(len(fills)) if weights is None else np.asarray(weights, np.float64)
     first = fills[0]
     q = np.zeros_like(first.rotations)
     for wi, f in zip(w, fills, strict=True):
@@ -1918,8 +1959,38 @@ def _average_fills(fills: Sequence[Motion], scores: Sequence[float] | None = Non
     )
 
 
+def fill_weights(
+    cands: Sequence[Candidate], config: InbetweenConfig = DEFAULT_CONFIG, mpu: float = 0.01
+) -> np.ndarray:
+    """(k,) the weights (summing to 1, some may be negative) that combine the candidates' fills:
+    the local linear estimate at the context. :func:`neighbour_weights` weight each candidate
+    by its score; a weighted mean is then biased wherever the candidates sit mostly to one side
+    of the context (all a little ahead in their step, all a little higher). Regressing the
+    fills on the candidates' mismatches (:attr:`Candidate.mismatch`, in metres) over their
+    :attr:`InbetweenConfig.regression_rank` main directions, ridge
+    :attr:`InbetweenConfig.regression_ridge_m`, and reading the fit at zero mismatch removes
+    that bias to first order. It relies on the motion that follows a junction changing
+    smoothly, nearly linearly, with the state at the junction between close neighbours (a
+    step a frame later in, a step a frame later through the gap). The estimate is a linear
+    combination of the fills: weight ``w_i (1 + z0 A^-1 z_i)`` (local linear regression's
+    equivalent kernel), so the mean of fills that each meet the context meets it too."""
+    w = neighbour_weights([c.score for c in cands])
+    w = w / w.sum()
+    r = min(int(config.regression_rank), len(cands) - 2)
+    if r < 1 or any(c.mismatch is None for c in cands):
+        return w
+    X = np.stack([c.mismatch for c in cands]) * (mpu / math.sqrt(cands[0].mismatch.size))
+    mx = w @ X
+    Xc = X - mx
+    _, _, vt = np.linalg.svd(np.sqrt(w)[:, None] * Xc, full_matrices=False)
+    Z = Xc @ vt[:r].T  # (k, r) the candidates on the main directions of their spread
+    A = Z.T @ (w[:, None] * Z) + config.regression_ridge_m**2 * np.eye(r)
+    return w * (1.0 + Z @ np.linalg.solve(A, -(mx @ vt[:r].T)))
+
+
 def neighbour_weights(scores: Sequence[float]) -> np.ndarray:
-    """Weights of the averaged candidates (best first): ``exp(-(s - s0) / (s0 + 1))`` with s0 the
+    """Score weights of the combined candidates (best first; :func:`fill_weights` corrects
+    them): ``exp(-(s - s0) / (s0 + 1))`` with s0 the
     best score, in the score's units (a squared tolerance). A candidate as good as the best
     counts as much; one twice as far from the context counts e^-1 as much; where the best
     meets the context exactly (the clip's own take in the library, s0 = 0), candidates
@@ -1980,11 +2051,12 @@ class Inbetween:
     """An in-betweened motion: ``motion`` is the clip with frames ``gap[0]..gap[1]-1`` replaced.
 
     ``method``: "library" (filled from the best candidate ``candidate``, library file
-    ``source``, its frames ``source_frames``, averaged with the next best ones: all of them in
-    ``blended_from``) or "kalman" (the Kalman transition: asked for, or the fallback of
-    ``requested`` "auto"; ``candidate`` is still the best library candidate, for the report).
-    ``kalman_lscore``: the Kalman transition's own two-sided L-score; ``candidates``: library
-    candidates scored; ``search_seconds``: wall time of the search.
+    ``source``, its frames ``source_frames``, combined with the next best ones: all of them in
+    ``blended_from``, with their weights from :func:`fill_weights`) or "kalman" (the Kalman
+    transition: asked for, or the fallback of ``requested`` "auto"; ``candidate`` is still the
+    best library candidate, for the report). ``kalman_lscore``: the Kalman transition's own
+    two-sided L-score; ``candidates``: library candidates scored; ``search_seconds``: wall time
+    of the search.
     """
 
     motion: Motion
@@ -2006,7 +2078,8 @@ class Inbetween:
     """True when the library clip was played backwards (its frames ``source_frames`` fill the
     gap in reverse order)."""
     blended_from: tuple[dict[str, Any], ...] = ()
-    """Every library segment averaged into the fill, best first: ``source`` (file),
+    """Every library segment combined into the fill, best first: ``weight`` (its share,
+    :func:`fill_weights`: the shares sum to 1, some may be negative), ``source`` (file),
     ``source_frames`` (its frame numbers, ascending, stop excluded), ``backwards``, ``rate``
     (speed factor), ``score``. Empty when the Kalman transition filled the gap."""
     requested: str = "auto"
@@ -2096,7 +2169,7 @@ class Inbetween:
             "method": self.method,
             "requested": self.requested,
             "fell_back": self.fell_back,
-            # the best library segment (filled the gap averaged with blended_from's others,
+            # the best library segment (filled the gap combined with blended_from's others,
             # or, when the Kalman transition filled it, the one it was compared with)
             "source": self.source,
             "source_frames": None if self.source_frames is None else list(self.source_frames),
@@ -2244,18 +2317,21 @@ def inbetween(
         kfill = kalman_fill(onpath, a, b, window=w, future_frames=ctx.future.shape[0], model=model)
         kal = sum(_two_sided(onpath, kfill, a, b, ctx, w, up, model))
     lib_ends, lfill = (math.nan, math.nan), None
+    share = fill_weights(cands, config, mpu) if cands else np.zeros(0)
     if cands:
         lfill = _average_fills(
             [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config,
                           future_frames=len(ctx.future))
-             for c in cands], [c.score for c in cands],
+             for c in cands], share,
         )  # fmt: skip
         levels = [
             _level_offset(onpath, a, lib.motions[c.clip], c, up, config.level_seconds)
             for c in cands
         ]
-        known = [(d, wk) for d, wk in zip(levels, neighbour_weights([c.score for c in cands]),
-                                          strict=True) if d is not None]  # fmt: skip
+        # the fill's own weights where every segment has a level; else the score weights of
+        # those that have one (signed weights over a part of the segments need not sum to 1)
+        wl = share if None not in levels else neighbour_weights([c.score for c in cands])
+        known = [(d, wk) for d, wk in zip(levels, wl, strict=True) if d is not None]
         if known:
             shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known)
             lfill = _to_level(onpath, a, b, lfill, shift, up, config)
@@ -2279,8 +2355,6 @@ def inbetween(
         motion = _lock_feet(motion, a, b, up, config, sources)
     how = "kalman" if use_kalman else "library"
     used = () if lib is None else tuple(dict.fromkeys(lib.names))  # each file once
-    share = neighbour_weights([c.score for c in cands]) if cands else np.zeros(0)
-    share = share / share.sum() if cands else share
     blended = tuple(
         {
             "weight": round(float(wk), 4),

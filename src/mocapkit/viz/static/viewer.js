@@ -671,7 +671,7 @@
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
-      blended.length > 1 ? 'by averaging ' + blended.length + ' library segments, weighted by how well they match: ' + blended.map(segText).join('; ') :
+      blended.length > 1 ? 'by combining ' + blended.length + ' library segments (weighted by how well they match, corrected for what they miss of the clip in common; the weights sum to 1, some may be negative): ' + blended.map(segText).join('; ') :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from +
       (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
