@@ -34,7 +34,9 @@ Frames are 0-based, ``*_stop`` excluded. Segment kinds: ``"clip"`` (frames copie
 the matching ``transitions`` entry names), ``"generated"`` (frames made by mocapkit, e.g. a
 stitch's injected frames), ``"inbetween"`` (frames of ``source``, time-warped and moved onto
 the frames around a gap, their ends blended into them: ``mocapkit inbetween``; with
-``"backwards": true`` when the source played in reverse). Readers ignore keys they do not know,
+``"backwards": true`` when the source played in reverse; ``source`` is the best-scoring of the
+library segments the fill combines, and ``parameters["blended_from"]`` lists every one of them
+with its share, which may be small or negative). Readers ignore keys they do not know,
 so later tools may add some.
 
 A motion made from a motion mocapkit made (a take filled twice) traces its copied frames back

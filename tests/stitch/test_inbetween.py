@@ -413,6 +413,46 @@ def test_the_clips_own_take_in_the_library_fills_the_gap_alone(humanoid):
         assert 0.05 < x["weight"] < 0.5 if near else abs(x["weight"]) < 0.005, x
 
 
+def test_inbetween_fills_with_fill_weights(humanoid, monkeypatch):
+    """inbetween() combines the candidates' fills and reports their shares with fill_weights'
+    weights (reviewer: nothing checked the wiring): all the weight on the best gives the best
+    segment alone (neighbours=1; pelvis level off, as a level another segment's lacks would
+    fall back to the score weights), all on another a different fill, and the report carries
+    the weights given; rank 0 reports the score weights."""
+    from dataclasses import replace
+
+    import mocapkit.stitch.inbetween as mod
+
+    walk, lib = humanoid
+    gap = (60, 80)
+    config = replace(DEFAULT_CONFIG, foot_lock=False, level_seconds=0.0)
+    one = replace(config, neighbours=1)
+    alone = inbetween(walk, gap, lib, up="Y", method="library", config=one)
+    real = mod.fill_weights
+
+    def one_hot(k):
+        def weights(cands, *args, **kwargs):
+            w = np.zeros(len(cands))
+            w[k] = 1.0
+            return w
+
+        return weights
+
+    monkeypatch.setattr(mod, "fill_weights", one_hot(0))
+    best = inbetween(walk, gap, lib, up="Y", method="library", config=config)
+    np.testing.assert_allclose(best.motion.rotations, alone.motion.rotations, atol=1e-12)
+    np.testing.assert_allclose(best.motion.root_positions, alone.motion.root_positions, atol=1e-9)
+    monkeypatch.setattr(mod, "fill_weights", one_hot(1))
+    second = inbetween(walk, gap, lib, up="Y", method="library", config=config)
+    assert [x["weight"] for x in second.blended_from][:3] == [0.0, 1.0, 0.0]
+    assert second.difference_to(best.motion) > 1e-3
+    monkeypatch.setattr(mod, "fill_weights", real)
+    plain = inbetween(walk, gap, lib, up="Y", method="library",
+                      config=replace(config, regression_rank=0))  # fmt: skip
+    w = neighbour_weights([x["score"] for x in plain.blended_from])
+    np.testing.assert_allclose([x["weight"] for x in plain.blended_from], w / w.sum(), atol=1e-4)
+
+
 def test_fallback_when_kalman_scores_lower(humanoid):
     """The fallback compares like with like: the two-sided L-score of the library fill and of
     the Kalman fill, both on the final filled frames; it fires when the library's is more than
@@ -903,10 +943,13 @@ def files(tmp_path_factory, humanoid):
     return d
 
 
-def test_cli_lists_as_many_averaged_segments_as_it_says(files, monkeypatch):
+def test_cli_lists_as_many_combined_segments_as_it_says(files, monkeypatch):
     """Newcomer report: "from 3 library segments averaged", then five "averaged with" lines,
-    three of them "weight 0.00". Here two of the six weigh nothing."""
+    three of them "weight 0.00". Here the best-scoring segment weighs almost nothing (the
+    regression can do that; reviewer), the second is negative, the last two weigh almost
+    nothing: the best is still named first, the negative one listed, the light ones counted."""
     import dataclasses
+    import re
 
     import mocapkit.stitch.inbetween as mod
 
@@ -915,9 +958,9 @@ def test_cli_lists_as_many_averaged_segments_as_it_says(files, monkeypatch):
     def light_tail(*args, **kwargs):
         res = real(*args, **kwargs)
         bf = [dict(x) for x in res.blended_from]
-        assert len(bf) >= 4, bf
-        for x in bf[-2:]:
-            x["weight"] = 0.001
+        assert len(bf) >= 5, bf
+        bf[0]["weight"], bf[1]["weight"] = 0.0017, -0.0857
+        bf[-2]["weight"], bf[-1]["weight"] = 0.001, -0.001
         return dataclasses.replace(res, blended_from=tuple(bf))
 
     monkeypatch.setattr(mod, "inbetween", light_tail)  # the command imports it when run
@@ -925,11 +968,12 @@ def test_cli_lists_as_many_averaged_segments_as_it_says(files, monkeypatch):
                        files / "lib", "--method", "library", "--out",
                        files / "avg.bvh")  # fmt: skip
     assert code == 0, se
-    import re
-
+    assert re.search(r"best library segment: .*weight 0\.00;", so)  # named, whatever its share
+    listed = [ln for ln in so.splitlines() if "combined with:" in ln]
+    assert any(ln.endswith("weight -0.09") for ln in listed), so
+    assert not any(re.search(r"weight -?0\.00$", ln) for ln in listed), so
     n = int(re.search(r"from (\d+) library segments combined", so).group(1))
-    assert n == 1 + so.count("combined with:") and "weight 0.00" not in so
-    assert "weight -0.00" not in so
+    assert n == 1 + len(listed)
     more = re.search(r"(\d+) more candidate\(s\) weighing less than 0.005 either way", so)
     assert more and n + int(more.group(1)) == DEFAULT_CONFIG.neighbours and int(more.group(1)) >= 2
 

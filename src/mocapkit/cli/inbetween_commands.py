@@ -209,9 +209,12 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
-    # the segments that count in the fill: the others (|weight| < 0.005) are only named by
-    # number, so that the list and the "N library segments combined" line agree
-    counted = [x for x in res.blended_from if abs(x["weight"]) >= 0.005]
+    # the best-scoring segment (named above, whatever its share) and the others that count in
+    # the fill; those with |weight| < 0.005 are only counted, so that the list and the "N
+    # library segments combined" line agree
+    counted = res.blended_from[:1] + tuple(
+        x for x in res.blended_from[1:] if abs(x["weight"]) >= 0.005
+    )
     for x in counted[1:]:
         f0, f1 = x["source_frames"]
         say(
@@ -255,7 +258,7 @@ def inbetween_cmd(
         )
     else:
         n = len(counted)
-        what = res.source if n == 1 else f"{n} library segments combined (weights in --json)"
+        what = res.source if n == 1 else f"{n} library segments combined"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
             scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}"

@@ -48,13 +48,13 @@ Why the L-scores are out of the score by default: the L-score measures the smoot
 (step times acceleration), not how far a pose is from another, and the LaFAN1 protocol gives
 one future frame, which a smoother with observation noise all but ignores — a candidate that
 misses the target pose scores almost as well as one that reaches it. On the tuning takes
-(bench/bench_inbetween.py --tune, L2P over interpolation at 15 and 30 frames), the L-score
-search reached 0.53 and 0.50; the pose term with L-scores at weight 1 the same (the L-scores,
-hundreds of times larger, decide); the pose term alone 0.33 and 0.40, about the issue's
-nearest-segment baseline (0.34, 0.39). The defaults then (pose term, ground path at weight 1, three
-neighbours averaged, six now: :attr:`InbetweenConfig.neighbours`; foot lock) reached 0.23,
-0.26, 0.30 and 0.33 at 5, 15, 30 and 45 frames on all 64 tuning windows, the nearest-segment
-baseline 0.28, 0.31, 0.34 and 0.40 in the same run.
+(bench/bench_inbetween.py --tune, L2P over interpolation at 15 and 30 frames), the L-score search
+reached 0.53 and 0.50; the pose term with L-scores at weight 1 the same (the L-scores, hundreds of
+times larger, decide); the pose term alone 0.33 and 0.40, about the issue's nearest-segment baseline
+(0.34, 0.39). The defaults then (pose term, ground path at weight 1, three neighbours averaged,
+twelve combined now: :attr:`InbetweenConfig.neighbours`; foot lock) reached 0.23, 0.26, 0.30 and
+0.33 at 5, 15, 30 and 45 frames on all 64 tuning windows, the nearest-segment baseline 0.28, 0.31,
+0.34 and 0.40 in the same run.
 
 **Search** (:func:`search_inbetween`, :func:`search_inbetween_top`): for each warp the pose
 term is three matrix-vector products with the library's features (squared norms cached), the
@@ -1882,12 +1882,12 @@ def _to_level(
     clip: Motion, a: int, b: int, fill: Motion, shift: float, up: str, config: InbetweenConfig
 ) -> Motion:
     """``fill`` (frames A..B-1 on ``clip``'s path) with the pelvis ``shift`` (file units, along
-    ``up``: :func:`_level_offset`, averaged over the candidates) up or down in the middle of the
-    gap, fading to none at its ends as the end offsets do (the context frames are met
-    exactly), and the legs turned by IK (:mod:`mocapkit.ik`) so that the feet stay where
-    ``fill`` puts them: the ground is at the same height for everyone, so a foot the segments
-    put on it stays there and the legs take up the change of level (tuning windows: the level
-    alone, feet moved with the pelvis, L2P at 15 / 30 frames 2.062 / 2.537 and foot skate
+    ``up``: :func:`_level_offset`, combined over the candidates with the fill's weights) up or
+    down in the middle of the gap, fading to none at its ends as the end offsets do (the context
+    frames are met exactly), and the legs turned by IK (:mod:`mocapkit.ik`) so that the feet
+    stay where ``fill`` puts them: the ground is at the same height for everyone, so a foot the
+    segments put on it stays there and the legs take up the change of level (tuning windows: the
+    level alone, feet moved with the pelvis, L2P at 15 / 30 frames 2.062 / 2.537 and foot skate
     39.2 / 41.2 cm/s; with the feet kept 2.010 / 2.473 and 37.5 / 38.5, against 2.125 / 2.554
     and 37.4 / 38.6 without either). A rise is capped on each frame where a leg could not
     reach its foot (99.9% of the hip-to-ankle length: the knee 5 deg from straight), so every
@@ -2182,7 +2182,7 @@ class Inbetween:
                 for k in ("rate", "score", "lscore", "lscore_start", "lscore_end", "travel", "pose")
             },
             # the final filled frames' two-sided L-score, and the Kalman transition's: the pair
-            # the fallback compares (the segment's own differs: the fill is blended and averaged)
+            # the fallback compares (the segment's own differs: the fill is blended and combined)
             "library_lscore": _finite_or_none(self.library_lscore),
             "pose_rms_m": _finite_or_none(self.pose_rms_m),
             "path_miss_m": _finite_or_none(self.path_miss_m),
