@@ -3,7 +3,9 @@ import; see mocapkit.cli)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -201,7 +203,7 @@ def inbetween_cmd(
         where = f"the two frames {ends} the gap" if ends else "the gap's ends"
         path = "ground path (from its start velocity over the gap)" if ends else "ground path"
         mixed = len(res.blended_from) > 1
-        weight = f", weight {res.blended_from[0]['weight']:.2f}" if mixed else ""
+        weight = f", weight {res.blended_from[0]['weight']:.0%}" if mixed else ""
         say(
             f"best library segment: {res.source} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
@@ -209,23 +211,18 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
-    # the best-scoring segment (named above, whatever its share) and the others that count in
-    # the fill; those with |weight| < 0.005 are only counted, so that the list and the "N
-    # library segments combined" line agree
-    counted = res.blended_from[:1] + tuple(
-        x for x in res.blended_from[1:] if abs(x["weight"]) >= 0.005
-    )
-    for x in counted[1:]:
-        f0, f1 = x["source_frames"]
+    takes = _shares_by_take(res.blended_from)
+    if len(res.blended_from) > 1:
+        negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
+        shown = ", ".join(f"{name} {share:.0%}" for name, share in takes[:4])
+        rest = sum(share for _, share in takes[4:])
+        more = f", {len(takes) - 4} more take(s) {rest:.0%}" if len(takes) > 4 else ""
         say(
-            f"  combined with: {x['source']} frames {f0}:{f1}"
-            f"{' played backwards' if x['backwards'] else ''} (speed x{x['rate']:g}), "
-            f"score {x['score']:.4g}, weight {x['weight']:.2f}"
-        )
-    if len(res.blended_from) > len(counted) and counted:
-        say(
-            f"  ({len(res.blended_from) - len(counted)} more candidate(s) weighing less than "
-            "0.005 either way: see --json)"
+            f"the fill combines {len(res.blended_from)} segments of {len(takes)} take(s), by "
+            f"take: {shown}{more} (the weights follow how well each segment matches, corrected "
+            "for what the segments share in missing the clip beside the gap"
+            f"{f': {negative} count negatively' if negative else ''}; each segment's frames, "
+            "speed and weight: --json or the sidecar)"
         )
     if res.warning:
         a, b = res.gap
@@ -257,8 +254,8 @@ def inbetween_cmd(
             f"{'first' if a == 0 else 'last'} frame)"
         )
     else:
-        n = len(counted)
-        what = res.source if n == 1 else f"{n} library segments combined"
+        n = len(res.blended_from)
+        what = res.source if n == 1 else f"{n} library segments of {len(takes)} take(s)"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
             scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}"
@@ -342,3 +339,17 @@ def inbetween_demo_step(out: Path) -> None:
 DEMO_STEPS.append(
     (15, "in-betweening: a blanked second filled from a library", inbetween_demo_step)
 )
+
+
+def _shares_by_take(blended: Sequence[dict[str, Any]]) -> list[tuple[str, float]]:
+    """(take, summed weight) of each library file in ``blended`` (``Inbetween.blended_from``),
+    largest share first: twelve segments read as a few takes. A take is named by its file name,
+    or its path where two files share a name."""
+    shares: dict[str, float] = {}
+    for x in blended:
+        shares[str(x["source"])] = shares.get(str(x["source"]), 0.0) + float(x["weight"])
+    names = [Path(k).name for k in shares]
+    clash = len(set(names)) < len(names)
+    return sorted(
+        ((k if clash else Path(k).name, v) for k, v in shares.items()), key=lambda kv: -kv[1]
+    )

@@ -334,6 +334,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
                 "data": x.get("source"),
                 "frames": x.get("source_frames"),
                 "backwards": bool(x.get("backwards")),
+                "rate": x.get("rate"),
                 "weight": x.get("weight"),
             }
             for x in plan.parameters.get("blended_from") or []

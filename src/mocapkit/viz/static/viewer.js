@@ -663,17 +663,25 @@
       (clean.repairedCells != null ? ', ' + clean.repairedCells + ' repaired cells' : '') + '; joints of ' + base(motions[clean.motion].meta.name) + ' coloured by MDM (blue 0 \u2192 red 1)');
   }
   if (stitch && stitch.kind === 'inbetween') {
+    var pct = function (w) { return Math.round(100 * Number(w)) + '%'; };
     var segText = function (x) {
       return base(x.data) + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '') +
-        (x.weight != null ? ' (weight ' + Number(x.weight).toFixed(2) + ')' : '');
+        (x.rate != null && Number(x.rate) !== 1 ? ' at speed \u00d7' + Number(x.rate) : '') +
+        (x.weight != null ? ' (weight ' + pct(x.weight) + ')' : '');
     };
     var blended = stitch.blended || [];
+    var byTake = {};  // summed weights per library file: twelve segments read as a few takes
+    blended.forEach(function (x) { byTake[x.data] = (byTake[x.data] || 0) + Number(x.weight || 0); });
+    var takes = Object.keys(byTake).sort(function (p, q) { return byTake[q] - byTake[p]; });
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
-      blended.length > 1 ? 'by combining ' + blended.length + ' library segments (weighted by how well they match, corrected for what they miss of the clip in common; the weights sum to 1, some may be negative): ' + blended.map(segText).join('; ') :
+      blended.length > 1 ? 'by combining ' + blended.length + ' library segments of ' + takes.length + ' take(s), by take: ' +
+        takes.map(function (t) { return base(t) + ' ' + pct(byTake[t]); }).join(', ') +
+        ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); best match: ' +
+        segText(blended[0]) + '; every segment in the sidecar' :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
-    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' filled (drawn yellow) ' + from +
+    info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' (--gap ' + stitch.generated[0] + ':' + stitch.generated[1] + ') filled (drawn yellow) ' + from +
       (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
         '; L-score of its one junction with the clip (a gap at the clip\'s ' + (stitch.takeoff == null ? 'start' : 'end') + ') ' + Number(stitch.lscore).toPrecision(4) :
         '; two-sided L-score of the filled frames ' + Number(stitch.lscore).toPrecision(4)));
