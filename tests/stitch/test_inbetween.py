@@ -1432,7 +1432,7 @@ def test_smoothed_lock_correction_keeps_its_ends_and_speed_and_rounds_its_corner
     np.testing.assert_array_equal(_smoothed_correction(before, before.copy(), sigma), before)
 
 
-@pytest.mark.parametrize("limit", [30.0, DEFAULT_CONFIG.lock_max_speed_deg, 180.0])
+@pytest.mark.parametrize("limit", [30.0, 90.0, DEFAULT_CONFIG.lock_max_speed_deg])
 def test_the_foot_locks_corrections_turn_no_faster_than_lock_max_speed_deg(humanoid, limit):
     """End to end: the legs' rotations of a locked fill differ from the same fill unlocked by a
     correction that changes by at most lock_max_speed_deg per second from frame to frame (the

@@ -268,21 +268,27 @@ class InbetweenConfig:
     report: Foot_L 40-81 deg in one frame on Bandai-1 walk-back/walk-left fills; now within 3
     deg of the fill's own largest step); tuning takes at 15, 30, 45 frames: L2P 2.160, 2.594,
     3.169 and foot skate 38.3, 38.8, 40.9 cm/s (38.6, 39.3, 41.5 before)."""
-    lock_max_speed_deg: float = 90.0
+    lock_max_speed_deg: float = 180.0
     """Fastest the foot lock's corrections of the legs may turn (degrees per second), as
     :attr:`blend_max_speed_deg` limits the end offsets: a hold let go of within a frame or two
     snapped a knee (see there). Slower, the lock lags its holds and the feet slide; faster, the
-    knees jolt. Tuning windows (at 15 / 30 / 45 frames; the take's person and gait left out of
-    the library): foot skate 35.4 / 36.7 / 43.1 cm/s at 90, 33.4 / 35.0 / 41.2 at 180, 32.4 /
-    33.9 / 39.9 at 360, 32.3 / 33.7 / 39.5 without a limit (the truth's 31.6); the legs'
-    largest angular acceleration in a window (degrees per frame², median / 99th percentile /
-    largest) 12.4 / 21.9 / 38.2 at 90, 13.0 / 21.4 / 41.3 at 180, 14.6 / 32.7 / 44.0 at 360,
-    14.6 / 43.9 / 70.6 without (the truth's 15.6 / 26.9 / 27.6). On the held-out test split
-    180 lowered foot skate by 0.6-2.2 cm/s. But on whole Bandai-1 walks filled at
-    80:110 from bandai2 (12 takes, as a user fills them), 180 against 90 lowered the filled
-    frames' foot skate only from 33.9 to 33.1 cm/s while the knees' largest acceleration rose
-    from 3.7 to 4.4 cm/frame² on average and up to 9.8 (a take's own largest: 5.2), over the
-    take's own in 3 takes of 12: a knee that jolts is seen, so 90 stays."""
+    knees jolt, unless the corrections are smoothed (:attr:`lock_smooth_seconds`). Without
+    smoothing (session 29), on the tuning windows (at 15 / 30 / 45 frames; the take's person
+    and gait left out of the library): foot skate 35.4 / 36.7 / 43.1 cm/s at 90, 33.4 / 35.0 /
+    41.2 at 180, 32.4 / 33.9 / 39.9 at 360, 32.3 / 33.7 / 39.5 without a limit (the truth's
+    31.6); the legs' largest angular acceleration in a window (degrees per frame², median /
+    99th percentile / largest) 12.4 / 21.9 / 38.2 at 90, 13.0 / 21.4 / 41.3 at 180, 14.6 / 32.7
+    / 44.0 at 360, 14.6 / 43.9 / 70.6 without (the truth's 15.6 / 26.9 / 27.6); and on 12 whole
+    Bandai-1 walks filled at 80:110 from bandai2, 180 raised the knees' largest acceleration
+    from 3.7 to 4.4 cm/frame² on average, so 90 was kept. Smoothed over 1/30 s, on tuning
+    takes filled whole (140 gaps of 15 and of 30 frames, full context, the person left out):
+    the knees' largest acceleration in the filled frames averaged 2.68 / 3.24 cm/frame² at 90,
+    2.69 / 3.30 at 135, 2.69 / 3.30 at 180 (over the take's own largest in 20 / 46, 21 / 48,
+    21 / 49 gaps), the feet's near B 3.33 / 3.38, 3.37 / 3.40, 3.36 / 3.43; foot skate 34.2 /
+    32.8, 32.9 / 32.0, 32.4 / 31.6 cm/s (the takes' own 31.9 / 32.2). On the benchmark's
+    tuning windows 180 against 90 (both smoothed): foot skate at 5 / 15 / 30 / 45 frames 25.9
+    / 34.7 / 36.4 / 40.6 -> 25.8 / 33.1 / 34.8 / 38.7 (person and gait left out) and 25.8 /
+    31.8 / 32.1 / 32.1 -> 25.7 / 30.6 / 30.9 / 31.2 (person), L2P within 0.3%."""
     lock_smooth_seconds: float = 1.0 / 30.0
     """The foot lock's corrections of the legs are smoothed over frames by a Gaussian this wide
     (its sigma, seconds; :func:`_smoothed_correction`; 0: off). Relies on: a captured joint
