@@ -203,7 +203,7 @@ def inbetween_cmd(
         where = f"the two frames {ends} the gap" if ends else "the gap's ends"
         path = "ground path (from its start velocity over the gap)" if ends else "ground path"
         mixed = len(res.blended_from) > 1
-        weight = f", weight {res.blended_from[0]['weight']:.0%}" if mixed else ""
+        weight = f", weight {_percent(res.blended_from[0]['weight'])}" if mixed else ""
         say(
             f"best library segment: {res.source} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
@@ -214,9 +214,9 @@ def inbetween_cmd(
     takes = _shares_by_take(res.blended_from)
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
-        shown = ", ".join(f"{name} {share:.0%}" for name, share in takes[:4])
+        shown = ", ".join(f"{name} {_percent(share)}" for name, share in takes[:4])
         rest = sum(share for _, share in takes[4:])
-        more = f", {len(takes) - 4} more take(s) {rest:.0%}" if len(takes) > 4 else ""
+        more = f", {len(takes) - 4} more take(s) {_percent(rest)}" if len(takes) > 4 else ""
         say(
             f"the fill combines {len(res.blended_from)} segments of {len(takes)} take(s), by "
             f"take: {shown}{more} (the weights follow how well each segment matches, corrected "
@@ -344,12 +344,15 @@ DEMO_STEPS.append(
 def _shares_by_take(blended: Sequence[dict[str, Any]]) -> list[tuple[str, float]]:
     """(take, summed weight) of each library file in ``blended`` (``Inbetween.blended_from``),
     largest share first: twelve segments read as a few takes. A take is named by its file name,
-    or its path where two files share a name."""
+    or by its path where another file has the same name."""
     shares: dict[str, float] = {}
     for x in blended:
         shares[str(x["source"])] = shares.get(str(x["source"]), 0.0) + float(x["weight"])
     names = [Path(k).name for k in shares]
-    clash = len(set(names)) < len(names)
-    return sorted(
-        ((k if clash else Path(k).name, v) for k, v in shares.items()), key=lambda kv: -kv[1]
-    )
+    shown = [k if names.count(Path(k).name) > 1 else Path(k).name for k in shares]
+    return sorted(zip(shown, shares.values(), strict=True), key=lambda kv: -kv[1])
+
+
+def _percent(share: float) -> str:
+    """A share as a whole percentage, never "-0%"."""
+    return f"{0.0 if abs(share) < 0.005 else share:.0%}"

@@ -139,7 +139,9 @@ skates beyond the takes' own (the issue's bound for a fill).
 
 **Feet.** Finally the feet the filled frames plant are held by IK on the legs
 (:attr:`InbetweenConfig.foot_lock`), its corrections turning no faster than
-:attr:`InbetweenConfig.lock_max_speed_deg`. A held foot moves as the library segments'
+:attr:`InbetweenConfig.lock_max_speed_deg` and smoothed over
+:attr:`InbetweenConfig.lock_smooth_seconds` (a correction's speed switched within a frame
+jolts the foot). A held foot moves as the library segments'
 planted feet moved (their roll and settling, weighted), so the lock takes out only the slide
 that fitting them to the context added: a fill that is a capture as it was stays so. A foot
 the filled frames plant below the clip's own floor (where the context plants it) is raised
@@ -1728,12 +1730,15 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
 def _smoothed_correction(before: np.ndarray, after: np.ndarray, sigma: float) -> np.ndarray:
     """``after`` (F, J, 4) with each joint's correction from ``before`` (its rotation vector,
     of ``after before^-1``) smoothed over frames by a Gaussian of ``sigma`` frames, the first
-    and last frames kept (odd reflection about each: their correction, none on the context
-    frames around a gap, stays theirs). A positive kernel of sum 1 keeps the correction's
-    speed within what it was (:func:`_rate_limited`'s limit holds) and rounds off its
-    corners: where the speed limit or the lock's fade-out switches the correction's speed
-    within a frame, the foot it moves would otherwise jolt (:attr:`InbetweenConfig.
-    lock_smooth_seconds`). ``sigma`` 0 or fewer than 3 frames: ``after`` as it is."""
+    and last frames kept: the correction is extended past each end by odd reflection about
+    that end's value (:func:`numpy.pad`, repeated over a span shorter than the kernel), so
+    the smoothed ends are their own (none, on the context frames around a gap) and every
+    step of the extension is one of the correction's, which a positive kernel of sum 1 cannot
+    make larger: :func:`_rate_limited`'s limit holds. It rounds off the corners where the
+    speed limit or the lock's fade-out switches the correction's speed within a frame, which
+    would otherwise jolt the foot it moves (:attr:`InbetweenConfig.lock_smooth_seconds`). A
+    joint with no correction is left exactly as it is; ``sigma`` 0 or fewer than 3 frames:
+    ``after`` as it is."""
     from scipy.ndimage import gaussian_filter1d
 
     F = len(after)
@@ -1741,15 +1746,15 @@ def _smoothed_correction(before: np.ndarray, after: np.ndarray, sigma: float) ->
         return after
     d = rot.quat_mul(after, rot.quat_inv(before))
     v = rot.quat_to_rotvec(np.where(d[..., :1] < 0, -d, d))
-    if np.abs(v).max() < 1e-12:  # nothing corrected (rounding aside): as it is
+    moved = np.abs(v).max(axis=(0, 2)) >= 1e-12  # (J,) joints the lock corrected
+    if not moved.any():
         return after
-    pad = min(F - 1, math.ceil(4.0 * sigma))
-    left = 2.0 * v[:1] - v[1 : pad + 1][::-1]
-    right = 2.0 * v[-1:] - v[-pad - 1 : -1][::-1]
-    smooth = gaussian_filter1d(np.concatenate([left, v, right]), sigma, axis=0, mode="nearest")
-    smooth = smooth[pad : pad + F]
-    smooth[0], smooth[-1] = v[0], v[-1]
-    return rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(smooth), before))
+    pad = math.ceil(4.0 * sigma)  # gaussian_filter1d's own reach (truncate=4)
+    ext = np.pad(v, ((pad, pad), (0, 0), (0, 0)), mode="reflect", reflect_type="odd")
+    smooth = gaussian_filter1d(ext, sigma, axis=0, truncate=4.0)[pad : pad + F]
+    smooth[0], smooth[-1] = v[0], v[-1]  # rounding aside, they are already
+    out = rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(smooth), before))
+    return np.where(moved[None, :, None], out, after)
 
 
 ROOT_STILL_SECONDS = 0.5

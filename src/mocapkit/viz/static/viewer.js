@@ -663,7 +663,7 @@
       (clean.repairedCells != null ? ', ' + clean.repairedCells + ' repaired cells' : '') + '; joints of ' + base(motions[clean.motion].meta.name) + ' coloured by MDM (blue 0 \u2192 red 1)');
   }
   if (stitch && stitch.kind === 'inbetween') {
-    var pct = function (w) { return Math.round(100 * Number(w)) + '%'; };
+    var pct = function (w) { var r = Math.round(100 * Number(w)); return (r === 0 ? 0 : r) + '%'; };
     var segText = function (x) {
       return base(x.data) + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '') +
         (x.rate != null && Number(x.rate) !== 1 ? ' at speed \u00d7' + Number(x.rate) : '') +
@@ -677,7 +677,10 @@
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by combining ' + blended.length + ' library segments of ' + takes.length + ' take(s), by take: ' +
-        takes.map(function (t) { return base(t) + ' ' + pct(byTake[t]); }).join(', ') +
+        takes.map(function (t) {  // a file name another take shares is given with its path
+          var clash = takes.some(function (o) { return o !== t && base(o) === base(t); });
+          return (clash ? t : base(t)) + ' ' + pct(byTake[t]);
+        }).join(', ') +
         ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); best match: ' +
         segText(blended[0]) + '; every segment in the sidecar' :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
