@@ -322,12 +322,12 @@ def inbetween_demo_step(out: Path) -> None:
     write_motion(res.motion, bvh)
     side = res.provenance(bvh).write(bvh)
     err = res.difference_to(walk)
-    used = [f"{x['source']} frames {x['source_frames'][0]}:{x['source_frames'][1]}"
-            for x in res.blended_from]  # fmt: skip
+    takes = _shares_by_take(res.blended_from)
+    used = ", ".join(f"{name} {_percent(share)}" for name, share in takes)
     click.echo(
         f"  gap {a}:{b} of the walk filled by {res.method}"
-        f"{' from ' + ', '.join(used) if used else ''}; largest joint difference to the "
-        f"blanked frames {err * 100:.1f} cm"
+        f"{f' from {len(res.blended_from)} segments of {used}' if takes else ''}; largest "
+        f"joint difference to the blanked frames {err * 100:.1f} cm"
     )
     click.echo(
         f"  wrote {bvh}, {side.name} and the clip and library it came from (mocapkit view "
