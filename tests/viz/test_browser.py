@@ -237,3 +237,23 @@ def test_bench_script_runs_small(browser, capsys):
     assert mod.main(["--frames", "300", "--joints", "20", "--seconds", "0.5"]) == 0
     out = capsys.readouterr().out
     assert "playback:" in out and "fps" in out
+
+
+def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
+    """Newcomer report: the page of a filled take opened at frame 0, not at the gap. It opens a
+    second before the filled frames (frame 30 for a gap from 60 at 30 fps), the readout too."""
+    from mocapkit.stitch.inbetween import inbetween
+
+    walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
+    lib = [datasets.procedural_motion("walk", 6.0, seed=s).motion for s in (1, 2)]
+    out = tmp_path / "filled.bvh"
+    res = inbetween(walk, (60, 90), lib, up="Y", output=str(out))
+    write_motion(res.motion, out)
+    page = write_page(
+        tmp_path / "filled.html", [ViewMotion(res.motion, str(out), provenance=res.provenance(out))]
+    )
+    b = browser
+    _open(b, page)
+    assert b.eval("mocapkitViewer.frame") == 60 - round(walk.fps)
+    assert _readout_frame(b) == 60 - round(walk.fps)
+    _assert_no_errors(b)

@@ -771,7 +771,14 @@
     renderer.render(scene, camera);
   }
 
-  setFrame(0);
+  // a fill's page opens a second before the filled frames: playing it shows the fill at once
+  var startFrame = 0;
+  if (stitch && stitch.kind === 'inbetween') {
+    var fillFps = motions[stitch.motion].meta.fps;
+    startFrame = Math.max(0, Math.min(nFrames - 1, Math.round((stitch.generated[0] - fillFps) / fillFps * fps)));
+  }
+  setFrame(startFrame);
+  tPlay = startFrame / fps;
   resize();
   fitCamera();
   requestAnimationFrame(tick);
