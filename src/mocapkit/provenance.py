@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, fields, replace
 from importlib import metadata
 from pathlib import Path
@@ -345,3 +345,16 @@ def _nominal(fps: float) -> float:
     from mocapkit.summary import nominal_fps  # summary reads files; this module is below io
 
     return nominal_fps(1.0 / fps) if fps > 0 else fps
+
+
+def shares_by_take(blended: Sequence[dict[str, Any]]) -> list[tuple[str, float]]:
+    """(take, summed weight) of each library file in ``blended`` (an in-betweening's
+    ``blended_from``: its result's or its sidecar's ``parameters``), largest share first:
+    twelve segments read as a few takes (the report, the demo and the viewer print these). A
+    take is named by its file name, or by its path where another file has the same name."""
+    shares: dict[str, float] = {}
+    for x in blended:
+        shares[str(x["source"])] = shares.get(str(x["source"]), 0.0) + float(x["weight"])
+    names = [Path(k).name for k in shares]
+    shown = [k if names.count(Path(k).name) > 1 else Path(k).name for k in shares]
+    return sorted(zip(shown, shares.values(), strict=True), key=lambda kv: -kv[1])

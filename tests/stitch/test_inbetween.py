@@ -989,7 +989,8 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
 def test_shares_by_take_names_a_clashing_file_by_its_path():
     """Two library folders holding a file of the same name: those two are named by their
     paths, the others by their file names (reviewer); shares summed, largest first."""
-    from mocapkit.cli.inbetween_commands import _percent, _shares_by_take
+    from mocapkit.cli.inbetween_commands import _percent
+    from mocapkit.provenance import shares_by_take
 
     bf = [
         {"source": "a/walk.bvh", "weight": 0.5},
@@ -997,9 +998,9 @@ def test_shares_by_take_names_a_clashing_file_by_its_path():
         {"source": "a/run.bvh", "weight": 0.4},
         {"source": "a/walk.bvh", "weight": -0.1},
     ]
-    assert _shares_by_take(bf) == [
+    assert shares_by_take(bf) == [
         ("a/walk.bvh", pytest.approx(0.4)), ("run.bvh", 0.4), ("b/walk.bvh", 0.2),
-    ] or _shares_by_take(bf) == [
+    ] or shares_by_take(bf) == [
         ("run.bvh", 0.4), ("a/walk.bvh", pytest.approx(0.4)), ("b/walk.bvh", 0.2),
     ]  # fmt: skip
     assert _percent(-0.001) == "0%" and _percent(0.306) == "31%" and _percent(-0.06) == "-6%"

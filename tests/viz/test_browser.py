@@ -256,4 +256,11 @@ def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     _open(b, page)
     assert b.eval("mocapkitViewer.frame") == 60 - round(walk.fps)
     assert _readout_frame(b) == 60 - round(walk.fps)
+    # the segments' shares summed by take, as the command reports them (shares_by_take)
+    from mocapkit.provenance import shares_by_take
+
+    name, share = shares_by_take(res.blended_from)[0]
+    text = b.eval("document.body.innerText")
+    assert f"of {len(shares_by_take(res.blended_from))} take(s), by take: {name} " in text
+    assert f"{name} {round(100 * share)}%" in text
     _assert_no_errors(b)

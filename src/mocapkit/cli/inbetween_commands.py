@@ -3,9 +3,7 @@ import; see mocapkit.cli)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import click
 
@@ -32,7 +30,7 @@ from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs, same_file
-from mocapkit.provenance import Provenance, find_provenance
+from mocapkit.provenance import Provenance, find_provenance, shares_by_take
 from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS, kalman_max_frames
 from mocapkit.stitch.search import check_same_skeleton
 
@@ -211,7 +209,7 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
-    takes = _shares_by_take(res.blended_from)
+    takes = shares_by_take(res.blended_from)
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
         shown = ", ".join(f"{name} {_percent(share)}" for name, share in takes[:4])
@@ -322,7 +320,7 @@ def inbetween_demo_step(out: Path) -> None:
     write_motion(res.motion, bvh)
     side = res.provenance(bvh).write(bvh)
     err = res.difference_to(walk)
-    takes = _shares_by_take(res.blended_from)
+    takes = shares_by_take(res.blended_from)
     used = ", ".join(f"{name} {_percent(share)}" for name, share in takes)
     click.echo(
         f"  gap {a}:{b} of the walk filled by {res.method}"
@@ -339,18 +337,6 @@ def inbetween_demo_step(out: Path) -> None:
 DEMO_STEPS.append(
     (15, "in-betweening: a blanked second filled from a library", inbetween_demo_step)
 )
-
-
-def _shares_by_take(blended: Sequence[dict[str, Any]]) -> list[tuple[str, float]]:
-    """(take, summed weight) of each library file in ``blended`` (``Inbetween.blended_from``),
-    largest share first: twelve segments read as a few takes. A take is named by its file name,
-    or by its path where another file has the same name."""
-    shares: dict[str, float] = {}
-    for x in blended:
-        shares[str(x["source"])] = shares.get(str(x["source"]), 0.0) + float(x["weight"])
-    names = [Path(k).name for k in shares]
-    shown = [k if names.count(Path(k).name) > 1 else Path(k).name for k in shares]
-    return sorted(zip(shown, shares.values(), strict=True), key=lambda kv: -kv[1])
 
 
 def _percent(share: float) -> str:

@@ -516,6 +516,7 @@ class InbetweenConfig:
     def __post_init__(self) -> None:
         check_field_types(self)
         object.__setattr__(self, "neighbours", int(self.neighbours))
+        object.__setattr__(self, "regression_rank", int(self.regression_rank))
         if not (self.lock_context_seconds >= 0 and self.lock_ramp_seconds >= 0):
             raise ValueError("lock_context_seconds and lock_ramp_seconds must be >= 0")
         if not (self.window_seconds > 0 and self.blend_seconds >= 0):

@@ -25,7 +25,7 @@ import numpy as np
 
 from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.core.motion import Motion
-from mocapkit.provenance import Provenance
+from mocapkit.provenance import Provenance, shares_by_take
 
 __all__ = [
     "PALETTE",
@@ -338,6 +338,13 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
                 "weight": x.get("weight"),
             }
             for x in plan.parameters.get("blended_from") or []
+        ],
+        # the segments' shares summed by take, largest first (as the command's report)
+        "takes": [
+            {"name": name, "share": share}
+            for name, share in shares_by_take(
+                [x for x in plan.parameters.get("blended_from") or [] if "weight" in x]
+            )
         ],
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),

@@ -670,17 +670,12 @@
         (x.weight != null ? ' (weight ' + pct(x.weight) + ')' : '');
     };
     var blended = stitch.blended || [];
-    var byTake = {};  // summed weights per library file: twelve segments read as a few takes
-    blended.forEach(function (x) { byTake[x.data] = (byTake[x.data] || 0) + Number(x.weight || 0); });
-    var takes = Object.keys(byTake).sort(function (p, q) { return byTake[q] - byTake[p]; });
+    var takes = stitch.takes || [];  // the shares summed by take (viewer.py: shares_by_take)
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by combining ' + blended.length + ' library segments of ' + takes.length + ' take(s), by take: ' +
-        takes.map(function (t) {  // a file name another take shares is given with its path
-          var clash = takes.some(function (o) { return o !== t && base(o) === base(t); });
-          return (clash ? t : base(t)) + ' ' + pct(byTake[t]);
-        }).join(', ') +
+        takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
         ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); best match: ' +
         segText(blended[0]) + '; every segment in the sidecar' :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
