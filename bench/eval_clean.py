@@ -48,7 +48,7 @@ from scipy import ndimage
 from mocapkit.body import body_of
 from mocapkit.clean.cleaner import SelfSimilarityCleaner
 from mocapkit.clean.detect import ORIGINAL_ORDER, PIPELINE, RETIRED, DetectConfig, run_pipeline
-from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix
+from mocapkit.clean.evaluate import Counts, corrupt, unit_matrix, unit_words
 from mocapkit.clean.inject import ERROR_KINDS
 from mocapkit.clean.repair import foot_slide
 from mocapkit.clean.texture import rotating_joints
@@ -476,11 +476,28 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
                         if vname == "full":
                             false_alarm_reasons(fl, truth, flagged, act, clean.fps,
                                                 (set_name, cls, ctx_name, kind))  # fmt: skip
+                            if args.misses:
+                                print_misses(f, cor, truth & ~flagged, act, clean, ctx_name)
             print(
                 f"  [{time.time() - T0:6.0f} s] {set_name} / {cls}: {Path(f).name}",
                 file=sys.stderr,
                 flush=True,
             )
+
+
+def print_misses(path: str, cor, missed: np.ndarray, act, motion, ctx_name: str) -> None:
+    """One line per missed (joint, word) unit, with the injected error it belongs to."""
+    starts, n = unit_words(motion.num_frames, motion.fps)
+    for w, ja in zip(*np.nonzero(missed), strict=True):
+        j = int(act[ja])
+        a, b = int(starts[w]), int(starts[w] + n)
+        name = motion.skeleton.names[j]
+        errs = [e for e in cor.spans() if e[1] == name and e[2] < b and e[3] >= a]
+        print(
+            f"  MISS {Path(path).name} {ctx_name} {motion.skeleton.names[j]} word {a}:{b} "
+            f"of {motion.num_frames}: {errs}",
+            file=sys.stderr,
+        )
 
 
 REASONS: dict = {}  # (set, class, context, kind) -> {rule: false-alarm units it flagged}
@@ -545,6 +562,7 @@ def main() -> int:
     ap.add_argument("--also", default="", help="score PIPELINE plus these retired rules too")
     ap.add_argument("--drops", default="", help="score ORIGINAL_ORDER less these: 'a,b;c'")
     ap.add_argument("--repair", action="store_true", help="foot slide before/after repair")
+    ap.add_argument("--misses", action="store_true", help="print every missed unit (stderr)")
     ap.add_argument("--json", default=None, help="write the figures here too")
     ap.add_argument(
         "--config", default="",

@@ -205,6 +205,56 @@ def test_cancelling_jumps() -> None:
     assert not fl.mask.any()
 
 
+def popping_toe(F: int = 300) -> np.ndarray:
+    """(F, 2, 4): joint 1 held still but for a one-frame pop of 12 deg every second (a toe at
+    each foot strike), so that its ordinary jump (97th percentile) is about 12 deg."""
+    rv = np.zeros((F, 2, 3))
+    rv[15::30, 1, 0] = np.radians(12.0)
+    return rot.rotvec_to_quat(rv)
+
+
+def test_still_jumps() -> None:
+    still = np.radians(8.0)
+    # a still joint turned 15 deg at once from frame 200 on: a still jump at 200 ...
+    q = turn(popping_toe(), slice(200, 300), 1, 15.0)
+    s = mdm_mod.still_jumps(q, still, 5.0, 3)
+    assert s[200, 1] and s.sum() == 1
+    # ... far under the joint's own bar (1.45 times its 12 deg pops): no jump peak without it
+    assert not evidence(q, config=DetectConfig(still_jump_ratio=0)).jump_peaks[200, 1]
+    assert evidence(q).jump_peaks[200, 1]
+    # a still joint's one-frame pop (two big steps in a row), a moving joint stopping dead (a
+    # foot strike) and a turn amid fast motion are no still jumps
+    assert not mdm_mod.still_jumps(popping_toe(), still, 5.0, 3).any()
+    rv = np.zeros((300, 2, 3))
+    rv[:100, 1, 0] = np.radians(np.arange(100) * 3.0)
+    rv[100:, 1, 0] = rv[99, 1, 0]
+    assert not mdm_mod.still_jumps(rot.rotvec_to_quat(rv), still, 5.0, 3).any()
+    fast = turn(smooth(300, amp=1.5), slice(225, 300), 1, 15.0)  # at its fastest
+    assert not mdm_mod.still_jumps(fast, still, 5.0, 3)[225, 1]
+    # nor a jump under step_min_deg, however still the joint
+    assert not mdm_mod.still_jumps(
+        turn(popping_toe(), slice(200, 300), 1, 6.0), still, 5.0, 3
+    ).any()
+
+
+def test_cancelling_jumps_flag_a_still_joints_error_cut_off_by_the_take() -> None:
+    """A toe held still turned 15 deg from frame 280 to the take's end (its pops make its
+    ordinary jump 12 deg): the cut-off error's one jump counts because the toe is still around
+    it; without the still jumps nothing is flagged."""
+    cut = turn(popping_toe(), slice(280, 300), 1, 15.0)
+    mdm = np.zeros((300, 2))
+    mdm[280:, 1] = 0.7
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(cut, mdm=mdm), fl)
+    assert fl.mask[280:, 1].all() and not fl.mask[:280].any()
+    text = CancellingJumps().describe(evidence(cut, mdm=mdm), 290, 1)
+    assert "frame 280 (15.0 deg, the joint still around it)" in text and "cut off" in text
+    off = DetectConfig(still_jump_ratio=0)
+    fl = Flags((300, 2))
+    CancellingJumps().from_config(off).apply(evidence(cut, mdm=mdm, config=off), fl)
+    assert not fl.mask.any()
+
+
 def test_cancelling_jumps_leave_a_clean_end_frame_out_of_a_cut_off_error() -> None:
     """An error entered at frame 1 (left at the next-to-last frame) has its entry where jumps
     are not measured, so it looks cut off by the take: the step out of frame 0 (into the last
@@ -253,7 +303,7 @@ def test_cancelling_jumps_three_errors_on_one_joint_do_not_hide_each_other() -> 
     fl = Flags((300, 2))
     CancellingJumps().apply(evidence(bad), fl)
     assert np.array_equal(np.flatnonzero(fl.mask[:, 1]), np.r_[40:52, 120:140, 200:215])
-    old = DetectConfig(pair_quantile=99.0, pair_ratio=1.2)
+    old = DetectConfig(pair_quantile=99.0, pair_ratio=1.2, still_jump_ratio=0)
     fl = Flags((300, 2))
     CancellingJumps().apply(evidence(bad, config=old), fl)
     assert fl.mask[:, 1].sum() < 47

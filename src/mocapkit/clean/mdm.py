@@ -520,6 +520,35 @@ def jump_size(rotations: np.ndarray) -> np.ndarray:
     return out
 
 
+def still_jumps(rotations: np.ndarray, min_step: float, ratio: float, width: int) -> np.ndarray:
+    """(F, J) bool, indexed as :func:`jump_size`: frames ``f`` entered by a step (``|w[f-1]|``,
+    the body-frame rotation from frame ``f - 1`` to ``f``) over ``min_step`` radians and over
+    ``ratio`` times every step of the ``width`` frames before and after it (at least one each
+    side): the joint is still, turns at once, and is still again. A joint at rest does not
+    turn by several degrees within one frame and stop dead (a foot strike stops a moving toe;
+    it does not move a still one), so a still joint's jump is an error's edge however small
+    it is against the joint's ordinary jumps."""
+    q = np.asarray(rotations, dtype=np.float64)
+    F = q.shape[0]
+    out = np.zeros(q.shape[:2], dtype=bool)
+    if F < 4 or width < 1 or ratio <= 0:
+        return out
+    s = np.linalg.norm(_body_steps(q), axis=-1)  # (F-1, J): s[i] from frame i to i + 1
+    n = s.shape[0]
+    pad = np.pad(s, ((width, width), (0, 0)), constant_values=-1.0)
+    near = np.full(s.shape, -1.0)
+    for k in range(1, width + 1):
+        before, after = pad[width - k : width - k + n], pad[width + k : width + k + n]
+        near = np.maximum(near, np.maximum(before, after))
+    still = (s > min_step) & (s > ratio * near)
+    # both sides must hold a step: the first and last steps are left out, as jump_size leaves
+    # out frames f < 2 and f > F - 2
+    still[0] = still[-1] = False
+    out[1:] = still
+    out[:2] = out[F - 1 :] = False
+    return out
+
+
 def step_peaks(
     steps: np.ndarray, ratio: float, min_step: float, quantile: float = 99.0
 ) -> np.ndarray:

@@ -18,30 +18,31 @@ from mocapkit.core.runs import true_runs
 @dataclass(frozen=True)
 class CancellingJumps:
     """Flag the frames between two jumps of a joint (steps differing from both neighbours,
-    :func:`~mocapkit.clean.mdm.jump_size`, far above the joint's own) at most ``max_seconds``
-    apart whose step deviations cancel, whatever their MDM.
+    :func:`~mocapkit.clean.mdm.jump_size`, far above the joint's own) at most ``max_seconds`` apart
+    whose step deviations cancel, whatever their MDM.
 
-    Relies on: a spike, an offset or a flip turns a stretch by one constant rotation, entered
-    and left with opposite jumps; natural motion that jumps seldom jumps back by the same
-    rotation (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is not
-    paired with a later one entering another (the frames between are clean), where the
-    digression tells the two sides of each jump apart and an entry before and an exit after them
-    (or the take's ends) flank the two: a lone error whose sides were misread pairs. An error
-    cut off by the take's end (or start) has one jump: unpaired, entering (leaving) an error at
-    most ``max_seconds`` from that end with no jump leaving (entering) one beyond it, it flags
-    to the end where most of those frames have MDM above the threshold
-    (``DetectConfig.pair_cut_off``) or where its jump exceeds ``cut_jump_ratio`` times the
-    joint's ordinary jump (:attr:`Evidence.jump_scale`) and no other within ``max_seconds``
-    does: a joint's natural jumps near a take's end (a foot strike) are of its usual size,
-    while an error's jump is far above it even where its frames do not digress. (A jump is a
-    candidate only where the digression reads its side: near the take's start, where a tie
-    reads as an entry, a cut-off error's frames must digress somewhat.) Jumps are not measured
-    on a take's first and last two frames, so an error entered at frame 1 looks cut off too:
-    where the step out of frame 0 cancels the stretch's jump, frame 0 is left out (the same at
-    the end). A jump that is one side of a one-frame pop (:attr:`Evidence.pops`, the frame
-    beside it deviating the opposite way) pairs with nothing farther: a toe popping for one
-    frame at each foot strike paired the exit of one pop with the entry of the next across
-    the stance; a one-frame spike is the spike rule's."""
+    Relies on: a spike, an offset or a flip turns a stretch by one constant rotation, entered and
+    left with opposite jumps; natural motion that jumps seldom jumps back by the same rotation
+    (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is not paired with a
+    later one entering another (the frames between are clean), where the digression tells the two
+    sides of each jump apart and an entry before and an exit after them (or the take's ends) flank
+    the two: a lone error whose sides were misread pairs. An error cut off by the take's end (or
+    start) has one jump: unpaired, entering (leaving) an error at most ``max_seconds`` from that end
+    with no jump leaving (entering) one beyond it, it flags to the end where most of those frames
+    have MDM above the threshold (``DetectConfig.pair_cut_off``) or where its jump exceeds
+    ``cut_jump_ratio`` times the joint's ordinary jump (:attr:`Evidence.jump_scale`) and no other
+    within ``max_seconds`` does: a joint's natural jumps near a take's end (a foot strike) are of
+    its usual size, while an error's jump is far above it even where its frames do not digress. (A
+    jump is a candidate only where the digression reads its side: near the take's start, where a tie
+    reads as an entry, a cut-off error's frames must digress somewhat.) A jump of a joint still
+    before and after it counts however small it is against the joint's ordinary jumps
+    (:attr:`Evidence.still_jumps`): a toe at rest does not turn 17 deg in a frame and stop. Jumps
+    are not measured on a take's first and last two frames, so an error entered at frame 1 looks cut
+    off too: where the step out of frame 0 cancels the stretch's jump, frame 0 is left out (the same
+    at the end). A jump that is one side of a one-frame pop (:attr:`Evidence.pops`, the frame beside
+    it deviating the opposite way) pairs with nothing farther: a toe popping for one frame at each
+    foot strike paired the exit of one pop with the entry of the next across the stance; a one-frame
+    spike is the spike rule's."""
 
     name: ClassVar[str] = "cancelling-jumps"
     veto: ClassVar[bool] = False
@@ -145,7 +146,8 @@ class CancellingJumps:
                 if g is None
                 else f", one side of a one-frame pop with frame {g}: pairs with no other"
             )
-            return f"frame {p} ({deg(ev.jump_size[p, joint])}{pop})"
+            still = ", the joint still around it" if ev.still_jumps[p, joint] else ""
+            return f"frame {p} ({deg(ev.jump_size[p, joint])}{still}{pop})"
 
         if len(before):
             parts.append(f"last jump peak {peak(before[-1])}")

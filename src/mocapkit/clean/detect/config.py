@@ -141,6 +141,17 @@ class DetectConfig:
     pair_ratio: float = 1.45
     #: Percentile of the joint's jumps the pair ratio is measured against.
     pair_quantile: float = 97.0
+    #: A jump counts too when the joint is still around it: its step is over ``step_min_deg``
+    #: and this many times every step within ``still_jump_seconds`` before and after it (0:
+    #: off; :func:`~mocapkit.clean.mdm.still_jumps`). A joint at rest does not turn several
+    #: degrees in one frame and stop dead, however large its own jumps elsewhere (a toe's pops
+    #: at foot strikes set its bar at 17.6 deg in walk_tired_002, where a 17 deg offset of the
+    #: resting toe cut off by the take's end went unseen). Bandai-1 tuning half, 8 takes,
+    #: seeds 0-3: locomotion offset recall 0.970 -> 1.000 at seed 0, nothing else changed;
+    #: its clean takes, whole, hold 3 such jumps (a dance's toe snaps of 22-27 deg).
+    still_jump_ratio: float = 5.0
+    #: ... see ``still_jump_ratio``: three frames at 30 fps.
+    still_jump_seconds: float = 0.1
     #: A jump entering an error within ``pair_seconds`` of the take's end (or leaving one as
     #: near its start) that pairs with no other flags the frames to that end where most of
     #: them digress (MDM above ``threshold``): an error cut off by the take has one jump only.

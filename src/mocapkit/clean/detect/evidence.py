@@ -232,10 +232,25 @@ class Evidence:
 
     @cached_property
     def jump_peaks(self) -> np.ndarray:
-        """(F, J) bool: jumps far above the joint's own."""
+        """(F, J) bool: jumps far above the joint's own, and the jumps of a still joint."""
         c = self.config
-        return mdm_mod.step_peaks(
+        peaks = mdm_mod.step_peaks(
             self.jump_size, c.pair_ratio, np.radians(c.step_min_deg), c.pair_quantile
+        )
+        return peaks | self.still_jumps
+
+    @cached_property
+    def still_jumps(self) -> np.ndarray:
+        """(F, J) bool: jumps of a joint still before and after them (:func:`mdm.still_jumps`,
+        ``still_jump_ratio``), jump peaks however small against the joint's own jumps."""
+        c = self.config
+        if c.still_jump_ratio <= 0:
+            return np.zeros(self.shape, dtype=bool)
+        return mdm_mod.still_jumps(
+            self.rotations,
+            np.radians(c.step_min_deg),
+            c.still_jump_ratio,
+            self.frames(c.still_jump_seconds),
         )
 
     @cached_property
