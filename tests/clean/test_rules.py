@@ -91,6 +91,10 @@ def test_pipeline_is_data_and_config_has_no_frames() -> None:
         SelfSimilarityCleaner(nope=1)
     with pytest.raises(ValueError, match="spike_deg"):
         DetectConfig(spike_deg=-1.0)
+    with pytest.raises(ValueError, match="still_jump_ratio"):
+        DetectConfig(still_jump_ratio=-1.0)
+    with pytest.raises(ValueError, match="still_jump_seconds"):
+        DetectConfig(still_jump_seconds=-0.1)
 
 
 def test_mdm_threshold_and_hysteresis() -> None:

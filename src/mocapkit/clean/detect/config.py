@@ -391,6 +391,8 @@ class DetectConfig:
             raise ValueError(
                 f"pair_cut_jump_ratio must be 0 or more, got {self.pair_cut_jump_ratio!r}"
             )
+        if not self.still_jump_ratio >= 0.0:
+            raise ValueError(f"still_jump_ratio must be 0 or more, got {self.still_jump_ratio!r}")
         if not 0.0 <= self.spike_jump_share <= 1.0:
             raise ValueError(f"spike_jump_share must lie in [0, 1], got {self.spike_jump_share!r}")
         if not self.spike_jump_ratio >= 0.0:
