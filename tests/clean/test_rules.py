@@ -235,6 +235,28 @@ def test_still_jumps() -> None:
     assert not mdm_mod.still_jumps(rot.rotvec_to_quat(rv), still, 5.0, 3).any()
     fast = turn(smooth(300, amp=1.5), slice(225, 300), 1, 15.0)  # at its fastest
     assert not mdm_mod.still_jumps(fast, still, 5.0, 3)[225, 1]
+    # one two frames before the take's end is found; none on the last frame (no step after it)
+    end = turn(popping_toe(), slice(298, 300), 1, 15.0)
+    assert np.flatnonzero(mdm_mod.still_jumps(end, still, 5.0, 3)[:, 1]).tolist() == [298]
+    assert not mdm_mod.still_jumps(
+        turn(popping_toe(), slice(299, 300), 1, 15.0), still, 5.0, 3
+    ).any()
+    # the ratio: neighbouring steps of 1/7 of the jump are still at ratio 5, not at 10
+    rv = np.zeros((300, 2, 3))
+    rv[:, 1, 0] = np.radians(np.arange(300) * 15.0 / 7.0 * (np.arange(300) < 200))
+    rv[200:, 1, 0] = rv[199, 1, 0] + np.radians(15.0) + np.radians(np.arange(100) * 15.0 / 7.0)
+    q7 = rot.rotvec_to_quat(rv)
+    assert mdm_mod.still_jumps(q7, still, 5.0, 3)[200, 1]
+    assert not mdm_mod.still_jumps(q7, still, 10.0, 3)[200, 1]
+    # Evidence passes the config's step_min_deg and turns still_jump_seconds into the take's
+    # frames: at 120 fps a joint moving until 6 frames (0.05 s) before is not still for 0.1 s
+    assert not evidence(q, config=DetectConfig(step_min_deg=20.0)).still_jumps.any()
+    rv = np.zeros((300, 2, 3))
+    rv[:194, 1, 0] = np.radians(np.arange(194) * 4.0)
+    rv[194:, 1, 0] = rv[193, 1, 0]
+    fast = turn(rot.rotvec_to_quat(rv), slice(200, 300), 1, 15.0)
+    assert Evidence(fast, 30.0).still_jumps[200, 1]  # 0.1 s: three frames, all still
+    assert not Evidence(fast, 120.0).still_jumps[200, 1]  # twelve frames: it was moving
     # nor a jump under step_min_deg, however still the joint
     assert not mdm_mod.still_jumps(
         turn(popping_toe(), slice(200, 300), 1, 6.0), still, 5.0, 3
@@ -252,7 +274,8 @@ def test_cancelling_jumps_flag_a_still_joints_error_cut_off_by_the_take() -> Non
     CancellingJumps().apply(evidence(cut, mdm=mdm), fl)
     assert fl.mask[280:, 1].all() and not fl.mask[:280].any()
     text = CancellingJumps().describe(evidence(cut, mdm=mdm), 290, 1)
-    assert "frame 280 (15.0 deg, the joint still around it)" in text and "cut off" in text
+    assert "frame 280 (15.0 deg, the joint held still for 0.1 s before" in text
+    assert "cut off" in text
     off = DetectConfig(still_jump_ratio=0)
     fl = Flags((300, 2))
     CancellingJumps().from_config(off).apply(evidence(cut, mdm=mdm, config=off), fl)

@@ -524,10 +524,13 @@ def still_jumps(rotations: np.ndarray, min_step: float, ratio: float, width: int
     """(F, J) bool, indexed as :func:`jump_size`: frames ``f`` entered by a step (``|w[f-1]|``,
     the body-frame rotation from frame ``f - 1`` to ``f``) over ``min_step`` radians and over
     ``ratio`` times every step of the ``width`` frames before and after it (at least one each
-    side): the joint is still, turns at once, and is still again. A joint at rest does not
-    turn by several degrees within one frame and stop dead (a foot strike stops a moving toe;
-    it does not move a still one), so a still joint's jump is an error's edge however small
-    it is against the joint's ordinary jumps."""
+    side), and whose jump (:func:`jump_size`) is over ``min_step`` too: the joint is still,
+    turns at once, and is still again. A joint at rest seldom turns by several degrees within
+    one frame and stops dead (a foot strike stops a moving toe; it does not move a still one;
+    a dancer's toe snap does, and is left to the pairing), so a still joint's jump is a
+    candidate error edge however small it is against the joint's ordinary jumps. "Still" is
+    per frame: at 120 fps the steps around may be four times as fast in degrees per second
+    as at 30 fps."""
     q = np.asarray(rotations, dtype=np.float64)
     F = q.shape[0]
     out = np.zeros(q.shape[:2], dtype=bool)
@@ -541,11 +544,10 @@ def still_jumps(rotations: np.ndarray, min_step: float, ratio: float, width: int
         before, after = pad[width - k : width - k + n], pad[width + k : width + k + n]
         near = np.maximum(near, np.maximum(before, after))
     still = (s > min_step) & (s > ratio * near)
-    # both sides must hold a step: the first and last steps are left out, as jump_size leaves
-    # out frames f < 2 and f > F - 2
-    still[0] = still[-1] = False
     out[1:] = still
-    out[:2] = out[F - 1 :] = False
+    # as a jump peak: the jump itself over min_step too; jump_size is 0 on frames f < 2 and
+    # f > F - 2, where a step has no neighbour on one side
+    out &= jump_size(q) > min_step
     return out
 
 

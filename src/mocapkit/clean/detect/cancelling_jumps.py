@@ -36,7 +36,7 @@ class CancellingJumps:
     jump is a candidate only where the digression reads its side: near the take's start, where a tie
     reads as an entry, a cut-off error's frames must digress somewhat.) A jump of a joint still
     before and after it counts however small it is against the joint's ordinary jumps
-    (:attr:`Evidence.still_jumps`): a toe at rest does not turn 17 deg in a frame and stop. Jumps
+    (:attr:`Evidence.still_jumps`): a toe at rest seldom turns 17 deg in a frame and stops. Jumps
     are not measured on a take's first and last two frames, so an error entered at frame 1 looks cut
     off too: where the step out of frame 0 cancels the stretch's jump, frame 0 is left out (the same
     at the end). A jump that is one side of a one-frame pop (:attr:`Evidence.pops`, the frame beside
@@ -146,7 +146,11 @@ class CancellingJumps:
                 if g is None
                 else f", one side of a one-frame pop with frame {g}: pairs with no other"
             )
-            still = ", the joint still around it" if ev.still_jumps[p, joint] else ""
+            still = (
+                f", the joint held still for {ev.config.still_jump_seconds:g} s before and after it"
+                if ev.still_jumps[p, joint]
+                else ""
+            )
             return f"frame {p} ({deg(ev.jump_size[p, joint])}{still}{pop})"
 
         if len(before):

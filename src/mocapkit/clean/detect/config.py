@@ -145,7 +145,7 @@ class DetectConfig:
     #: and this many times every step within ``still_jump_seconds`` before and after it (0:
     #: off; :func:`~mocapkit.clean.mdm.still_jumps`). A joint at rest does not turn several
     #: degrees in one frame and stop dead, however large its own jumps elsewhere (a toe's pops
-    #: at foot strikes set its bar at 17.6 deg in walk_tired_002, where a 17 deg offset of the
+    #: at foot strikes set its bar at 17 deg in walk_tired_002, where a 17 deg offset of the
     #: resting toe cut off by the take's end went unseen). Bandai-1 tuning half, 8 takes,
     #: seeds 0-3: locomotion offset recall 0.970 -> 1.000 at seed 0, nothing else changed;
     #: its clean takes, whole, hold 3 such jumps (a dance's toe snaps of 22-27 deg).
