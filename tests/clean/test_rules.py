@@ -25,6 +25,7 @@ from mocapkit.clean.detect import (
     LimitReleaseVeto,
     MDMHysteresis,
     NoiseBursts,
+    OnceAtTheEnds,
     PaperThreshold,
     RecurringVeto,
     SmoothVeto,
@@ -499,6 +500,60 @@ def test_smooth_veto() -> None:
     fl = flagged(90, 2, [(30, 40, 0)])
     SmoothVeto().apply(evidence(turn(smooth(), slice(30, 40), 0, 30.0)), fl)
     assert fl.mask[30:40, 0].all()
+
+
+def test_once_at_the_ends_veto() -> None:
+    """A run reaching the take's start (end) whose edge inside the take does not jump is a
+    movement performed once there (the arm raised into a wave), cleared; one whose edge jumps
+    is an error cut off by the take, kept; as is a run in the middle of the take."""
+    F = 300
+    # the joint speeds up at frame 40 (the wave starts): a change of speed, no jump
+    rv = np.zeros((F, 2, 3))
+    t = np.arange(F, dtype=float)
+    rv[:, 1, 0] = np.radians(np.where(t < 40, 0.5 * t, 20.0 + 6.0 * (t - 40)))
+    wave = rot.rotvec_to_quat(rv)
+    for cells, cleared in (
+        ([(0, 40, 1)], True),  # the take's first movement
+        ([(4, 40, 1)], True),  # within 0.2 s of the take's start
+        ([(10, 40, 1)], False),  # 0.33 s in: the smooth veto's, not this one's
+        ([(100, 150, 1)], False),  # the middle of the take
+    ):
+        fl = flagged(F, 2, cells)
+        OnceAtTheEnds().apply(evidence(wave), fl)
+        a, b, j = cells[0]
+        assert (not fl.mask[a:b, j].any()) == cleared, cells
+    # at the take's end the same, mirrored; an offset cut off there enters with a jump
+    back = wave[::-1].copy()
+    fl = flagged(F, 2, [(260, 300, 1)])
+    OnceAtTheEnds().apply(evidence(back), fl)
+    assert not fl.mask.any()
+    fl = flagged(F, 2, [(260, 300, 1)])
+    OnceAtTheEnds().apply(evidence(turn(back, slice(260, 300), 1, 30.0)), fl)
+    assert fl.mask[260:300, 1].all()
+    # an offset cut off by the take's start leaves with a jump at its edge: kept
+    cut = turn(wave, slice(0, 40), 1, 30.0)
+    ev = evidence(cut)
+    assert ev.jump_peaks[40, 1]
+    fl = flagged(F, 2, [(0, 40, 1)])
+    OnceAtTheEnds().apply(ev, fl)
+    assert fl.mask[0:40, 1].all()
+    text = OnceAtTheEnds().describe(ev, 10, 1, fl)
+    assert "an error cut off by the take" in text
+    # frozen and cancelling-jumps cells are spared; the veto can be turned off
+    fl = Flags((F, 2))
+    m = np.zeros((F, 2), dtype=bool)
+    m[0:40, 1] = True
+    fl.flag("frozen", m)
+    OnceAtTheEnds().apply(evidence(wave), fl)
+    assert fl.mask[0:40, 1].all()
+    fl = flagged(F, 2, [(0, 40, 1)])
+    off = DetectConfig(once_end_seconds=0)
+    OnceAtTheEnds.from_config(off).apply(evidence(wave, config=off), fl)
+    assert fl.mask[0:40, 1].all()
+    fl = flagged(F, 2, [(0, 40, 1)])
+    OnceAtTheEnds().apply(evidence(wave), fl)
+    text = OnceAtTheEnds().describe(evidence(wave), 10, 1, fl)
+    assert "performed once at the take's start" in text
 
 
 def test_recurring_veto() -> None:

@@ -8,7 +8,7 @@
 Rules (each module's docstring says what fact it relies on): :class:`MDMHysteresis` (the
 paper's MDM threshold, seeded), :class:`DominanceVeto`, :class:`CancellingJumps`,
 :class:`Spikes`, :class:`FrozenJoints`, :class:`SmoothVeto`, :class:`RecurringVeto`,
-:class:`LimitReleaseVeto`, :class:`NoiseBursts`, :class:`WrongWayHinges`,
+:class:`LimitReleaseVeto`, :class:`OnceAtTheEnds`, :class:`NoiseBursts`, :class:`WrongWayHinges`,
 :class:`ExtendToSteps`.
 """
 
@@ -24,6 +24,7 @@ from mocapkit.clean.detect.hinges import WrongWayHinges
 from mocapkit.clean.detect.limit_release import LimitReleaseVeto
 from mocapkit.clean.detect.mdm_threshold import MDMHysteresis, PaperThreshold, abrupt_seeds
 from mocapkit.clean.detect.noise_bursts import NoiseBursts
+from mocapkit.clean.detect.once_at_ends import OnceAtTheEnds
 from mocapkit.clean.detect.pipeline import (
     ADDED,
     ORIGINAL_ORDER,
@@ -62,6 +63,7 @@ __all__ = [
     "LimitReleaseVeto",
     "MDMHysteresis",
     "NoiseBursts",
+    "OnceAtTheEnds",
     "PaperThreshold",
     "RecurringVeto",
     "SmoothVeto",

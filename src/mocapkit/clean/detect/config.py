@@ -172,6 +172,13 @@ class DetectConfig:
     #: (a hold cut off by the end), precision unchanged.
     pair_cut_jump_ratio: float = 4.0
 
+    # ------------------------------------------------------------------ once at the ends
+    #: A flagged run coming within this long (seconds) of the take's first or last frame ...
+    #: (0: the veto off; :class:`~mocapkit.clean.detect.OnceAtTheEnds`)
+    once_end_seconds: float = 0.2
+    #: ... is cleared unless a jump peak lies within this long of its edge inside the take.
+    once_pad_seconds: float = 0.1
+
     # ------------------------------------------------------------------ spikes
     #: A short stretch that leaves the joint's smooth path (the cubic through the frames
     #: around it) by more than this many degrees at every frame is a spike: natural motion of

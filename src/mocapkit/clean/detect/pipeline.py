@@ -19,6 +19,7 @@ from mocapkit.clean.detect.hinges import WrongWayHinges
 from mocapkit.clean.detect.limit_release import LimitReleaseVeto
 from mocapkit.clean.detect.mdm_threshold import MDMHysteresis, PaperThreshold
 from mocapkit.clean.detect.noise_bursts import NoiseBursts
+from mocapkit.clean.detect.once_at_ends import OnceAtTheEnds
 from mocapkit.clean.detect.recurring import RecurringVeto
 from mocapkit.clean.detect.smooth import SmoothVeto
 from mocapkit.clean.detect.spikes import Spikes
@@ -47,7 +48,7 @@ the extension 0.988/0.983; without the smooth veto as well 0.988/0.977, so the s
 stays. Kept importable for explanations and ablations, not run by default. The spike rule came
 back in session 19 at a higher threshold and after the signal rules (:data:`PIPELINE`)."""
 
-ADDED: tuple[type, ...] = (LimitReleaseVeto,)
+ADDED: tuple[type, ...] = (LimitReleaseVeto, OnceAtTheEnds)
 """Rules added after the ablation that retired :data:`RETIRED` (chosen on the Bandai-1 tuning
 half, then checked on the validation half, Bandai-2 and CMU without retuning)."""
 
@@ -58,6 +59,7 @@ PIPELINE: tuple[type, ...] = (
     SmoothVeto,
     RecurringVeto,
     LimitReleaseVeto,
+    OnceAtTheEnds,
     NoiseBursts,
     WrongWayHinges,
     Spikes,
