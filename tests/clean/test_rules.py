@@ -443,6 +443,21 @@ def test_frozen_joints() -> None:
     fl = Flags((90, 2))  # held bit for bit: no data, whatever the KNN words do
     FrozenJoints().apply(evidence(bad), fl)
     assert fl.mask[32:50, 0].all()
+    # held through the whole take, while the KNN words (a context that moves it) move away:
+    # a joint this take does not animate, not a dropout
+    whole = q.copy()
+    whole[:, 0] = q[0, 0]
+    ev = evidence(whole, dig=rot.quat_angle(whole, q))
+    fl = Flags((90, 2))
+    FrozenJoints().apply(ev, fl)
+    assert not fl.mask.any()
+    assert "the whole take, a joint this take does not animate" in FrozenJoints().describe(
+        ev, 40, 0
+    )
+    whole[89, 0] = q[89, 0]  # moved on its last frame: held 0:89 inside a take that moves it
+    fl = Flags((90, 2))
+    FrozenJoints().apply(evidence(whole, dig=rot.quat_angle(whole, q)), fl)
+    assert fl.mask[:89, 0].all()
 
 
 def test_frozen_joints_say_why_a_held_joint_is_not_frozen() -> None:

@@ -247,12 +247,14 @@ def clean_command(
     whatever their MDM, are stretches turned by one rotation (a jump away and, within 1.5 s,
     back by the same turn: cancelling-jumps; a one-frame pop is left to the spike rule), noise
     bursts, joints held still while their neighbours move on (frozen; a dropout repeats
-    one value bit for bit), knees or elbows bent the wrong way, and spikes (a joint off its own
+    one value bit for bit; a joint held through the whole take is one it does not animate),
+    knees or elbows bent the wrong way, and spikes (a joint off its own
     smooth path for at most 1/15 s by 20 to 40 deg, more the more the joint itself jumps).
     Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is natural: no step
     near the stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit
-    its solver clamps it at (limit-release). --explain JOINT:FRAME says which rule decided a
-    cell and why. Joint rotations are judged; translations (the root's path over the ground,
+    its solver clamps it at (limit-release), a take's first or last movement, performed once,
+    with no jump at its edge inside the take (once-at-ends). --explain JOINT:FRAME says which
+    rule decided a cell and why. Joint rotations are judged; translations (the root's path over the ground,
     animated bone offsets) are not checked. With --out, flagged cells are replaced by the
     neighbours' median, blended at
     the edges, and where a repaired joint moves a planted foot (a hip, knee or ankle, or the

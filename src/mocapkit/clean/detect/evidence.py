@@ -468,7 +468,7 @@ class Evidence:
         """Why the frozen rule does or does not flag cell (``frame``, ``joint``): ``(verdict,
         a, b, value)`` with the still run ``a .. b`` (frames) around it; verdict "moving" (no
         still run there), "short", "calm", "rests", "parked" (a straight hinge held straight)
-        or "frozen" (:func:`mdm.frozen_verdict`)."""
+        "whole" (held through the whole take) or "frozen" (:func:`mdm.frozen_verdict`)."""
         self._need_maps()
         p = self._frozen_params()
         q = self.rotations[:, joint]
@@ -483,7 +483,9 @@ class Evidence:
             q, still, self.digression[:, joint], a, b, p["min_frames"], p["min_digression"],
             p["tol"], p["max_recur"], p["margin"], tell,
         )  # fmt: skip
-        if verdict == "frozen" and not self.frozen[mdm_mod.held_from(a), joint]:
+        if verdict == "frozen" and self._held_throughout[joint]:
+            verdict = "whole"
+        elif verdict == "frozen" and not self.frozen[mdm_mod.held_from(a), joint]:
             verdict = "parked"
         return verdict, a, b + 1, value
 
@@ -507,4 +509,13 @@ class Evidence:
                     up = -1 if self.parents is None else int(self.parents[j])
                     if straight and not (up >= 0 and held[a : b + 1, up].all()):
                         out[a : b + 1, j] = False
+        # a joint held through the whole take is one the take does not animate (a standing
+        # person's toe, judged against walks in the context), not a dropout: a dropped marker
+        # holds the value captured before it, inside a take that moves the joint
+        out[:, self._held_throughout] = False
         return out
+
+    @property
+    def _held_throughout(self) -> np.ndarray:
+        """(J,) bool: the joints held (:attr:`still`) on every step of the take."""
+        return self.still.all(axis=0) if len(self.still) else np.zeros(self.shape[1], bool)

@@ -23,7 +23,9 @@ class FrozenJoints:
     Relies on: a live joint trembles; a dropped marker makes the solver repeat a stored value
     exactly, while a joint parked at its limit (straight elbow, flat toes) comes back to rest
     at the same value again and again (exactly, if the hold is exact: a clamp; a natural rest
-    near a held value never repeats it bit for bit)."""
+    near a held value never repeats it bit for bit). A joint held through the whole take is
+    one the take does not animate, not a dropout (a standing person's toe judged against
+    context takes that walk: newcomer)."""
 
     name: ClassVar[str] = "frozen"
     veto: ClassVar[bool] = False
@@ -75,5 +77,7 @@ class FrozenJoints:
             "rests": f"{held(a, b)} {rests}, not frozen",
             "parked": f"{held(a, b)} straight while the limb above it is not held: a knee or "
             "elbow parked at its limit, not frozen",
+            "whole": f"{held(a, b)}: the whole take, a joint this take does not animate, not "
+            "frozen",
             "frozen": held(a, b),
         }[verdict]
