@@ -254,8 +254,8 @@ def clean_command(
     near the stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit
     its solver clamps it at (limit-release), a take's first or last movement, performed once,
     with no jump at its edge inside the take (once-at-ends). --explain JOINT:FRAME says which
-    rule decided a cell and why. Joint rotations are judged; translations (the root's path over the ground,
-    animated bone offsets) are not checked. With --out, flagged cells are replaced by the
+    rule decided a cell and why. Joint rotations are judged; translations (the root's path over
+    the ground, animated bone offsets) are not checked. With --out, flagged cells are replaced by the
     neighbours' median, blended at
     the edges, and where a repaired joint moves a planted foot (a hip, knee or ankle, or the
     pelvis, under a foot on the ground) IK on that leg holds the foot where it was planted. All
