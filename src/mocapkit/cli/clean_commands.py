@@ -240,27 +240,26 @@ def clean_command(
     cleaned against its related takes, in this process or on a Dask cluster; see "Running on
     a cluster" in the README).
 
-    Every short window of each joint group ("motion-word") is compared by constrained DTW with
-    every window of the context; joints whose rotation digresses from their nearest neighbours'
-    mean are flagged (rule "mdm": stretches with MDM > threshold, or abrupt cells, that hold a
-    near-certain or abrupt cell; an abrupt cell may lie below the threshold), and so,
-    whatever their MDM, are stretches turned by one rotation (a jump away and, within 1.5 s,
-    back by the same turn: cancelling-jumps; a one-frame pop is left to the spike rule), noise
-    bursts, joints held still while their neighbours move on (frozen; a dropout repeats
-    one value bit for bit; a joint held through the whole take is one it does not animate),
-    knees or elbows bent the wrong way, and spikes (a joint off its own
-    smooth path for at most 1/15 s by 20 to 40 deg, more the more the joint itself jumps).
-    Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is natural: no step
-    near the stretch (smooth), a motif the joint repeats (recurring), a joint leaving a limit
-    its solver clamps it at (limit-release), a take's first or last movement, performed once,
-    with no jump at its edge inside the take (once-at-ends). --explain JOINT:FRAME says which
-    rule decided a cell and why. Joint rotations are judged; translations (the root's path over
-    the ground, animated bone offsets) are not checked. With --out, flagged cells are replaced
-    by the neighbours' median, blended at the edges, and where a repaired joint moves a planted foot (a hip, knee or ankle, or the
-    pelvis, under a foot on the ground) IK on that leg holds the foot where it was planted. All
-    other joints and frames keep their rotations bit for bit (the written file's angles are
-    derived from them again, to 1e-12 deg and 12 significant digits, so an unchanged angle reads
-    as the input file had it).
+    Every short window of each joint group ("motion-word") is compared by constrained DTW with every
+    window of the context; joints whose rotation digresses from their nearest neighbours' mean are
+    flagged (rule "mdm": stretches with MDM > threshold, or abrupt cells, that hold a near-certain
+    or abrupt cell; an abrupt cell may lie below the threshold), and so, whatever their MDM, are
+    stretches turned by one rotation (a jump away and, within 1.5 s, back by the same turn:
+    cancelling-jumps; a one-frame pop is left to the spike rule), noise bursts, joints held still
+    while their neighbours move on (frozen; a dropout repeats one value bit for bit; a joint held
+    through the whole take is one it does not animate), knees or elbows bent the wrong way, and
+    spikes (a joint off its own smooth path for at most 1/15 s by 20 to 40 deg, more the more the
+    joint itself jumps). Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is
+    natural: no step near the stretch (smooth), a motif the joint repeats (recurring), a joint
+    leaving a limit its solver clamps it at (limit-release), a take's first or last movement,
+    performed once, with no jump at its edge inside the take (once-at-ends). --explain JOINT:FRAME
+    says which rule decided a cell and why. Joint rotations are judged; translations (the root's
+    path over the ground, animated bone offsets) are not checked. With --out, flagged cells are
+    replaced by the neighbours' median, blended at the edges, and where a repaired joint moves a
+    planted foot (a hip, knee or ankle, or the pelvis, under a foot on the ground) IK on that leg
+    holds the foot where it was planted. All other joints and frames keep their rotations bit for
+    bit (the written file's angles are derived from them again, to 1e-12 deg and 12 significant
+    digits, so an unchanged angle reads as the input file had it).
 
     \b
     Examples:
