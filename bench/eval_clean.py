@@ -395,6 +395,37 @@ def slide_row(slides: dict, key: tuple, clean, cor, cl) -> None:
         row[f"worst_{k}"].append(float(d.max()))
 
 
+def mp(v: list) -> str:
+    """Mean / 95th percentile of ``v``."""
+    return f"{np.mean(v):5.1f} / {np.percentile(v, 95):5.1f}" if v else "  -  "
+
+
+REPAIRS: dict = {}  # (set, class, kind) -> [injected errors, repaired errors] (deg, per cell)
+
+
+def repair_row(key: tuple, clean, cor, cl) -> None:
+    """How far the injected cells are from the clean take's rotations (degrees) in the
+    injected take and after the repair (foot lock on): the flagged ones and all of them."""
+    truth = cor.truth
+    if not truth.any():
+        return
+    fixed = cl.repair().motion
+    flagged = cl.mask() & truth
+
+    def err(m) -> np.ndarray:
+        return np.degrees(rot.quat_angle(m.rotations, clean.rotations))
+
+    e_in, e_out = err(cor.motion), err(fixed)
+    row = REPAIRS.setdefault(key, {"injected": [], "repaired": [], "flagged_in": [],
+                                   "flagged_out": [], "worse": 0, "cells": 0})  # fmt: skip
+    row["injected"].extend(e_in[truth].tolist())
+    row["repaired"].extend(e_out[truth].tolist())
+    row["flagged_in"].extend(e_in[flagged].tolist())
+    row["flagged_out"].extend(e_out[flagged].tolist())
+    row["worse"] += int((e_out[truth] > e_in[truth] + 1.0).sum())
+    row["cells"] += int(truth.sum())
+
+
 def choose_takes(
     files: list[str], n: int, seconds: float, min_seconds: float = MIN_SECONDS, fps: float = 0.0
 ) -> tuple[dict, list[str]]:
@@ -466,6 +497,7 @@ def evaluate_set(set_name: str, args, table: dict, raw: dict, slides: dict) -> N
                     cl = SelfSimilarityCleaner(config=args.config).fit(cor.motion, c)
                     if args.repair and ctx_name == "local":
                         slide_row(slides, (set_name, cls), clean, cor, cl)
+                        repair_row((set_name, cls, kind), clean, cor, cl)
                     for vname, pipe in vs.items():
                         fl = run_pipeline(cl.evidence_, pipeline=pipe)
                         mask = fl.mask
@@ -659,6 +691,22 @@ def main() -> int:
                 f"{vals['turn_repaired']:.1f} / {vals['turn_locked']:.1f} deg"
             )
             out["foot_slide"].append({"set": s, "class": cls, "n": len(r["clean"]), **vals})
+    if REPAIRS:
+        print(
+            "\nRepair: injected cells' angle from the clean take (deg, mean / 95th pct): "
+            "injected -> repaired; the flagged ones; cells repaired worse by over 1 deg"
+        )
+        for (s, cls, kind), r in sorted(REPAIRS.items()):
+            print(
+                f"  {s:13s} {cls:14s} {kind:7s} all {mp(r['injected'])} -> {mp(r['repaired'])};"
+                f" flagged {mp(r['flagged_in'])} -> {mp(r['flagged_out'])};"
+                f" worse {r['worse']}/{r['cells']}"
+            )
+            out.setdefault("repair", []).append(
+                {"set": s, "class": cls, "kind": kind, "cells": r["cells"], "worse": r["worse"],
+                 **{k: float(np.mean(r[k])) if r[k] else None
+                    for k in ("injected", "repaired", "flagged_in", "flagged_out")}}
+            )  # fmt: skip
     print(f"\n{time.time() - T0:.0f} s")
     if args.json:
         out["config"] = args.config.as_dict()

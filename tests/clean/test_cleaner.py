@@ -438,3 +438,72 @@ def test_a_contact_constraint_refuses_what_is_not_a_contact(corrupted) -> None:
         SelfSimilarityCleaner().fit(bad).repair(contacts=[ContactConstraint(99, 38, 44)])
     with pytest.raises(ValueError, match="start must be a whole number"):
         inject(bad, "spike", 3, 0, start=40.5)
+
+
+def _swing(F: int = 120) -> np.ndarray:
+    """(F, 2, 4): two joints turning smoothly about tilted axes."""
+    t = np.arange(F) / 30.0
+    rv = np.zeros((F, 2, 3))
+    rv[:, 0] = np.outer(0.6 * np.sin(2 * np.pi * t / 2.0), [1.0, 0.3, 0.0])
+    rv[:, 1] = np.outer(0.4 * np.cos(2 * np.pi * t / 3.0), [0.0, 1.0, 0.5])
+    return rot.rotvec_to_quat(rv)
+
+
+def test_unturned_undoes_a_stretch_turned_by_one_rotation() -> None:
+    from mocapkit.clean.repair import unturned
+
+    q = _swing()
+    d = rot.rotvec_to_quat(np.radians(35.0) * np.array([0.6, 0.0, 0.8]))
+    cells = np.zeros(q.shape[:2], dtype=bool)
+    cells[40:70, 1] = True
+    for side in ("body", "parent"):
+        bad = q.copy()
+        bad[40:70, 1] = (
+            rot.quat_mul(q[40:70, 1], d) if side == "body" else rot.quat_mul(d, q[40:70, 1])
+        )
+        back = unturned(bad, cells)
+        assert np.degrees(rot.quat_angle(back[40:70, 1], q[40:70, 1])).max() < 0.5, side
+        assert np.array_equal(back[~cells], bad[~cells])  # every other cell as it was
+    # cut off by the take's end: the one edge inside the take says the turn
+    bad = q.copy()
+    bad[90:, 1] = rot.quat_mul(q[90:, 1], d)
+    end = np.zeros_like(cells)
+    end[90:, 1] = True
+    assert np.degrees(rot.quat_angle(unturned(bad, end)[90:, 1], q[90:, 1])).max() < 0.5
+    # a run one frame short of the turn (the jump read a frame late): predicting across the
+    # jump turns the stretch by it twice, unless the edge may move to the jump inside the
+    # flagged run around it
+    bad = q.copy()
+    bad[40:70, 1] = rot.quat_mul(q[40:70, 1], d)
+    late = np.zeros_like(cells)
+    late[41:70, 1] = True
+    flagged = np.zeros_like(cells)
+    flagged[38:73, 1] = True
+    assert np.degrees(rot.quat_angle(unturned(bad, late)[41:70, 1], q[41:70, 1])).max() > 30
+    back = unturned(bad, late, within=flagged)
+    assert np.degrees(rot.quat_angle(back[40:70, 1], q[40:70, 1])).max() < 0.5
+    assert np.array_equal(back[70:, 1], bad[70:, 1]) and np.array_equal(back[:40], bad[:40])
+
+
+def test_repair_turns_an_offset_back_and_keeps_the_captured_frames_around_it(takes) -> None:
+    """An offset on a joint the take holds still (a resting hand): the neighbours' median is
+    another moment's pose; the repair undoes the offset's rotation instead, and the frames the
+    MDM flags past its jumps keep their captured rotations."""
+    walk, ctx = takes
+    names = list(walk.skeleton.names)
+    j = names.index("LeftHand")
+    bad = walk.copy()
+    d = rot.rotvec_to_quat(np.radians(30.0) * np.array([1.0, 0.0, 0.0]))
+    bad.rotations[60:85, j] = rot.quat_mul(walk.rotations[60:85, j], d)
+    cl = SelfSimilarityCleaner().fit(bad, [ctx])
+    flags = cl.flags()
+    assert flags.live("cancelling-jumps")[60:85, j].all()
+    fixed = cl.repair().motion
+    err = np.degrees(rot.quat_angle(fixed.rotations[:, j], walk.rotations[:, j]))
+    assert err[60:85].max() < 1.0
+    # the median words instead (a baseline mask takes the plain path)
+    plain = cl.repair(mask=cl.mask()).motion
+    assert (
+        np.degrees(rot.quat_angle(plain.rotations[60:85, j], walk.rotations[60:85, j])).mean()
+        > err[60:85].mean()
+    )

@@ -33,6 +33,7 @@ from mocapkit.clean.repair import (
     lock_repaired_feet,
     pin_with_ik,
     repair_cells,
+    unturned,
 )
 from mocapkit.clean.texture import (
     default_groups,
@@ -484,7 +485,11 @@ class SelfSimilarityCleaner:
         """Replace the flagged cells by the median KNN words, blended (see
         :mod:`mocapkit.clean.repair`); everything else is copied bit for bit.
 
-        ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's. ``contacts``: for the
+        ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's; without it, a
+        stretch the cancelling-jumps rule found turned by one rotation is turned back
+        (:func:`~mocapkit.clean.repair.unturned`; not where the wrong-way-hinge or noise rule
+        flags it too: such an error is no constant turn) and the rest of its flagged run keeps
+        the captured rotations. ``contacts``: for the
         effector chains of these constraints, the KNN word that keeps the effector nearest its
         contact point replaces the median, then IK pins the effector (changing only the written
         cells of the chain). ``foot_lock``: where the repair changed a leg, hold its planted
@@ -498,6 +503,20 @@ class SelfSimilarityCleaner:
         contacts = [_by_index(c, self.motion_.skeleton) for c in contacts]
         flagged = self.mask(threshold) if mask is None else np.asarray(mask, dtype=bool)
         replacement = self.replacement()
+        if mask is None:  # a stretch turned by one rotation is turned back (repair.unturned)
+            fl = self.flags(threshold)
+            turned = fl.live("cancelling-jumps") & flagged
+            # a wrong-way bend or a noise burst is no constant turn, though its jumps may cancel
+            turned &= ~_runs_touching(turned, fl.live("wrong-way-hinge") | fl.live("noise"))
+            if turned.any():
+                back = unturned(self.motion_.rotations, turned, within=flagged)
+                # the jumps bound the turned stretch: the rest of a flagged run around it (the
+                # words' digression spilling past the jumps) holds the captured motion
+                keep = _runs_touching(flagged, turned) & ~turned
+                if tex.pelvis_align is not None:  # the pelvis column: facing-aligned space
+                    p = tex.pelvis
+                    back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
+                replacement = np.where((turned | keep)[..., None], back, replacement)
         for c in contacts:
             replacement = self._contact_replacement(c, replacement, flagged)
         result = repair_cells(
@@ -605,3 +624,13 @@ def _by_index(contact: ContactConstraint, skeleton) -> ContactConstraint:
     if not 0 <= int(contact.joint) < skeleton.num_joints:
         raise ValueError(f"contact: joint {contact.joint} out of range ({skeleton.num_joints})")
     return contact
+
+
+def _runs_touching(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the runs of ``mask`` (per joint, along time) holding a cell of ``cells``."""
+    out = np.zeros(mask.shape, dtype=bool)
+    for j in np.flatnonzero(cells.any(axis=0)):
+        for a, b in true_runs(mask[:, j]):
+            if cells[a : b + 1, j].any():
+                out[a : b + 1, j] = True
+    return out

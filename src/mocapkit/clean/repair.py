@@ -21,9 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import savgol_filter
 
+from mocapkit.clean.mdm import jump_size
 from mocapkit.core import rotations as rot
 from mocapkit.core.checks import whole_number
 from mocapkit.core.motion import Motion
+from mocapkit.core.runs import true_runs
 from mocapkit.features import character_height
 
 
@@ -138,6 +140,103 @@ class ContactHeld:
                 f"{self.max_error:.3g} from it ({self.mean_error:.3g} mean over the contact)"
             )
         return text
+
+
+def unturned(
+    rotations: np.ndarray, cells: np.ndarray, within: np.ndarray | None = None, search: int = 2
+) -> np.ndarray:
+    """(F, J, 4) ``rotations`` with each run of ``cells`` (per joint) turned back by the one
+    rotation that turned it; other cells as they are.
+
+    The turn is read at the run's edges: the frame before the run continued one frame at the
+    joint's own velocity (from the two frames before it) is where the run's first frame should
+    be, and likewise backwards from the two frames after the run for its last; each edge's
+    turn is the run's rotation against that prediction, on the joint's own side (``q d``) or
+    its parent's (``d q``), whichever gives the two edges the closer turns, and the turn goes
+    from the first edge's to the last's along the run (one edge only where the run reaches the
+    take's start or end). With ``within`` ((F, J) bool, holding ``cells``: the flagged runs)
+    each edge moves, inside ``within``, to the frame within ``search`` frames of it where the
+    joint jumps most (:func:`~mocapkit.clean.mdm.jump_size`): a prediction made across the
+    jump itself would turn the stretch by it twice.
+
+    Relies on: an offset, a flip or a spike turns a stretch by one constant rotation (what
+    :class:`~mocapkit.clean.detect.CancellingJumps` finds), and the joint's velocity is
+    continuous across the stretch's edges; undoing the turn restores the captured motion,
+    where the neighbours' median is another moment's pose (a resting hand repaired with the
+    waving hand's median: 54 deg off where the error was 30; newcomer)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = q.copy()
+    F = q.shape[0]
+    cells = np.asarray(cells, dtype=bool)
+    for j in np.flatnonzero(cells.any(axis=0)):
+        jumps = jump_size(q[:, j : j + 1])[:, 0] if within is not None else None
+        for a, b in true_runs(cells[:, j]):
+            if jumps is not None:
+                a, b = _edges_at_jumps(a, b, jumps, within[:, j], search)
+            ends = []  # (index, prediction per side) of the edges that have a clean frame
+            if a >= 1:
+                ends.append((a, _predicted(q[:, j], a - 1, a - 2 if a >= 2 else a - 1)))
+            if b <= F - 2:
+                ends.append((b, _predicted(q[:, j], b + 1, b + 2 if b <= F - 3 else b + 1)))
+            if not ends:
+                continue
+            turns = {
+                side: [_turn(q[i, j], pred[side], side) for i, pred in ends]
+                for side in ("body", "parent")
+            }
+            side = "body"
+            if len(ends) == 2:
+                gap = {k: rot.quat_angle(v[0], v[1]) for k, v in turns.items()}
+                side = min(gap, key=gap.get)
+            d0, d1 = turns[side][0], turns[side][-1]
+            u = np.linspace(0.0, 1.0, b - a + 1) if b > a else np.zeros(1)
+            d = rot.quat_slerp(np.broadcast_to(d0, (len(u), 4)), np.broadcast_to(
+                rot.quat_fix_hemisphere(d1, d0), (len(u), 4)), u)  # fmt: skip
+            inv = rot.quat_inv(d)
+            stretch = q[a : b + 1, j]
+            fixed = rot.quat_mul(stretch, inv) if side == "body" else rot.quat_mul(inv, stretch)
+            out[a : b + 1, j] = rot.quat_normalize(fixed)
+    return out
+
+
+def _edges_at_jumps(
+    a: int, b: int, jumps: np.ndarray, within: np.ndarray, search: int
+) -> tuple[int, int]:
+    """The run ``a..b`` with its first frame moved to the largest jump (the step into that
+    frame) within ``search`` frames of ``a``, and its last frame to the one before the largest
+    jump within ``search`` of ``b + 1``, staying inside ``within``'s run around it."""
+    F = len(jumps)
+    lo, hi = a, b
+    while lo > 0 and within[lo - 1]:
+        lo -= 1
+    while hi < F - 1 and within[hi + 1]:
+        hi += 1
+    if a > 0:  # the entry: the step into frame e, for e in a - search .. a + search
+        es = np.arange(max(a - search, lo, 1), min(a + search, b) + 1)
+        if len(es) and jumps[es].max() > jumps[a]:
+            a = int(es[np.argmax(jumps[es])])
+    if b < F - 1:  # the exit: the step into frame e = b + 1
+        es = np.arange(max(b + 1 - search, a + 1), min(b + 1 + search, hi + 1, F - 1) + 1)
+        if len(es) and jumps[es].max() > jumps[b + 1]:
+            b = int(es[np.argmax(jumps[es])]) - 1
+    return a, b
+
+
+def _predicted(q: np.ndarray, near: int, far: int) -> dict[str, np.ndarray]:
+    """Frame ``near`` of the track ``q`` (T, 4) continued one frame away from frame ``far``
+    at the same velocity, on the body side (``q[near] q[far]^-1 q[near]`` as a body-frame
+    step) and the parent side."""
+    qn, qf = q[near], rot.quat_fix_hemisphere(q[far], q[near])
+    body = rot.quat_mul(qn, rot.quat_mul(rot.quat_inv(qf), qn))
+    parent = rot.quat_mul(rot.quat_mul(qn, rot.quat_inv(qf)), qn)
+    return {"body": body, "parent": parent}
+
+
+def _turn(actual: np.ndarray, predicted: np.ndarray, side: str) -> np.ndarray:
+    """The rotation ``d`` with ``actual = predicted d`` (body) or ``d predicted`` (parent)."""
+    inv = rot.quat_inv(predicted)
+    d = rot.quat_mul(inv, actual) if side == "body" else rot.quat_mul(actual, inv)
+    return d if d[0] >= 0 else -d
 
 
 def repair_cells(

@@ -225,7 +225,8 @@ def run(
         rules = ("baseline",)
         reason_names = ("baseline",)
         decision = np.where(mask, 0, -1).astype(np.int8)
-    result = cleaner.repair(mask=mask, contacts=contacts)
+    # the pipeline's own decision: the repair also reads which rule flagged each cell
+    result = cleaner.repair(mask=mask if baseline is not None else None, contacts=contacts)
     elapsed = time.perf_counter() - t0
     return CleanReport(
         source=str(source),
