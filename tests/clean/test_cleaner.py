@@ -452,37 +452,53 @@ def _swing(F: int = 120) -> np.ndarray:
 def test_unturned_undoes_a_stretch_turned_by_one_rotation() -> None:
     from mocapkit.clean.repair import unturned
 
+    def err(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.degrees(rot.quat_angle(a, b)).max())
+
     q = _swing()
     d = rot.rotvec_to_quat(np.radians(35.0) * np.array([0.6, 0.0, 0.8]))
-    cells = np.zeros(q.shape[:2], dtype=bool)
-    cells[40:70, 1] = True
-    for side in ("body", "parent"):
+
+    def turned(sl: slice, side: str = "body") -> np.ndarray:
         bad = q.copy()
-        bad[40:70, 1] = (
-            rot.quat_mul(q[40:70, 1], d) if side == "body" else rot.quat_mul(d, q[40:70, 1])
-        )
-        back = unturned(bad, cells)
-        assert np.degrees(rot.quat_angle(back[40:70, 1], q[40:70, 1])).max() < 0.5, side
+        bad[sl, 1] = rot.quat_mul(q[sl, 1], d) if side == "body" else rot.quat_mul(d, q[sl, 1])
+        return bad
+
+    def cells_at(sl: slice) -> np.ndarray:
+        c = np.zeros(q.shape[:2], dtype=bool)
+        c[sl, 1] = True
+        return c
+
+    cells = cells_at(slice(40, 70))
+    for side in ("body", "parent"):
+        bad = turned(slice(40, 70), side)
+        back, done = unturned(bad, cells)
+        assert err(back[40:70, 1], q[40:70, 1]) < 0.5, side
+        assert np.array_equal(done, cells)
         assert np.array_equal(back[~cells], bad[~cells])  # every other cell as it was
-    # cut off by the take's end: the one edge inside the take says the turn
-    bad = q.copy()
-    bad[90:, 1] = rot.quat_mul(q[90:, 1], d)
-    end = np.zeros_like(cells)
-    end[90:, 1] = True
-    assert np.degrees(rot.quat_angle(unturned(bad, end)[90:, 1], q[90:, 1])).max() < 0.5
+        # cut off by the take's end or start: the one edge inside says the turn and its side
+        # (or, where the side does not show, leaves it for the median)
+        for sl in (slice(90, 120), slice(0, 30), slice(100, 120)):
+            back, done = unturned(turned(sl, side), cells_at(sl))
+            assert not done.any() or err(back[sl, 1], q[sl, 1]) < 0.5, (side, sl)
     # a run one frame short of the turn (the jump read a frame late): predicting across the
-    # jump turns the stretch by it twice, unless the edge may move to the jump inside the
+    # jump turns the stretch by it twice, unless the edge may move onto the jump inside the
     # flagged run around it
-    bad = q.copy()
-    bad[40:70, 1] = rot.quat_mul(q[40:70, 1], d)
-    late = np.zeros_like(cells)
-    late[41:70, 1] = True
-    flagged = np.zeros_like(cells)
-    flagged[38:73, 1] = True
-    assert np.degrees(rot.quat_angle(unturned(bad, late)[41:70, 1], q[41:70, 1])).max() > 30
-    back = unturned(bad, late, within=flagged)
-    assert np.degrees(rot.quat_angle(back[40:70, 1], q[40:70, 1])).max() < 0.5
+    bad = turned(slice(40, 70))
+    late, flagged = cells_at(slice(41, 70)), cells_at(slice(38, 73))
+    assert err(unturned(bad, late)[0][41:70, 1], q[41:70, 1]) > 30
+    back, done = unturned(bad, late, within=flagged)
+    assert err(back[40:70, 1], q[40:70, 1]) < 0.5 and done[40:70, 1].all()
     assert np.array_equal(back[70:, 1], bad[70:, 1]) and np.array_equal(back[:40], bad[:40])
+    # a two-frame turn and runs from frame 1 or to the last frame: the edges stay put
+    for sl in (slice(5, 7), slice(50, 52), slice(1, 41), slice(80, 119)):
+        back, done = unturned(turned(sl), cells_at(sl), within=cells_at(sl))
+        assert err(back[sl, 1], q[sl, 1]) < 1.0, sl
+    # two edges whose turns disagree (not one rotation: a wrong pairing) are left alone
+    odd = q.copy()
+    odd[40:55, 1] = rot.quat_mul(q[40:55, 1], d)
+    odd[55:70, 1] = rot.quat_mul(q[55:70, 1], rot.rotvec_to_quat(np.radians([0.0, 60.0, 0.0])))
+    back, done = unturned(odd, cells)
+    assert not done.any() and np.array_equal(back, odd)
 
 
 def test_repair_turns_an_offset_back_and_keeps_the_captured_frames_around_it(takes) -> None:

@@ -29,6 +29,7 @@ from mocapkit.clean.repair import (
     chain_of,
     contact_held,
     default_margin,
+    dilate,
     effector_error,
     lock_repaired_feet,
     pin_with_ik,
@@ -509,14 +510,20 @@ class SelfSimilarityCleaner:
             # a wrong-way bend or a noise burst is no constant turn, though its jumps may cancel
             turned &= ~_runs_touching(turned, fl.live("wrong-way-hinge") | fl.live("noise"))
             if turned.any():
-                back = unturned(self.motion_.rotations, turned, within=flagged)
-                # the jumps bound the turned stretch: the rest of a flagged run around it (the
-                # words' digression spilling past the jumps) holds the captured motion
-                keep = _runs_touching(flagged, turned) & ~turned
+                back, done = unturned(self.motion_.rotations, turned, within=flagged)
+                # the jumps bound the turned stretch: the cells just past them that only the
+                # words' digression flags (it spills past an error) hold the captured motion;
+                # another rule's cells, or the MDM's farther off, are the median's
+                others = np.zeros_like(flagged)
+                for r in fl.added:
+                    if r not in ("mdm", "cancelling-jumps"):
+                        others |= fl.live(r)
+                pad = self.motion_.seconds_to_frames(0.1)
+                keep = _runs_touching(flagged, done) & dilate(done, pad) & ~done & ~others
                 if tex.pelvis_align is not None:  # the pelvis column: facing-aligned space
                     p = tex.pelvis
                     back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
-                replacement = np.where((turned | keep)[..., None], back, replacement)
+                replacement = np.where((done | keep)[..., None], back, replacement)
         for c in contacts:
             replacement = self._contact_replacement(c, replacement, flagged)
         result = repair_cells(

@@ -144,92 +144,160 @@ class ContactHeld:
 
 def unturned(
     rotations: np.ndarray, cells: np.ndarray, within: np.ndarray | None = None, search: int = 2
-) -> np.ndarray:
-    """(F, J, 4) ``rotations`` with each run of ``cells`` (per joint) turned back by the one
-    rotation that turned it; other cells as they are.
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(out, done)``: (F, J, 4) ``rotations`` with each run of ``cells`` (per joint) turned back
+    by the one rotation that turned it, and (F, J) bool of the cells so turned back (a run whose
+    turn does not read as one rotation is left as it was, for another repair).
 
-    The turn is read at the run's edges: the frame before the run continued one frame at the
-    joint's own velocity (from the two frames before it) is where the run's first frame should
-    be, and likewise backwards from the two frames after the run for its last; each edge's
-    turn is the run's rotation against that prediction, on the joint's own side (``q d``) or
-    its parent's (``d q``), whichever gives the two edges the closer turns, and the turn goes
-    from the first edge's to the last's along the run (one edge only where the run reaches the
-    take's start or end). With ``within`` ((F, J) bool, holding ``cells``: the flagged runs)
-    each edge moves, inside ``within``, to the frame within ``search`` frames of it where the
-    joint jumps most (:func:`~mocapkit.clean.mdm.jump_size`): a prediction made across the
-    jump itself would turn the stretch by it twice.
+    The turn is read at the run's edges: the frame beside the run continued one frame at the joint's
+    own velocity (from the two frames beside it) is where the run's edge frame should be; each
+    edge's turn is the run's rotation against that prediction, on the joint's own side (``q d``) or
+    its parent's (``d q``): with two edges the side whose two turns agree, with one (a run reaching
+    the take's start or end) the side that keeps the joint's acceleration across the edge the
+    smaller. The turn goes from the first edge's to the last's along the run. A run is left when its
+    edges' turns differ by over 10 deg (and a quarter of the turn), or when a turn is under half or
+    over twice the joint's jump at that edge (:func:`~mocapkit.clean.mdm.jump_size`): then the run
+    was not one rotation (a pairing of the wrong jumps, a spike beside it); an edge next to the
+    take's first or last frame, read without the joint's velocity, takes the other edge's turn. With
+    ``within`` ((F, J) bool, holding ``cells``: the flagged runs) an edge whose jump is measured
+    moves, inside ``within``, to a frame within ``search`` of it that jumps over 1.5 times as much:
+    a prediction made across the jump itself would turn the stretch by it twice.
 
     Relies on: an offset, a flip or a spike turns a stretch by one constant rotation (what
-    :class:`~mocapkit.clean.detect.CancellingJumps` finds), and the joint's velocity is
-    continuous across the stretch's edges; undoing the turn restores the captured motion,
-    where the neighbours' median is another moment's pose (a resting hand repaired with the
-    waving hand's median: 54 deg off where the error was 30; newcomer)."""
+    :class:`~mocapkit.clean.detect.CancellingJumps` finds), and the joint's velocity is continuous
+    across the stretch's edges; undoing the turn restores the captured motion, where the neighbours'
+    median is another moment's pose (a resting hand repaired with the waving hand's median: 54 deg
+    off where the error was 30; newcomer)."""
     q = np.asarray(rotations, dtype=np.float64)
     out = q.copy()
+    done = np.zeros(q.shape[:2], dtype=bool)
     F = q.shape[0]
     cells = np.asarray(cells, dtype=bool)
     for j in np.flatnonzero(cells.any(axis=0)):
-        jumps = jump_size(q[:, j : j + 1])[:, 0] if within is not None else None
+        track = q[:, j]
+        jumps = jump_size(q[:, j : j + 1])[:, 0]
         for a, b in true_runs(cells[:, j]):
-            if jumps is not None:
+            if within is not None:
                 a, b = _edges_at_jumps(a, b, jumps, within[:, j], search)
-            ends = []  # (index, prediction per side) of the edges that have a clean frame
+            ends = []  # (edge frame, the frame its jump enters, the prediction there)
             if a >= 1:
-                ends.append((a, _predicted(q[:, j], a - 1, a - 2 if a >= 2 else a - 1)))
+                ends.append((a, a, _predicted(track, a - 1, a - 2 if a >= 2 else a - 1)))
             if b <= F - 2:
-                ends.append((b, _predicted(q[:, j], b + 1, b + 2 if b <= F - 3 else b + 1)))
+                ends.append((b, b + 1, _predicted(track, b + 1, b + 2 if b <= F - 3 else b + 1)))
             if not ends:
                 continue
-            turns = {
-                side: [_turn(q[i, j], pred[side], side) for i, pred in ends]
-                for side in ("body", "parent")
-            }
-            side = "body"
+            turns = {s: [_turn(track[e], p, s) for e, _, p in ends] for s in ("body", "parent")}
+            # an edge at the take's first or last frame but one is predicted with no velocity
+            # (one frame beyond it): the other edge's turn, read at full velocity, holds for it
+            rough = [a == 1, b == F - 2]
+            if len(ends) == 2 and rough[0] != rough[1]:
+                good = 1 if rough[0] else 0
+                turns = {s: [v[good], v[good]] for s, v in turns.items()}
             if len(ends) == 2:
-                gap = {k: rot.quat_angle(v[0], v[1]) for k, v in turns.items()}
+                gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 side = min(gap, key=gap.get)
+                size = max(rot.quat_angle(turns[side][0], _ID), rot.quat_angle(turns[side][1], _ID))
+                if gap[side] > max(np.radians(10.0), 0.25 * size):
+                    continue
+            else:
+                side = _one_edge_side(track, a, b, ends[0], turns)
+                if side is None:
+                    continue
+            if not all(
+                _plausible(rot.quat_angle(d, _ID), jumps[f], f, F)
+                for d, (_, f, _) in zip(turns[side], ends, strict=True)
+            ):
+                continue
             d0, d1 = turns[side][0], turns[side][-1]
             u = np.linspace(0.0, 1.0, b - a + 1) if b > a else np.zeros(1)
             d = rot.quat_slerp(np.broadcast_to(d0, (len(u), 4)), np.broadcast_to(
                 rot.quat_fix_hemisphere(d1, d0), (len(u), 4)), u)  # fmt: skip
-            inv = rot.quat_inv(d)
-            stretch = q[a : b + 1, j]
-            fixed = rot.quat_mul(stretch, inv) if side == "body" else rot.quat_mul(inv, stretch)
-            out[a : b + 1, j] = rot.quat_normalize(fixed)
-    return out
+            out[a : b + 1, j] = rot.quat_normalize(_unturn(track[a : b + 1], d, side))
+            done[a : b + 1, j] = True
+    return out, done
+
+
+_ID = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def _unturn(q: np.ndarray, d: np.ndarray, side: str) -> np.ndarray:
+    inv = rot.quat_inv(d)
+    return rot.quat_mul(q, inv) if side == "body" else rot.quat_mul(inv, q)
+
+
+def _plausible(turn: float, jump: float, frame: int, F: int) -> bool:
+    """A turn read at an edge is the joint's jump there (within a factor of 2), where the jump
+    is measured (frames 2 .. F - 2)."""
+    if not 2 <= frame <= F - 2:
+        return True
+    return 0.5 * jump <= turn <= 2.0 * jump
+
+
+def _one_edge_side(track: np.ndarray, a: int, b: int, end: tuple, turns: dict) -> str | None:
+    """The side of a run with one edge (``end``): where turning back on either side gives the
+    same frames (within 1 deg: a joint nearly still over the run), the joint's own; else the
+    side that changes the joint's velocity less over the three frames past the edge, when it
+    does so by under half as much as the other; else None (left for another repair)."""
+    fixed = {s: _unturn(track[a : b + 1], np.broadcast_to(d[0], (b - a + 1, 4)), s)
+             for s, d in turns.items()}  # fmt: skip
+    if float(rot.quat_angle(fixed["body"], fixed["parent"]).max()) < np.radians(1.0):
+        return "body"
+    e, f, _ = end
+    entry = f == e
+    jolt = {}
+    for s, fx in fixed.items():
+        # the run's frames from its edge inwards, after the frame outside it
+        inner = fx if entry else fx[::-1]
+        outside = track[a - 1] if entry else track[b + 1]
+        seq = np.concatenate([outside[None], inner[:4]])
+        jolt[s] = sum(
+            float(rot.quat_angle(_predicted(seq, i, i - 1), seq[i + 1]))
+            for i in range(1, len(seq) - 1)
+        )
+    lo, hi = sorted(jolt.values())
+    if lo >= 0.5 * hi:
+        return None
+    return min(jolt, key=jolt.get)
 
 
 def _edges_at_jumps(
     a: int, b: int, jumps: np.ndarray, within: np.ndarray, search: int
 ) -> tuple[int, int]:
-    """The run ``a..b`` with its first frame moved to the largest jump (the step into that
-    frame) within ``search`` frames of ``a``, and its last frame to the one before the largest
-    jump within ``search`` of ``b + 1``, staying inside ``within``'s run around it."""
+    """The run ``a..b`` with its first frame moved to a frame within ``search`` of ``a`` whose
+    jump (the step into it) is over 1.5 times ``a``'s, and its last to the frame before such a
+    jump near ``b + 1``, staying inside ``within``'s run around it. An edge whose jump is not
+    measured (frames under 2 or over F - 2) stays."""
     F = len(jumps)
     lo, hi = a, b
     while lo > 0 and within[lo - 1]:
         lo -= 1
     while hi < F - 1 and within[hi + 1]:
         hi += 1
+
+    def better(edge: int, frames: np.ndarray) -> int:
+        if not 2 <= edge <= F - 2 or not len(frames):
+            return edge
+        best = int(frames[np.argmax(jumps[frames])])
+        return best if jumps[best] > 1.5 * jumps[edge] else edge
+
     if a > 0:  # the entry: the step into frame e, for e in a - search .. a + search
-        es = np.arange(max(a - search, lo, 1), min(a + search, b) + 1)
-        if len(es) and jumps[es].max() > jumps[a]:
-            a = int(es[np.argmax(jumps[es])])
+        a = better(a, np.arange(max(a - search, lo, 1), min(a + search, b) + 1))
     if b < F - 1:  # the exit: the step into frame e = b + 1
-        es = np.arange(max(b + 1 - search, a + 1), min(b + 1 + search, hi + 1, F - 1) + 1)
-        if len(es) and jumps[es].max() > jumps[b + 1]:
-            b = int(es[np.argmax(jumps[es])]) - 1
+        b = (
+            better(
+                b + 1, np.arange(max(b + 1 - search, a + 1), min(b + 1 + search, hi + 1, F - 1) + 1)
+            )
+            - 1
+        )
     return a, b
 
 
-def _predicted(q: np.ndarray, near: int, far: int) -> dict[str, np.ndarray]:
+def _predicted(q: np.ndarray, near: int, far: int) -> np.ndarray:
     """Frame ``near`` of the track ``q`` (T, 4) continued one frame away from frame ``far``
-    at the same velocity, on the body side (``q[near] q[far]^-1 q[near]`` as a body-frame
-    step) and the parent side."""
+    at the same velocity: ``q[near] q[far]^-1 q[near]`` (the same whether the step is read in
+    the joint's frame or its parent's)."""
     qn, qf = q[near], rot.quat_fix_hemisphere(q[far], q[near])
-    body = rot.quat_mul(qn, rot.quat_mul(rot.quat_inv(qf), qn))
-    parent = rot.quat_mul(rot.quat_mul(qn, rot.quat_inv(qf)), qn)
-    return {"body": body, "parent": parent}
+    return rot.quat_mul(qn, rot.quat_mul(rot.quat_inv(qf), qn))
 
 
 def _turn(actual: np.ndarray, predicted: np.ndarray, side: str) -> np.ndarray:
