@@ -523,3 +523,23 @@ def test_repair_turns_an_offset_back_and_keeps_the_captured_frames_around_it(tak
         np.degrees(rot.quat_angle(plain.rotations[60:85, j], walk.rotations[60:85, j])).mean()
         > err[60:85].mean()
     )
+
+
+def test_repair_turns_a_pelvis_offset_back_in_the_files_space(takes) -> None:
+    """The pelvis column of the replacement lives in the facing-aligned space: the turned-back
+    pelvis must be mapped there, or the repair lands off by the body's facing."""
+    walk, ctx = takes
+    p = walk.skeleton.names.index("Hips")
+    # facing 120 deg away from the context's: the facing-aligned space is far from the file's
+    yaw = rot.rotvec_to_quat(np.radians(120.0) * np.array([0.0, 1.0, 0.0]))
+    walk = walk.copy()
+    walk.rotations[:, p] = rot.quat_mul(yaw, walk.rotations[:, p])
+    bad = walk.copy()
+    d = rot.rotvec_to_quat(np.radians(30.0) * np.array([1.0, 0.0, 0.0]))
+    bad.rotations[60:85, p] = rot.quat_mul(walk.rotations[60:85, p], d)
+    cl = SelfSimilarityCleaner().fit(bad, [ctx])
+    assert cl.flags().live("cancelling-jumps")[60:85, p].all()
+    fixed = cl.repair().motion
+    assert (
+        np.degrees(rot.quat_angle(fixed.rotations[60:85, p], walk.rotations[60:85, p])).max() < 2.0
+    )
