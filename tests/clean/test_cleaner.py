@@ -499,16 +499,6 @@ def test_unturned_undoes_a_stretch_turned_by_one_rotation() -> None:
     odd[55:70, 1] = rot.quat_mul(q[55:70, 1], rot.rotvec_to_quat(np.radians([0.0, 60.0, 0.0])))
     back, done = unturned(odd, cells)
     assert not done.any() and np.array_equal(back, odd)
-    # a flip whose edges read 15 deg apart: one rotation for a flip (10 deg and a quarter of
-    # the turn), not where a wrong-way bend is flagged (10 deg alone: a bend's turn follows the
-    # flexion)
-    flip = rot.rotvec_to_quat(np.radians(180.0) * np.array([0.0, 0.0, 1.0]))
-    flip2 = rot.quat_mul(flip, rot.rotvec_to_quat(np.radians(15.0) * np.array([1.0, 0.0, 0.0])))
-    flipped = q.copy()
-    flipped[40:55, 1] = rot.quat_mul(q[40:55, 1], flip)
-    flipped[55:70, 1] = rot.quat_mul(q[55:70, 1], flip2)
-    assert unturned(flipped, cells)[1][40:70, 1].all()
-    assert not unturned(flipped, cells, strict=cells)[1].any()
 
 
 def test_repair_turns_an_offset_back_and_keeps_the_captured_frames_around_it(takes) -> None:

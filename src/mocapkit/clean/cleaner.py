@@ -507,17 +507,10 @@ class SelfSimilarityCleaner:
         if mask is None:  # a stretch turned by one rotation is turned back (repair.unturned)
             fl = self.flags(threshold)
             turned = fl.live("cancelling-jumps") & flagged
-            # a noise burst is no constant turn, though its jumps may cancel; a wrong-way bend is
-            # none either, but a hinge flipped is: unturned() asks the bend's edges to agree
-            # closely
-            turned &= ~_runs_touching(turned, fl.live("noise"))
+            # a wrong-way bend or a noise burst is no constant turn, though its jumps may cancel
+            turned &= ~_runs_touching(turned, fl.live("wrong-way-hinge") | fl.live("noise"))
             if turned.any():
-                back, done = unturned(
-                    self.motion_.rotations,
-                    turned,
-                    within=flagged,
-                    strict=fl.live("wrong-way-hinge"),
-                )
+                back, done = unturned(self.motion_.rotations, turned, within=flagged)
                 # the jumps bound the turned stretch: the cells just past them that only the
                 # words' digression flags (it spills past an error) hold the captured motion;
                 # another rule's cells, or the MDM's farther off, are the median's

@@ -143,11 +143,7 @@ class ContactHeld:
 
 
 def unturned(
-    rotations: np.ndarray,
-    cells: np.ndarray,
-    within: np.ndarray | None = None,
-    search: int = 2,
-    strict: np.ndarray | None = None,
+    rotations: np.ndarray, cells: np.ndarray, within: np.ndarray | None = None, search: int = 2
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(out, done)``: (F, J, 4) ``rotations`` with each run of ``cells`` (per joint) turned back
     by the one rotation that turned it, and (F, J) bool of the cells so turned back (a run whose
@@ -159,9 +155,7 @@ def unturned(
     its parent's (``d q``): with two edges the side whose two turns agree, with one (a run reaching
     the take's start or end) the side that keeps the joint's acceleration across the edge the
     smaller. The turn goes from the first edge's to the last's along the run. A run is left when its
-    edges' turns differ by over 10 deg and a quarter of the turn (10 deg alone on the cells of
-    ``strict``: a wrong-way bend's turn follows the flexion, a flip's does not), or when a turn is
-    under half or
+    edges' turns differ by over 10 deg (and a quarter of the turn), or when a turn is under half or
     over twice the joint's jump at that edge (:func:`~mocapkit.clean.mdm.jump_size`): then the run
     was not one rotation (a pairing of the wrong jumps, a spike beside it); an edge next to the
     take's first or last frame, read without the joint's velocity, takes the other edge's turn. With
@@ -203,8 +197,7 @@ def unturned(
                 gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 side = min(gap, key=gap.get)
                 size = max(rot.quat_angle(turns[side][0], _ID), rot.quat_angle(turns[side][1], _ID))
-                loose = strict is None or not strict[a : b + 1, j].any()
-                if gap[side] > np.radians(10.0) + (0.25 * size if loose else 0.0):
+                if gap[side] > max(np.radians(10.0), 0.25 * size):
                     continue
             else:
                 side = _one_edge_side(track, a, b, ends[0], turns)
