@@ -190,6 +190,24 @@ def jump_size(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def still_jumps(q: np.ndarray, min_step: float, ratio: float, width: int) -> np.ndarray:
+    """Loop version of mdm.still_jumps: frame f is entered by a step over ``min_step`` and over
+    ``ratio`` times every step within ``width`` frames before and after it, with a jump over
+    ``min_step`` too."""
+    F, J = q.shape[:2]
+    out = np.zeros((F, J), dtype=bool)
+    if F < 4 or width < 1 or ratio <= 0:
+        return out
+    jumps = jump_size(q)
+    for j in range(J):
+        s = [float(np.linalg.norm(w)) for w in _steps(q, j)]  # s[i]: frame i -> i + 1
+        for f in range(2, F - 1):
+            i = f - 1
+            near = s[max(0, i - width) : i] + s[i + 1 : i + 1 + width]
+            out[f, j] = s[i] > min_step and s[i] > ratio * max(near) and jumps[f, j] > min_step
+    return out
+
+
 def step_size(q: np.ndarray) -> np.ndarray:
     """Loop version of mdm.step_size: the length of the body-frame step deviation."""
     return np.linalg.norm(step_deviations(q, "body"), axis=-1)

@@ -510,6 +510,28 @@ def test_step_deviations_and_jump_size_match_the_references() -> None:
     assert np.allclose(mdm_mod.jump_size(q), naive_jump_size(q), atol=1e-9)
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    st.integers(4, 40),
+    st.integers(1, 6),
+    st.floats(1.0, 8.0),
+    st.integers(0, 10_000),
+)
+def test_still_jumps_match_the_reference(F: int, width: int, ratio: float, seed: int) -> None:
+    from clean.naive import still_jumps as naive_still_jumps
+
+    rng = np.random.default_rng(seed)
+    # mostly still joints with a few turns at once, and one moving joint
+    rv = np.zeros((F, 3, 3))
+    for j in range(2):
+        for f in rng.choice(F, size=min(3, F), replace=False):
+            rv[f:, j] += rng.normal(scale=0.3, size=3)
+    rv[:, 2] = np.cumsum(rng.normal(scale=0.05, size=(F, 3)), axis=0)
+    q = rot.rotvec_to_quat(rv)
+    fast = mdm_mod.still_jumps(q, np.radians(8.0), ratio, width)
+    assert np.array_equal(fast, naive_still_jumps(q, np.radians(8.0), ratio, width))
+
+
 def test_spike_size_matches_the_reference_and_sees_a_spike_not_fast_motion() -> None:
     from clean.naive import spike_size as naive_spike_size
 
