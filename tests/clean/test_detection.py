@@ -227,6 +227,29 @@ def test_cancelling_steps_pair_two_close_errors_without_bridging_the_gap() -> No
     assert np.array_equal(np.flatnonzero(flagged[:, 0]), np.r_[30:40])
 
 
+def test_cancelling_steps_pair_a_turn_about_one_axis_that_changes_size() -> None:
+    """A wrong-way bend turns its stretch about one axis by an angle that grows and shrinks
+    with the joint's own flexion: entry and exit point opposite ways but differ in size, so
+    they do not cancel. With ``axis_cos`` they pair, where both peaks are large enough
+    (``axis_peaks``); two opposite-sized jumps about different axes never do."""
+    q = _turning(120, J=2, seed=5)
+    bad = q.copy()
+    grow = np.linspace(0.3, 0.9, 20)[:, None] * np.array([[1.0, 0.0, 0.0]])
+    bad[40:60, 0] = rot.quat_mul(q[40:60, 0], rot.rotvec_to_quat(grow))  # in 0.3, out 0.9 rad
+    bad[40:50, 1] = rot.quat_mul(q[40:50, 1], rot.rotvec_to_quat(np.array([0.5, 0.0, 0.0])))
+    bad[50:60, 1] = rot.quat_mul(q[50:60, 1], rot.rotvec_to_quat(np.array([0.0, 0.0, 0.5])))
+    peaks = np.zeros((120, 2), dtype=bool)
+    peaks[[40, 60], :] = True
+    devs = [mdm_mod.step_deviations(bad, "body")]
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45).any()
+    flagged = mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, axis_cos=0.9, axis_peaks=peaks)
+    assert np.array_equal(np.flatnonzero(flagged[:, 0]), np.r_[40:60])
+    assert not flagged[:, 1].any()  # entered about x, left about z (a bump at 50 in between)
+    small = peaks.copy()
+    small[60, 0] = False  # the exit under the bar
+    assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, axis_cos=0.9, axis_peaks=small).any()
+
+
 def test_cancelling_steps_never_pair_an_exit_with_a_later_entry() -> None:
     """Two wrong-way bends are not constant turns: each one's own ends cancel poorly, and the
     exit of the first (+0.9 rad) cancels the entry of the second (-0.9 rad) across the clean

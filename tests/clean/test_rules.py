@@ -137,9 +137,10 @@ def test_cancelling_jumps() -> None:
     fl = Flags((300, 2))
     CancellingJumps().apply(evidence(smooth(300)), fl)
     assert not fl.mask.any()
-    # one jump that stays (a turn that does not come back) pairs with nothing
+    # one jump that stays (a turn that does not come back) pairs with nothing (within
+    # pair_seconds of the take's start it would be the exit of an error cut off there)
     fl = Flags((300, 2))
-    CancellingJumps().apply(evidence(turn(smooth(300), slice(40, 300), 1, 40.0)), fl)
+    CancellingJumps().apply(evidence(turn(smooth(300), slice(100, 300), 1, 40.0)), fl)
     assert not fl.mask[:, 1].any()
     # ... unless the take ends within pair_seconds of it and the frames after it digress: an
     # error cut off by the take's end
@@ -174,9 +175,13 @@ def test_cancelling_jumps() -> None:
             assert ev.cut_off[spike.stop :, 1].all()  # the candidate the rule must refuse
         assert not CancellingJumps().cells(ev)[spike.stop :, 1].any()
     # nor after an error whose jumps do not cancel (a wrong-way bend's exit, read as an entry)
+    # (its two jumps, 60 deg in and 30 deg back about the same axis, pair as a turn about one
+    # axis when they may: then the exit is no candidate at all)
     bent = turn(turn(smooth(300), slice(250, 300), 1, 60.0), slice(275, 300), 1, -30.0)
-    ev = evidence(bent)
+    ev = evidence(bent, config=DetectConfig(pair_axis_cos=0.0))
     assert ev.cut_off[275:, 1].all() and not CancellingJumps().cells(ev)[275:, 1].any()
+    ev = evidence(bent)
+    assert not ev.cut_off[275:, 1].any() and not CancellingJumps().cells(ev)[275:, 1].any()
     for ev in (
         evidence(cut, config=DetectConfig(pair_cut_jump_ratio=1e6)),
         evidence(cut, config=DetectConfig(pair_cut_jump_ratio=0)),
@@ -262,6 +267,50 @@ def test_still_jumps() -> None:
     assert not mdm_mod.still_jumps(
         turn(popping_toe(), slice(200, 300), 1, 6.0), still, 5.0, 3
     ).any()
+
+
+def test_cancelling_jumps_pair_a_turn_about_one_axis_whose_size_follows_the_joint() -> None:
+    """A wrong-way bend mirrors the flexion: its stretch is turned about one axis by an angle
+    that changes with the joint's own swing, so entry and exit jumps differ in size (here 20
+    and 60 deg) and do not cancel. Both far above the joint's ordinary jump and pointing
+    opposite ways, they pair; with ``pair_axis_cos`` 0 (off), or one jump of the joint's
+    usual size, they do not."""
+    q = smooth(300)
+    grow = np.radians(np.linspace(20.0, 60.0, 15))[:, None] * np.array([[1.0, 0.0, 0.0]])
+    bad = q.copy()
+    bad[40:55, 1] = rot.quat_mul(q[40:55, 1], rot.rotvec_to_quat(grow))
+    fl = Flags((300, 2))
+    CancellingJumps().apply(evidence(bad), fl)
+    assert fl.mask[40:55, 1].all() and fl.mask.sum() == 15
+    assert "turn there and back about one axis" in CancellingJumps().describe(evidence(bad), 45, 1)
+    fl = Flags((300, 2))
+    ev = evidence(bad, config=DetectConfig(pair_axis_cos=0.0))
+    CancellingJumps().apply(ev, fl)
+    assert not fl.mask.any()
+    fl = Flags((300, 2))  # the jumps must both be over pair_axis_ratio times the joint's own
+    CancellingJumps().apply(evidence(bad, config=DetectConfig(pair_axis_ratio=1e4)), fl)
+    assert not fl.mask.any()
+
+
+def test_cancelling_jumps_an_error_cut_off_by_the_end_whose_frames_digress_less() -> None:
+    """A forearm turned at the end of a gesture and held there: its one jump, far above the
+    joint's own, is the entry of an error cut off by the take's end, but its frames digress
+    less than the motion before them, so the digression reads the jump as an exit. Within
+    ``pair_seconds`` of the end and not of the start, a jump can only enter such an error:
+    the rule flags to the end, and the smooth veto does not trim it as motion after an exit;
+    the same jump in the middle of the take flags nothing."""
+    q = smooth(300)
+    mdm = np.zeros((300, 2))
+    mdm[250:270, 1] = 0.45  # the gesture before it digresses more than the error's frames
+    for start, expect in ((270, True), (150, False)):
+        bad = turn(q, slice(start, 300), 1, 40.0)
+        m = np.roll(mdm, start - 270, axis=0)
+        ev = evidence(bad, mdm=m)
+        assert mdm_mod.step_sides(ev.jump_peaks, ev.z, 3)[start, 1] == -1  # read as an exit
+        fl = run_pipeline(evidence(bad, mdm=m))
+        # (the frame before the jump, abrupt and digressing, is the MDM rule's own)
+        assert fl.mask[start:, 1].all() == expect and not fl.mask[: start - 1].any()
+        assert fl.added["cancelling-jumps"].any() == expect
 
 
 def test_cancelling_jumps_flag_a_still_joints_error_cut_off_by_the_take() -> None:

@@ -602,6 +602,8 @@ def cancelling_steps(
     sided_frames: int = 0,
     used_out: np.ndarray | None = None,
     pops: np.ndarray | None = None,
+    axis_cos: float = 0.0,
+    axis_peaks: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -642,6 +644,13 @@ def cancelling_steps(
     step, otherwise paired the exit of one pop with the entry of the next across the stance
     between (Bandai-1 validation half, walk-back_angry's toes, session 26). None: none.
 
+    ``axis_cos`` and ``axis_peaks`` ((F, J) bool, the peaks large enough; with ``axis_cos`` >
+    0): two such peaks that do not cancel pair too where their deviations point opposite ways,
+    ``-v[a] . v[e] > axis_cos |v[a]| |v[e]|`` in one of the frames: a stretch turned about one
+    axis by an angle that changes over it (a wrong-way bend mirrors the flexion, so its turn
+    grows and shrinks with the joint's own), entered and left about that axis by jumps of
+    different sizes. They pair after every cancelling pair.
+
     ``used_out`` ((F, J) bool, optional) receives the peaks that paired (a one-frame spike's
     with its neighbour)."""
     out = np.zeros(peaks.shape, dtype=bool)
@@ -670,6 +679,10 @@ def cancelling_steps(
                 )
                 if ratio < tol:
                     pairs.append((ratio, a, e))
+                elif axis_cos > 0 and axis_peaks is not None and axis_peaks[[a, e], j].all():
+                    c = _opposed(deviations, a, e, j)
+                    if c > axis_cos:
+                        pairs.append((tol + 1.0 - c, a, e))
         used: set[int] = set()
         for _, a, e in sorted(pairs):
             if a not in used and e not in used:
@@ -680,6 +693,18 @@ def cancelling_steps(
     if used_out is not None:
         used_out |= spikes & peaks  # paired with the frame beside them
     return out
+
+
+def _opposed(deviations: Sequence[np.ndarray], a: int, e: int, j: int) -> float:
+    """The largest cosine between ``-v[a, j]`` and ``v[e, j]`` over the frames of
+    ``deviations``."""
+    best = -1.0
+    for v in deviations:
+        x, y = v[a, j], v[e, j]
+        n = float(np.linalg.norm(x) * np.linalg.norm(y))
+        if n > 0:
+            best = max(best, -float(x @ y) / n)
+    return best
 
 
 def one_frame_spikes(peaks: np.ndarray, deviations: Sequence[np.ndarray], tol: float) -> np.ndarray:
@@ -734,7 +759,15 @@ def cut_off_steps(
     and enters an error (``sides`` +1) at most ``max_frames`` frames from the take's end, with
     no peak leaving an error after it, marks the frames from it to the last; one that leaves an
     error (-1) at most ``max_frames`` frames into the take, with no peak entering one before
-    it, marks the frames before it. Such an error has one jump only, so nothing pairs it."""
+    it, marks the frames before it. Such an error has one jump only, so nothing pairs it.
+
+    A peak within ``max_frames`` of one end only, with no other peak within ``max_frames`` on
+    the take's side of it, is read as entering (leaving) an error cut off by that end whatever
+    ``sides`` says: an error longer than ``max_frames`` is not one the pairs look for, and
+    where the cut-off error's frames digress less than the motion before them (a forearm turned
+    at the end of a gesture and held there) the digression reads its entry as an exit (Bandai-1
+    tuning half, gestures, 16 takes, seeds 0-5: offset recall 0.981 -> 0.985, precision
+    unchanged; with the smooth veto's trim reading it the same way)."""
     peaks = np.asarray(peaks, dtype=bool)
     F = peaks.shape[0]
     out = np.zeros(peaks.shape, dtype=bool)
@@ -742,9 +775,18 @@ def cut_off_steps(
         ps = np.flatnonzero(peaks[:, j])
         for p in ps[~paired[ps, j]]:
             later, earlier = ps[ps > p], ps[ps < p]
-            if sides[p, j] > 0 and F - p <= max_frames and not (sides[later, j] < 0).any():
+            near_end, near_start = F - p <= max_frames, p <= max_frames
+            # near one end only and alone there, the jump can only enter (leave) an error cut
+            # off by that end, whatever the digression says: a jump within max_frames before
+            # (after) it may be the entry (exit) of an error it leaves (enters)
+            side = sides[p, j]
+            if near_end and not near_start and not (p - earlier <= max_frames).any():
+                side = 1
+            elif near_start and not near_end and not (later - p <= max_frames).any():
+                side = -1
+            if side > 0 and near_end and not (sides[later, j] < 0).any():
                 out[p:, j] = True
-            elif sides[p, j] < 0 and p <= max_frames and not (sides[earlier, j] > 0).any():
+            elif side < 0 and near_start and not (sides[earlier, j] > 0).any():
                 out[:p, j] = True
     return out
 

@@ -244,8 +244,9 @@ def clean_command(
     window of the context; joints whose rotation digresses from their nearest neighbours' mean are
     flagged (rule "mdm": stretches with MDM > threshold, or abrupt cells, that hold a near-certain
     or abrupt cell; an abrupt cell may lie below the threshold), and so, whatever their MDM, are
-    stretches turned by one rotation (a jump away and, within 1.5 s, back by the same turn:
-    cancelling-jumps; a one-frame pop is left to the spike rule), noise bursts, joints held still
+    stretches turned by one rotation (a jump away and, within 1.5 s, back by the same turn, or
+    back about the same axis by two large jumps: cancelling-jumps; a one-frame pop is left to
+    the spike rule), noise bursts, joints held still
     while their neighbours move on (frozen; a dropout repeats one value bit for bit; a joint held
     through the whole take is one it does not animate), knees or elbows bent the wrong way, and
     spikes (a joint off its own smooth path for at most 1/15 s by 20 to 40 deg, more the more the

@@ -23,9 +23,14 @@ class CancellingJumps:
 
     Relies on: a spike, an offset or a flip turns a stretch by one constant rotation, entered and
     left with opposite jumps; natural motion that jumps seldom jumps back by the same rotation
-    (:func:`~mocapkit.clean.mdm.cancelling_steps`). A jump leaving an error is not paired with a
-    later one entering another (the frames between are clean), where the digression tells the two
-    sides of each jump apart and an entry before and an exit after them (or the take's ends) flank
+    (:func:`~mocapkit.clean.mdm.cancelling_steps`). A wrong-way bend turns its stretch about one
+    axis by an angle that follows the joint's own flexion, so its two jumps point opposite ways
+    but differ in size: two jumps that both exceed ``DetectConfig.pair_axis_ratio`` times the
+    joint's ordinary one and point opposite ways (``pair_axis_cos``) pair too; on the Bandai-1
+    tuning half's clean takes no two jumps that large point opposite ways within 1.5 s. A jump
+    leaving an error is not paired with a later one entering another (the frames between are
+    clean), where the digression tells the two sides of each jump apart and an entry before and
+    an exit after them (or the take's ends) flank
     the two: a lone error whose sides were misread pairs. An error cut off by the take's end (or
     start) has one jump: unpaired, entering (leaving) an error at most ``max_seconds`` from that end
     with no jump leaving (entering) one beyond it, it flags to the end where most of those frames
@@ -187,7 +192,7 @@ class CancellingJumps:
                 f"({self._why_cut(ev, run, run[1] + 1, joint)})"
             )
         else:
-            parts.append("between two that cancel")
+            parts.append("between two that cancel (or turn there and back about one axis)")
         return "; ".join(parts)
 
     def _why_cut(self, ev: Evidence, run: tuple[int, int], jump: int, joint: int) -> str:

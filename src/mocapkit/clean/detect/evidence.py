@@ -266,9 +266,12 @@ class Evidence:
         )
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
         used = np.zeros(self.shape, dtype=bool)
+        c = self.config
+        big = self.jump_size > c.pair_axis_ratio * self.jump_scale[None]
         cells = mdm_mod.cancelling_steps(
-            self.jump_peaks, devs, span, self.config.pair_tol, sides, word, used, self.pops
-        )
+            self.jump_peaks, devs, span, c.pair_tol, sides, word, used, self.pops,
+            c.pair_axis_cos, self.jump_peaks & big,
+        )  # fmt: skip
         return cells, used, sides
 
     @cached_property
