@@ -499,6 +499,15 @@ def test_unturned_undoes_a_stretch_turned_by_one_rotation() -> None:
     odd[55:70, 1] = rot.quat_mul(q[55:70, 1], rot.rotvec_to_quat(np.radians([0.0, 60.0, 0.0])))
     back, done = unturned(odd, cells)
     assert not done.any() and np.array_equal(back, odd)
+    # a turn about one axis whose angle grows along the run (a wrong-way bend follows the
+    # joint's flexion): the edges disagree in size, not in axis, and the slerp between them
+    # undoes it
+    axis = np.array([0.6, 0.0, 0.8])
+    grow = rot.rotvec_to_quat(np.radians(np.linspace(25.0, 60.0, 30))[:, None] * axis[None])
+    bent = q.copy()
+    bent[40:70, 1] = rot.quat_mul(q[40:70, 1], grow)
+    back, done = unturned(bent, cells)
+    assert done[40:70, 1].all() and err(back[40:70, 1], q[40:70, 1]) < 1.0
 
 
 def test_repair_turns_an_offset_back_and_keeps_the_captured_frames_around_it(takes) -> None:

@@ -155,7 +155,8 @@ def unturned(
     its parent's (``d q``): with two edges the side whose two turns agree, with one (a run reaching
     the take's start or end) the side that keeps the joint's acceleration across the edge the
     smaller. The turn goes from the first edge's to the last's along the run. A run is left when its
-    edges' turns differ by over 10 deg (and a quarter of the turn), or when a turn is under half or
+    edges' turns differ by over 10 deg (and a quarter of the turn) but for turns about one axis
+    by different angles (:func:`_one_axis`), or when a turn is under half or
     over twice the joint's jump at that edge (:func:`~mocapkit.clean.mdm.jump_size`): then the run
     was not one rotation (a pairing of the wrong jumps, a spike beside it); an edge next to the
     take's first or last frame, read without the joint's velocity, takes the other edge's turn. With
@@ -197,7 +198,9 @@ def unturned(
                 gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 side = min(gap, key=gap.get)
                 size = max(rot.quat_angle(turns[side][0], _ID), rot.quat_angle(turns[side][1], _ID))
-                if gap[side] > max(np.radians(10.0), 0.25 * size):
+                if gap[side] > max(np.radians(10.0), 0.25 * size) and not _one_axis(
+                    *turns[side]
+                ):
                     continue
             else:
                 side = _one_edge_side(track, a, b, ends[0], turns)
@@ -218,6 +221,23 @@ def unturned(
 
 
 _ID = np.array([1.0, 0.0, 0.0, 0.0])
+
+ONE_AXIS_COS = 0.9
+"""Two edge turns whose rotation axes are this close (cosine; the cancelling-jumps rule's
+``DetectConfig.pair_axis_cos``) turn the run about one axis (:func:`_one_axis`)."""
+
+
+def _one_axis(d0: np.ndarray, d1: np.ndarray) -> bool:
+    """Whether turns ``d0`` and ``d1`` (unit quaternions) are about one axis, the same way, by
+    over 10 deg each: a wrong-way bend mirrors the joint's flexion, so the turn that made it
+    grows and shrinks along the run about that one axis, and the slerp from one edge's turn to
+    the other's follows it where the joint's own neighbours (another moment's pose) do not."""
+    v0 = rot.quat_to_rotvec(rot.quat_fix_hemisphere(d0, _ID))
+    v1 = rot.quat_to_rotvec(rot.quat_fix_hemisphere(d1, _ID))
+    n0, n1 = float(np.linalg.norm(v0)), float(np.linalg.norm(v1))
+    if min(n0, n1) < np.radians(10.0):
+        return False
+    return float(v0 @ v1) / (n0 * n1) > ONE_AXIS_COS
 
 
 def _unturn(q: np.ndarray, d: np.ndarray, side: str) -> np.ndarray:

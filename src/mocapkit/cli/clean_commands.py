@@ -257,12 +257,12 @@ def clean_command(
     says which rule decided a cell and why. Joint rotations are judged; translations (the root's
     path over the ground, animated bone offsets) are not checked. With --out, flagged cells are
     replaced by the neighbours' median (a stretch the cancelling-jumps rule found turned by one
-    rotation is turned back by it instead, and the rest of its flagged run keeps its captured
-    rotations), blended at the edges, and where a repaired joint moves a planted foot (a hip, knee
-    or ankle, or the pelvis, under a foot on the ground) IK on that leg holds the foot where it was
-    planted. All other joints and frames keep their rotations bit for bit (the written file's angles
-    are derived from them again, to 1e-12 deg and 12 significant digits, so an unchanged angle reads
-    as the input file had it).
+    rotation, or about one axis by a changing angle, is turned back by it instead, and the rest
+    of its flagged run keeps its captured rotations), blended at the edges, and where a repaired
+    joint moves a planted foot (a hip, knee or ankle, or the pelvis, under a foot on the ground)
+    IK on that leg holds the foot where it was planted. All other joints and frames keep their
+    rotations bit for bit (the written file's angles are derived from them again, to 1e-12 deg
+    and 12 significant digits, so an unchanged angle reads as the input file had it).
 
     \b
     Examples:
