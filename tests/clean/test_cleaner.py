@@ -508,6 +508,11 @@ def test_unturned_undoes_a_stretch_turned_by_one_rotation() -> None:
     bent[40:70, 1] = rot.quat_mul(q[40:70, 1], grow)
     back, done = unturned(bent, cells)
     assert done[40:70, 1].all() and err(back[40:70, 1], q[40:70, 1]) < 1.0
+    # ... but not edges 5 times apart in size, nor a turn near 180 deg (no reliable axis)
+    for lo, hi in ((12.0, 60.0), (100.0, 170.0)):
+        grow = rot.rotvec_to_quat(np.radians(np.linspace(lo, hi, 30))[:, None] * axis[None])
+        bent[40:70, 1] = rot.quat_mul(q[40:70, 1], grow)
+        assert not unturned(bent, cells)[1].any(), (lo, hi)
 
 
 def test_repair_turns_an_offset_back_and_keeps_the_captured_frames_around_it(takes) -> None:

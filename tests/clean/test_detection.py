@@ -237,14 +237,16 @@ def test_cancelling_steps_pair_a_turn_about_one_axis_that_changes_size() -> None
     grow = np.linspace(0.3, 0.9, 20)[:, None] * np.array([[1.0, 0.0, 0.0]])
     bad[40:60, 0] = rot.quat_mul(q[40:60, 0], rot.rotvec_to_quat(grow))  # in 0.3, out 0.9 rad
     bad[40:50, 1] = rot.quat_mul(q[40:50, 1], rot.rotvec_to_quat(np.array([0.5, 0.0, 0.0])))
-    bad[50:60, 1] = rot.quat_mul(q[50:60, 1], rot.rotvec_to_quat(np.array([0.0, 0.0, 0.5])))
+    # ... left about an axis 60 deg away (opposite ways to a cosine of 0.5 only)
+    tilted = 0.5 * np.array([0.5, 0.0, np.sqrt(0.75)])
+    bad[50:60, 1] = rot.quat_mul(q[50:60, 1], rot.rotvec_to_quat(tilted))
     peaks = np.zeros((120, 2), dtype=bool)
     peaks[[40, 60], :] = True
     devs = [mdm_mod.step_deviations(bad, "body")]
     assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45).any()
     flagged = mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, axis_cos=0.9, axis_peaks=peaks)
     assert np.array_equal(np.flatnonzero(flagged[:, 0]), np.r_[40:60])
-    assert not flagged[:, 1].any()  # entered about x, left about z (a bump at 50 in between)
+    assert not flagged[:, 1].any()  # entered about x, left 60 deg off it (a bump at 50 between)
     small = peaks.copy()
     small[60, 0] = False  # the exit under the bar
     assert not mdm_mod.cancelling_steps(peaks, devs, 45, 0.45, axis_cos=0.9, axis_peaks=small).any()

@@ -759,15 +759,7 @@ def cut_off_steps(
     and enters an error (``sides`` +1) at most ``max_frames`` frames from the take's end, with
     no peak leaving an error after it, marks the frames from it to the last; one that leaves an
     error (-1) at most ``max_frames`` frames into the take, with no peak entering one before
-    it, marks the frames before it. Such an error has one jump only, so nothing pairs it.
-
-    A peak within ``max_frames`` of one end only, with no other peak within ``max_frames`` on
-    the take's side of it, is read as entering (leaving) an error cut off by that end whatever
-    ``sides`` says: an error longer than ``max_frames`` is not one the pairs look for, and
-    where the cut-off error's frames digress less than the motion before them (a forearm turned
-    at the end of a gesture and held there) the digression reads its entry as an exit (Bandai-1
-    tuning half, gestures, 16 takes, seeds 0-5: offset recall 0.981 -> 0.985, precision
-    unchanged; with the smooth veto's trim reading it the same way)."""
+    it, marks the frames before it. Such an error has one jump only, so nothing pairs it."""
     peaks = np.asarray(peaks, dtype=bool)
     F = peaks.shape[0]
     out = np.zeros(peaks.shape, dtype=bool)
@@ -775,18 +767,9 @@ def cut_off_steps(
         ps = np.flatnonzero(peaks[:, j])
         for p in ps[~paired[ps, j]]:
             later, earlier = ps[ps > p], ps[ps < p]
-            near_end, near_start = F - p <= max_frames, p <= max_frames
-            # near one end only and alone there, the jump can only enter (leave) an error cut
-            # off by that end, whatever the digression says: a jump within max_frames before
-            # (after) it may be the entry (exit) of an error it leaves (enters)
-            side = sides[p, j]
-            if near_end and not near_start and not (p - earlier <= max_frames).any():
-                side = 1
-            elif near_start and not near_end and not (later - p <= max_frames).any():
-                side = -1
-            if side > 0 and near_end and not (sides[later, j] < 0).any():
+            if sides[p, j] > 0 and F - p <= max_frames and not (sides[later, j] < 0).any():
                 out[p:, j] = True
-            elif side < 0 and near_start and not (sides[earlier, j] > 0).any():
+            elif sides[p, j] < 0 and p <= max_frames and not (sides[earlier, j] > 0).any():
                 out[:p, j] = True
     return out
 

@@ -198,9 +198,7 @@ def unturned(
                 gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 side = min(gap, key=gap.get)
                 size = max(rot.quat_angle(turns[side][0], _ID), rot.quat_angle(turns[side][1], _ID))
-                if gap[side] > max(np.radians(10.0), 0.25 * size) and not _one_axis(
-                    *turns[side]
-                ):
+                if gap[side] > max(np.radians(10.0), 0.25 * size) and not _one_axis(*turns[side]):
                     continue
             else:
                 side = _one_edge_side(track, a, b, ends[0], turns)
@@ -223,19 +221,22 @@ def unturned(
 _ID = np.array([1.0, 0.0, 0.0, 0.0])
 
 ONE_AXIS_COS = 0.9
-"""Two edge turns whose rotation axes are this close (cosine; the cancelling-jumps rule's
-``DetectConfig.pair_axis_cos``) turn the run about one axis (:func:`_one_axis`)."""
+"""Two edge turns whose rotation axes are this close (cosine, as the cancelling-jumps rule's
+default ``DetectConfig.pair_axis_cos`` pairs jumps) turn the run about one axis
+(:func:`_one_axis`)."""
 
 
 def _one_axis(d0: np.ndarray, d1: np.ndarray) -> bool:
     """Whether turns ``d0`` and ``d1`` (unit quaternions) are about one axis, the same way, by
-    over 10 deg each: a wrong-way bend mirrors the joint's flexion, so the turn that made it
-    grows and shrinks along the run about that one axis, and the slerp from one edge's turn to
-    the other's follows it where the joint's own neighbours (another moment's pose) do not."""
-    v0 = rot.quat_to_rotvec(rot.quat_fix_hemisphere(d0, _ID))
-    v1 = rot.quat_to_rotvec(rot.quat_fix_hemisphere(d1, _ID))
+    10 to 150 deg each, the larger at most 3 times the smaller: a wrong-way bend mirrors the
+    joint's flexion, so the turn that made it grows and shrinks along the run about that one
+    axis, and the slerp from one edge's turn to the other's follows it where the joint's own
+    neighbours (another moment's pose) do not. A turn near 180 deg has no reliable axis (a flip
+    reads either way round), and edges far apart in size are no one error's."""
+    v0, v1 = rot.quat_to_rotvec(d0), rot.quat_to_rotvec(d1)
     n0, n1 = float(np.linalg.norm(v0)), float(np.linalg.norm(v1))
-    if min(n0, n1) < np.radians(10.0):
+    lo, hi = sorted((n0, n1))
+    if lo < np.radians(10.0) or hi > np.radians(150.0) or hi > 3.0 * lo:
         return False
     return float(v0 @ v1) / (n0 * n1) > ONE_AXIS_COS
 

@@ -27,7 +27,7 @@ class CancellingJumps:
     axis by an angle that follows the joint's own flexion, so its two jumps point opposite ways
     but differ in size: two jumps that both exceed ``DetectConfig.pair_axis_ratio`` times the
     joint's ordinary one and point opposite ways (``pair_axis_cos``) pair too; on the Bandai-1
-    tuning half's clean takes no two jumps that large point opposite ways within 1.5 s. A jump
+    tuning half's clean takes, whole, the largest such natural pair is 3.1 times it. A jump
     leaving an error is not paired with a later one entering another (the frames between are
     clean), where the digression tells the two sides of each jump apart and an entry before and
     an exit after them (or the take's ends) flank

@@ -135,15 +135,15 @@ class DetectConfig:
     #: within this cosine and both exceed ``pair_axis_ratio`` times the joint's ordinary jump:
     #: a wrong-way bend turns its stretch about one axis by an angle that changes with the
     #: joint's own flexion, so its entry and exit differ in size (a Bandai elbow carries the
-    #: forearm's twist, and a bend about that axis does not read as a wrong-way flexion). On the
-    #: Bandai-1 tuning half's clean takes no two jumps over 3 times the joint's own point
-    #: opposite ways within 1.5 s; of 628 bends injected there, 557 are entered and left so.
-    #: Tuning half, 8 takes, seeds 0-6: gestures bend recall 0.992 -> 0.999 local, 0.995 ->
-    #: 0.999 small, precision unchanged; validation half, seeds 0-2: dance/fight bend recall
-    #: 0.997 -> 1.000, nothing else changed (0: off).
+    #: forearm's twist, and a bend about that axis does not read as a wrong-way flexion). On a
+    #: joint that turns about one axis only every two jumps are opposite or alike, so the size
+    #: bar does the work: on the Bandai-1 tuning half's clean takes, whole, the largest such
+    #: natural pair (a dance's elbow reversing at once) is 3.1 times the joint's own jump; of
+    #: the bends injected there that do not cancel, 84% are entered and left by jumps over 5
+    #: times it (0: off).
     pair_axis_cos: float = 0.9
     #: ... see ``pair_axis_cos``.
-    pair_axis_ratio: float = 3.0
+    pair_axis_ratio: float = 5.0
     #: A jump is one side of a one-frame pop, and pairs with no farther jump, when the frame
     #: beside it deviates the opposite way to within ``|v_f + v_g| < pop_tol * min(|v_f|,
     #: |v_g|)``: a pop's two deviations are equal and opposite but for the joint's own

@@ -24,7 +24,6 @@ def unowned_runs(
     trim: bool = False,
     z: np.ndarray | None = None,
     width: int = 3,
-    end_frames: int = 0,
 ) -> np.ndarray:
     """(F, J) bool: the runs of ``mask & ~keep`` (per joint) that own no step of at least
     ``min_step`` radians. Each such step within ``pad`` frames of a run belongs to the runs
@@ -46,12 +45,7 @@ def unowned_runs(
     changed on either half). A run owning one step is cut on one side only, the side away from
     the error: the error lies where the normalised digression ``z`` is higher over the ``width``
     frames after the step than before it, or before (:func:`mdm.step_sides`); without ``z`` such
-    a run is kept whole. A run reaching the take's last frame whose steps are one jump (a
-    step and its half-size echoes a frame either side) within ``end_frames`` of it (and not of
-    the first frame) holds the error after it whatever ``z`` says, and the same at the start:
-    an error cut off by the take has one jump, and where its frames digress less than the
-    motion before it (a forearm held turned at the end of a gesture) ``z`` misreads the side
-    (:func:`mdm.cut_off_steps` reads it the same way)."""
+    a run is kept whole."""
     mask = np.asarray(mask, dtype=bool)
     keep = np.asarray(keep, dtype=bool) & mask
     out = np.zeros_like(mask)
@@ -93,13 +87,8 @@ def unowned_runs(
                     # an error cut off by the take's start or end has no step there; but a
                     # run whose first step enters the error (or whose last leaves it) holds
                     # the error between its steps, whatever lies beyond them
-                    # (near one end only, an error cut off there: its steps enter it)
-                    F = len(mask)
-                    one = last[i] - first[i] <= 2  # one jump: a step and its echoes
-                    to_end = one and b == F - 1 and F - first[i] <= end_frames < first[i]
-                    to_start = one and a == 0 and last[i] <= end_frames < F - last[i]
-                    lo = not to_start and (lo or _enters(z[:, j], int(first[i]), width))
-                    hi = not to_end and (hi or not _enters(z[:, j], int(last[i]), width))
+                    lo = lo or _enters(z[:, j], int(first[i]), width)
+                    hi = hi or not _enters(z[:, j], int(last[i]), width)
                 if lo:
                     out[a : max(first[i] - pad, a), j] = True
                 if hi:
@@ -159,7 +148,6 @@ class SmoothVeto:
                 self.trim,
                 ev.z,
                 ev.frames(ev.config.step_side_seconds),
-                round(ev.config.pair_seconds * ev.fps),
             )
         else:
             cells = mdm_mod.smooth_runs(flags.mask, ev.steps, keep, np.radians(self.min_deg), pad)
