@@ -139,8 +139,8 @@ class DetectConfig:
     #: joint that turns about one axis only every two jumps are opposite or alike, so the size
     #: bar does the work: on the Bandai-1 tuning half's clean takes, whole, the largest such
     #: natural pair (a dance's elbow reversing at once) is 3.1 times the joint's own jump; of
-    #: the bends injected there that do not cancel, 84% are entered and left by jumps over 5
-    #: times it (0: off).
+    #: the bends injected there that do not cancel, 55 of 60 are entered and left by jumps over
+    #: 5 times it (0: off).
     pair_axis_cos: float = 0.9
     #: ... see ``pair_axis_cos``.
     pair_axis_ratio: float = 5.0
