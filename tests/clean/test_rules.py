@@ -1145,6 +1145,10 @@ def test_a_cell_cleared_and_flagged_again_is_the_later_rules() -> None:
     ex = explain(ev, fl, 0, 5, pipeline=(_First, _Clear, _Again))
     assert ex.flagged and ex.reasons == ["again"] and ex.cleared_by == ["clear"]
     assert "FLAGGED by again (after clear cleared the earlier rules' flags)" in str(ex)
+    # the flagged segment holding the cell, as the report gives it (frames 5 to 5)
+    assert ex.segment == (5, 6) and "; segment 5:6" in str(ex)
+    assert ex.to_json()["segment"] == [5, 6]
+    assert explain(ev, fl, 0, 9, pipeline=(_First, _Clear, _Again)).segment is None
     # a rule that flags again after the veto (two rules of one name), a veto that runs twice
     again = Flags((20, 2))
     cell = np.zeros((20, 2), dtype=bool)

@@ -96,11 +96,11 @@ class MDMHysteresis:
         own = "" if v > self.threshold else f" (below {self.threshold:g}: an abrupt cell)"
         if kinds:
             return (
-                f"MDM {v:.3f}{own} in a run {a}:{b + 1} (MDM above {self.threshold:g}, or "
+                f"MDM {v:.3f}{own} in its run {a}:{b + 1} (MDM above {self.threshold:g}, or "
                 "abrupt) seeded by " + ", ".join(kinds)
             )
         return (
-            f"MDM {v:.3f} in a run {a}:{b + 1} above {self.threshold:g} with no seed (peak "
+            f"MDM {v:.3f} in its run {a}:{b + 1} above {self.threshold:g} with no seed (peak "
             f"{peak:.3f} <= {self.seed_threshold:g}, no abrupt cell or step)"
         )
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mocapkit.clean.detect._runs import run_around
 from mocapkit.clean.detect.bridge import BridgeHoles
 from mocapkit.clean.detect.cancelling_jumps import CancellingJumps
 from mocapkit.clean.detect.config import DetectConfig
@@ -154,6 +155,10 @@ class Explanation:
     mdm: float
     analysed: bool
     lines: list[tuple[str, str, str]] = field(default_factory=list)
+    segment: tuple[int, int] | None = None
+    """The flagged segment holding the cell, ``(A, B)``: frames A to B-1 (the report's and the
+    summary's); None where it is not flagged. Each rule's line measures that rule's own run,
+    before the vetoes and the other rules, so its frames may differ."""
 
     def to_json(self) -> dict:
         return {
@@ -166,6 +171,7 @@ class Explanation:
             "cleared_by": list(self.cleared_by),
             "mdm": round(self.mdm, 6),
             "analysed": self.analysed,
+            "segment": None if self.segment is None else list(self.segment),
             "rules": [{"rule": r, "verdict": v, "measured": m} for r, v, m in self.lines],
         }
 
@@ -176,6 +182,8 @@ class Explanation:
             why += f" (after {', '.join(self.cleared_by)} cleared the earlier rules' flags)"
         elif self.cleared_by:
             why += f" (cleared by {', '.join(self.cleared_by)})"
+        if self.segment is not None:  # the rules' lines measure their own runs
+            why += f"; segment {self.segment[0]}:{self.segment[1]}"
         out = [f"{self.joint} frame {self.frame} ({self.seconds:.3f} s): {head}{why}"]
         if not self.analysed:  # no rule's verdict applies: say so instead of listing them
             out.append(
@@ -236,6 +244,7 @@ def explain(
     un = flags.removed.get(UNANALYSED)
     if un is not None and un[frame, joint]:
         cleared.append(UNANALYSED)
+    run = run_around(flags.mask[:, joint], frame)
     return Explanation(
         joint=evidence.names[joint],
         joint_index=int(joint),
@@ -247,6 +256,7 @@ def explain(
         mdm=float(evidence.mdm[frame, joint]) if evidence.mdm is not None else float("nan"),
         analysed=bool(evidence.analysed[joint]),
         lines=lines,
+        segment=None if run is None else (run[0], run[1] + 1),
     )
 
 
