@@ -557,3 +557,24 @@ def test_repair_turns_a_pelvis_offset_back_in_the_files_space(takes) -> None:
     assert (
         np.degrees(rot.quat_angle(fixed.rotations[60:85, p], walk.rotations[60:85, p])).max() < 2.0
     )
+
+
+def test_repair_keeps_the_captured_frames_the_words_flag_past_a_turned_stretch(shared_path) -> None:
+    """A Bandai forearm twisted 40 deg about its own bone for 0.5 s (newcomer): the jumps bound
+    the stretch, which is turned back; the words' digression flags frames past it (up to a
+    source word), which hold the captured motion and must keep it. With only 0.1 s of them
+    kept, the median replaced frames 4-7 past the stretch, 18 deg off the capture."""
+    from mocapkit.io import read_motion
+
+    take = read_motion(shared_path("bandai1") / "data" / "dataset-1_guide_masculinity_001.bvh")
+    j = take.skeleton.index("LowerArm_R")
+    bone = take.skeleton.offsets[take.skeleton.children(j)[0]]
+    bad = take.copy()
+    d = rot.rotvec_to_quat(np.radians(40.0) * bone / np.linalg.norm(bone))
+    bad.rotations[60:75, j] = rot.quat_mul(take.rotations[60:75, j], d)
+    cl = SelfSimilarityCleaner().fit(bad)
+    seg = [s for s in cl.segments() if s.joint == "LowerArm_R"]
+    assert seg and seg[0].start <= 60 and seg[0].end >= 78  # the words' spill past the twist
+    fixed = cl.repair().motion
+    err = np.degrees(rot.quat_angle(fixed.rotations[:, j], take.rotations[:, j]))
+    assert err[60:75].max() < 1.0 and err[75:90].max() < 1.0
