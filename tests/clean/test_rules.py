@@ -934,6 +934,30 @@ def test_smooth_veto_gives_a_holds_exit_step_to_the_hold() -> None:
     assert fl.mask[52:68, 0].all()
 
 
+def test_smooth_veto_gives_a_turned_stretchs_exit_jump_to_it() -> None:
+    """A knee flipped for a few frames (a stretch the cancelling-jumps rule flags) leaves the
+    words digressing past its exit: the MDM flags the frames after it, next to the exit jump's
+    echo. That jump is the flipped stretch's own, as a hold's snap is the hold's: the run
+    after it owns no step and is cleared; flagged by the MDM only, it would keep the echo."""
+    q = smooth()
+    bad = turn(q, slice(30, 37), 0, 150.0)
+    mdm = np.zeros((90, 2))
+    mdm[30:37, 0] = 0.9
+    mdm[38:60, 0] = 1.0
+    ev = evidence(bad, mdm=mdm, dig=rot.quat_angle(bad, q))
+    spill = np.zeros((90, 2), dtype=bool)
+    spill[38:60, 0] = True
+    for first, expect in (("cancelling-jumps", False), ("mdm", True)):
+        fl = Flags((90, 2))
+        flip = np.zeros((90, 2), dtype=bool)
+        flip[30:37, 0] = True
+        fl.flag(first, flip)
+        fl.flag("mdm", spill)
+        SmoothVeto().apply(ev, fl)
+        assert fl.mask[30:37, 0].all()
+        assert fl.mask[39:60, 0].any() == expect, first
+
+
 def test_wrong_way_hinge_axis_is_the_takes_own() -> None:
     F = 90
     rv = np.zeros((F, 1, 3))

@@ -24,6 +24,7 @@ def unowned_runs(
     trim: bool = False,
     z: np.ndarray | None = None,
     width: int = 3,
+    snaps: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the runs of ``mask & ~keep`` (per joint) that own no step of at least
     ``min_step`` radians. Each such step within ``pad`` frames of a run belongs to the runs
@@ -45,7 +46,12 @@ def unowned_runs(
     changed on either half). A run owning one step is cut on one side only, the side away from
     the error: the error lies where the normalised digression ``z`` is higher over the ``width``
     frames after the step than before it, or before (:func:`mdm.step_sides`); without ``z`` such
-    a run is kept whole."""
+    a run is kept whole. ``snaps`` ((F, J) bool, optional): a judged run whose last cell is one
+    of these (a stretch the cancelling-jumps rule found turned, left by one jump) owns the two
+    steps after it alone, as a hold does: the digression the error leaves runs on past its exit
+    jump, and that jump vouched for the spill (CMU 03_02, a knee flipped for 6 frames: the 40
+    frames of natural swing after it, MDM 1.0, owned the exit's echo, read it as an entry and
+    went to the median)."""
     mask = np.asarray(mask, dtype=bool)
     keep = np.asarray(keep, dtype=bool) & mask
     out = np.zeros_like(mask)
@@ -58,6 +64,8 @@ def unowned_runs(
         last = np.full(len(spans), -1)
         count = np.zeros(len(spans), dtype=np.int64)
         held = np.arange(len(spans)) >= len(judged)
+        if snaps is not None:  # turned stretches own their exit jump as a hold does
+            held[: len(judged)] = [bool(snaps[b, j]) for _, b in judged]
         for p in np.flatnonzero(steps[:, j] >= min_step):
             # a hold ends with a snap into the frame after it and that step's half-size
             # echo a frame later: both are the hold's own, however near a run beyond it lies
@@ -148,6 +156,7 @@ class SmoothVeto:
                 self.trim,
                 ev.z,
                 ev.frames(ev.config.step_side_seconds),
+                flags.cells_of(("cancelling-jumps",)),
             )
         else:
             cells = mdm_mod.smooth_runs(flags.mask, ev.steps, keep, np.radians(self.min_deg), pad)
