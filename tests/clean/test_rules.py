@@ -96,6 +96,9 @@ def test_pipeline_is_data_and_config_has_no_frames() -> None:
         DetectConfig(still_jump_ratio=-1.0)
     with pytest.raises(ValueError, match="still_jump_seconds"):
         DetectConfig(still_jump_seconds=-0.1)
+    for bad in ({"pair_axis_cos": -0.5}, {"pair_axis_cos": 1.5}, {"pair_axis_ratio": -1.0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            DetectConfig(**bad)
 
 
 def test_mdm_threshold_and_hysteresis() -> None:

@@ -413,6 +413,10 @@ class DetectConfig:
             )
         if not self.still_jump_ratio >= 0.0:
             raise ValueError(f"still_jump_ratio must be 0 or more, got {self.still_jump_ratio!r}")
+        if not 0.0 <= self.pair_axis_cos <= 1.0:  # a cosine; 0 turns the axis pairing off
+            raise ValueError(f"pair_axis_cos must lie in [0, 1], got {self.pair_axis_cos!r}")
+        if not self.pair_axis_ratio >= 0.0:
+            raise ValueError(f"pair_axis_ratio must be 0 or more, got {self.pair_axis_ratio!r}")
         if not 0.0 <= self.spike_jump_share <= 1.0:
             raise ValueError(f"spike_jump_share must lie in [0, 1], got {self.spike_jump_share!r}")
         if not self.spike_jump_ratio >= 0.0:
