@@ -578,3 +578,77 @@ def test_repair_keeps_the_captured_frames_the_words_flag_past_a_turned_stretch(s
     fixed = cl.repair().motion
     err = np.degrees(rot.quat_angle(fixed.rotations[:, j], take.rotations[:, j]))
     assert err[60:75].max() < 1.0 and err[75:90].max() < 1.0
+
+
+def test_repair_turns_back_a_flipped_elbow_but_not_a_wrong_way_bend_of_a_flexing_one(
+    takes,
+) -> None:
+    """Both errors bend the elbow the wrong way (the wrong-way-hinge rule flags them), and both
+    stretches are entered and left by opposite jumps. A flip is one half turn: turning it back
+    restores the capture, where the median is another moment's pose. A wrong-way bend mirrors
+    the flexion, which changes along the run on an arm swinging in a walk: the turn read at
+    its edges leaves the middle off (12-20 deg here), and the median, another swing of the
+    same arm, is near (under 3 deg)."""
+    walk, ctx = takes
+    j = walk.skeleton.index("LeftForeArm")
+
+    def off(m: Motion, sl: slice) -> float:
+        return float(np.degrees(rot.quat_angle(m.rotations[sl, j], walk.rotations[sl, j])).mean())
+
+    for kind, seed, start in (("flip", 0, 60), ("flip", 2, 100), ("bend", 0, 60), ("bend", 3, 120)):
+        inj = inject(walk, kind, j, seed, start=start)
+        frames = np.flatnonzero(inj.frames)
+        sl = slice(int(frames[0]), int(frames[-1]) + 1)
+        cl = SelfSimilarityCleaner().fit(inj.motion, [ctx])
+        flags = cl.flags()
+        assert flags.live("wrong-way-hinge")[sl, j].any(), (kind, seed)
+        assert flags.live("cancelling-jumps")[sl, j].any(), (kind, seed)
+        fixed = off(cl.repair().motion, sl)
+        median = off(cl.repair(mask=cl.mask()).motion, sl)
+        if kind == "flip":
+            assert fixed < 0.5 and median > 2.0, (seed, fixed, median)
+        else:
+            assert fixed < 3.0 and fixed <= median + 0.1, (seed, fixed, median)
+
+
+def test_unturned_takes_only_a_constant_turn_where_told() -> None:
+    """``constant`` cells: a run there is turned back only by one turn read alike at both edges
+    (a flip), never by a turn about one axis whose angle changes, nor from one edge."""
+    from mocapkit.clean.repair import unturned
+
+    q = _swing()
+    cells = np.zeros(q.shape[:2], dtype=bool)
+    cells[40:70, 1] = True
+    axis = np.array([0.6, 0.0, 0.8])
+    grow = rot.rotvec_to_quat(np.radians(np.linspace(25.0, 60.0, 30))[:, None] * axis[None])
+    bent = q.copy()
+    bent[40:70, 1] = rot.quat_mul(q[40:70, 1], grow)
+    assert unturned(bent, cells)[1][40:70, 1].all()
+    assert not unturned(bent, cells, constant=cells)[1].any()
+    flip = q.copy()
+    half = rot.rotvec_to_quat(np.pi * axis)
+    flip[40:70, 1] = rot.quat_mul(q[40:70, 1], half)
+    back, done = unturned(flip, cells, constant=cells)
+    assert done[40:70, 1].all()
+    assert np.degrees(rot.quat_angle(back[40:70, 1], q[40:70, 1])).max() < 0.5
+    # a run cut off by the take's end has one edge: no constant turn can be read there
+    end = np.zeros_like(cells)
+    end[100:, 1] = True
+    flip_end = q.copy()
+    flip_end[100:, 1] = rot.quat_mul(q[100:, 1], half)
+    assert not unturned(flip_end, end, constant=end)[1].any()
+
+
+def test_flexion_of_reads_a_hinge_as_its_own_flexion_does(takes) -> None:
+    from mocapkit.clean.detect import DetectConfig, Evidence
+
+    walk, _ = takes
+    ev = Evidence.for_motion(walk, DetectConfig())
+    assert ev.hinge_axes  # the procedural walk's knees and elbows
+    for j, axis in ev.hinge_axes.items():
+        assert abs(np.linalg.norm(axis) - 1.0) < 1e-9
+        np.testing.assert_allclose(ev.flexion_of(j, walk.rotations[:, j]), ev.hinge_flexion[:, j])
+        # flexion is signed so that the hinge spends most of its time bent its own way
+        assert np.median(ev.hinge_flexion[:, j]) > 0
+    other = next(j for j in range(walk.num_joints) if j not in ev.hinge_axes)
+    assert np.isnan(ev.flexion_of(other, walk.rotations[:, other])).all()

@@ -494,9 +494,10 @@ class SelfSimilarityCleaner:
 
         ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's; without it, a
         stretch the cancelling-jumps rule found turned by one rotation is turned back
-        (:func:`~mocapkit.clean.repair.unturned`; not where the wrong-way-hinge or noise rule
-        flags it too: such an error is no constant turn) and the rest of its flagged run keeps
-        the captured rotations. ``contacts``: for the
+        (:func:`~mocapkit.clean.repair.unturned`; not where the noise rule flags it too: a
+        burst is no turn; where the wrong-way-hinge rule does, only a flip or a hinge held
+        still, :func:`_bent_right`) and the rest of its flagged run keeps the captured
+        rotations. ``contacts``: for the
         effector chains of these constraints, the KNN word that keeps the effector nearest its
         contact point replaces the median, then IK pins the effector (changing only the written
         cells of the chain). ``foot_lock``: where the repair changed a leg, hold its planted
@@ -514,9 +515,15 @@ class SelfSimilarityCleaner:
             fl = self.flags(threshold)
             turned = fl.live("cancelling-jumps") & flagged
             # a wrong-way bend or a noise burst is no constant turn, though its jumps may cancel
-            turned &= ~_runs_touching(turned, fl.live("wrong-way-hinge") | fl.live("noise"))
+            turned &= ~_runs_touching(turned, fl.live("noise"))
             if turned.any():
-                back, done = unturned(self.motion_.rotations, turned, within=flagged)
+                # a wrong-way bend mirrors the flexion, whose size changes along the run: only a
+                # constant turn is turned back there, and only a half turn or on a still hinge
+                hinge = fl.live("wrong-way-hinge")
+                back, done = unturned(
+                    self.motion_.rotations, turned, within=flagged, constant=hinge
+                )
+                done = _bent_right(self.evidence_, back, done, hinge)
                 # the jumps bound the turned stretch: the cells past them that only the words'
                 # digression flags (it spills past an error by up to a source word) hold the
                 # captured motion; another rule's cells, or the MDM's farther off, are the
@@ -641,6 +648,62 @@ def _by_index(contact: ContactConstraint, skeleton) -> ContactConstraint:
     if not 0 <= int(contact.joint) < skeleton.num_joints:
         raise ValueError(f"contact: joint {contact.joint} out of range ({skeleton.num_joints})")
     return contact
+
+
+def _bent_right(
+    ev: Evidence, turned_back: np.ndarray, done: np.ndarray, hinge: np.ndarray
+) -> np.ndarray:
+    """``done`` less the runs on a straight knee or elbow whose turn-back is no repair; those go
+    to the neighbours' median:
+
+    - any run the turn-back leaves bent the wrong way (flexion below ``-hinge_deg`` on a frame,
+      :meth:`Evidence.flexion_of`);
+    - a run the wrong-way-hinge rule flags (``hinge``), turned by less than
+      :data:`HALF_TURN_DEG` at an edge, where the hinge flexes at either edge (its flexion
+      changing by over :data:`STILL_HINGE_DEG_S`, on the take as given).
+
+    Relies on: anatomy, as the wrong-way-hinge rule, and how the two errors that bend a hinge
+    the wrong way come about. A flip (a solver's half-turn ambiguity) turns a stretch by one
+    half turn, undone by the turn read at its edges whatever the hinge does. A wrong-way bend
+    mirrors the flexion: where the hinge holds still, mirrored and turned are one constant
+    rotation; where it flexes, the mirrored stretch moves against its own motion, and the turn
+    read at the edges leaves the middle off (tuning half, seed 0, locomotion knee and elbow
+    bends turned back 12.2 deg off on average where the median is 4.7: another step's knee)."""
+    out = done.copy()
+    limit = -np.radians(ev.config.hinge_deg)
+    still = np.radians(STILL_HINGE_DEG_S) / ev.fps
+    q = ev.rotations
+    F = q.shape[0]
+    for j in ev.hinge_axes:
+        flex = ev.hinge_flexion[:, j]
+        for a, b in true_runs(done[:, j]):
+            with np.errstate(invalid="ignore"):
+                if (ev.flexion_of(j, turned_back[a : b + 1, j]) < limit).any():
+                    out[a : b + 1, j] = False
+                    continue
+            if not hinge[a : b + 1, j].any():
+                continue
+            turn = rot.quat_angle(turned_back[[a, b], j], q[[a, b], j])
+            if (turn >= np.radians(HALF_TURN_DEG)).all():
+                continue
+            # the flexion's steps beside each edge, outside and inside (not across the jump)
+            steps = [(a - 2, a - 1), (a, a + 1), (b - 1, b), (b + 1, b + 2)]
+            moves = [abs(flex[y] - flex[x]) for x, y in steps if 0 <= x < y < F and x >= a - 2]
+            if any(m > still for m in moves if np.isfinite(m)):
+                out[a : b + 1, j] = False
+    return out
+
+
+HALF_TURN_DEG = 160.0
+"""A turn-back of at least this at both edges of a hinge's run undoes a flip (a half turn, the
+ambiguity of a rotation solver); a wrong-way bend turns a hinge by twice its flexion and the
+push past straight, rarely this much (tuning half, seed 0)."""
+
+STILL_HINGE_DEG_S = 30.0
+"""A hinge whose flexion changes by less than this (deg/s) over the frames at a run's edges
+holds still there; a wrong-way bend of a still hinge is one constant turn (tuning half, seed 0:
+bends of standing knees and resting elbows, turned back 0.1-1.6 deg off where the median is up
+to 97 deg off)."""
 
 
 def _runs_touching(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:

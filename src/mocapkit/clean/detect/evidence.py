@@ -394,9 +394,33 @@ class Evidence:
         wrapping) where there are any. ``hinge_context``: every hinge pooled with the context (a
         wrapping context then leaves it unjudged). Without the limb's rest direction (no
         ``hinge_bones``) the full rotations are all there is."""
+        out = np.full(self.rotations.shape[:2], np.nan)
+        for j, axis in self.hinge_axes.items():
+            out[:, j] = self.flexion_of(j, self.rotations[:, j], axis)
+        return out
+
+    def flexion_of(self, joint: int, q: np.ndarray, axis: np.ndarray | None = None) -> np.ndarray:
+        """(F,) radians: the flexion of rotations ``q`` (F, 4) of straight hinge ``joint``
+        about its fitted main axis (:attr:`hinge_axes`), as :attr:`hinge_flexion` reads the
+        take's own: a limb folded back past ``hinge_max_deg`` reads as that much wrong-way
+        flexion. NaN where the hinge is not judged."""
+        axis = self.hinge_axes.get(joint) if axis is None else axis
+        if axis is None:
+            return np.full(len(q), np.nan)
+        rest = None if self.hinge_bones is None else self.hinge_bones[self.hinges.index(joint)]
+        own = bend_rotvecs(np.asarray(q, dtype=np.float64), rest)
+        size = np.linalg.norm(own, axis=1)
+        # a limb folded back past hinge_max_deg is past any knee's or elbow's reach (about
+        # 150-160 deg): read as a wrong-way bend of that size
+        return np.where(size > np.radians(self.config.hinge_max_deg), -size, own @ axis)
+
+    @cached_property
+    def hinge_axes(self) -> dict[int, np.ndarray]:
+        """Each judged straight hinge's main flexion axis (unit, its own frame), signed so that
+        the median flexion is positive; see :attr:`hinge_flexion`."""
         q = self.rotations
         c = self.config
-        out = np.full(q.shape[:2], np.nan)
+        axes: dict[int, np.ndarray] = {}
         wrap = np.radians(c.hinge_max_deg)
         for i, j in enumerate(self.hinges):
             rest = None if self.hinge_bones is None else self.hinge_bones[i]
@@ -417,13 +441,8 @@ class Evidence:
                 else:
                     pool = np.concatenate([pool, theirs[keep]])
             axis = np.linalg.svd(pool, full_matrices=False)[2][0]
-            if np.median(pool @ axis) < 0:
-                axis = -axis
-            out[:, j] = own @ axis
-            # a limb folded back past hinge_max_deg is past any knee's or elbow's reach (about
-            # 150-160 deg): read as a wrong-way bend of that size
-            out[folded, j] = -size[folded]
-        return out
+            axes[j] = -axis if np.median(pool @ axis) < 0 else axis
+        return axes
 
     def _bends(self, q: np.ndarray, bone: np.ndarray | None) -> bool:
         """Whether a hinge's bend angle spans ``hinge_bend_deg`` over the take (5th to 95th
