@@ -611,34 +611,6 @@ def test_repair_turns_back_a_flipped_elbow_but_not_a_wrong_way_bend_of_a_flexing
             assert fixed < 3.0 and fixed <= median + 0.1, (seed, fixed, median)
 
 
-def test_unturned_takes_only_a_constant_turn_where_told() -> None:
-    """``constant`` cells: a run there is turned back only by one turn read alike at both edges
-    (a flip), never by a turn about one axis whose angle changes, nor from one edge."""
-    from mocapkit.clean.repair import unturned
-
-    q = _swing()
-    cells = np.zeros(q.shape[:2], dtype=bool)
-    cells[40:70, 1] = True
-    axis = np.array([0.6, 0.0, 0.8])
-    grow = rot.rotvec_to_quat(np.radians(np.linspace(25.0, 60.0, 30))[:, None] * axis[None])
-    bent = q.copy()
-    bent[40:70, 1] = rot.quat_mul(q[40:70, 1], grow)
-    assert unturned(bent, cells)[1][40:70, 1].all()
-    assert not unturned(bent, cells, constant=cells)[1].any()
-    flip = q.copy()
-    half = rot.rotvec_to_quat(np.pi * axis)
-    flip[40:70, 1] = rot.quat_mul(q[40:70, 1], half)
-    back, done = unturned(flip, cells, constant=cells)
-    assert done[40:70, 1].all()
-    assert np.degrees(rot.quat_angle(back[40:70, 1], q[40:70, 1])).max() < 0.5
-    # a run cut off by the take's end has one edge: no constant turn can be read there
-    end = np.zeros_like(cells)
-    end[100:, 1] = True
-    flip_end = q.copy()
-    flip_end[100:, 1] = rot.quat_mul(q[100:, 1], half)
-    assert not unturned(flip_end, end, constant=end)[1].any()
-
-
 def test_flexion_of_reads_a_hinge_as_its_own_flexion_does(takes) -> None:
     from mocapkit.clean.detect import DetectConfig, Evidence
 

@@ -517,13 +517,8 @@ class SelfSimilarityCleaner:
             # a wrong-way bend or a noise burst is no constant turn, though its jumps may cancel
             turned &= ~_runs_touching(turned, fl.live("noise"))
             if turned.any():
-                # a wrong-way bend mirrors the flexion, whose size changes along the run: only a
-                # constant turn is turned back there, and only a half turn or on a still hinge
-                hinge = fl.live("wrong-way-hinge")
-                back, done = unturned(
-                    self.motion_.rotations, turned, within=flagged, constant=hinge
-                )
-                done = _bent_right(self.evidence_, back, done, hinge)
+                back, done = unturned(self.motion_.rotations, turned, within=flagged)
+                done = _bent_right(self.evidence_, back, done, fl.live("wrong-way-hinge"))
                 # the jumps bound the turned stretch: the cells past them that only the words'
                 # digression flags (it spills past an error by up to a source word) hold the
                 # captured motion; another rule's cells, or the MDM's farther off, are the
@@ -658,20 +653,22 @@ def _bent_right(
 
     - any run the turn-back leaves bent the wrong way (flexion below ``-hinge_deg`` on a frame,
       :meth:`Evidence.flexion_of`);
-    - a run the wrong-way-hinge rule flags (``hinge``), turned by less than
-      :data:`HALF_TURN_DEG` at an edge, where the hinge flexes at either edge (its flexion
-      changing by over :data:`STILL_HINGE_DEG_S`, on the take as given).
+    - a run the wrong-way-hinge rule flags (``hinge``) that is not a flip (turned back by less
+      than :data:`HALF_TURN_DEG` at an edge) where the hinge's flexion, as given, strays from
+      the straight line between the run's edge frames by over :data:`LINEAR_FLEXION_DEG`, or
+      that reaches the take's first or last frame (one edge: no line).
 
     Relies on: anatomy, as the wrong-way-hinge rule, and how the two errors that bend a hinge
     the wrong way come about. A flip (a solver's half-turn ambiguity) turns a stretch by one
     half turn, undone by the turn read at its edges whatever the hinge does. A wrong-way bend
-    mirrors the flexion: where the hinge holds still, mirrored and turned are one constant
-    rotation; where it flexes, the mirrored stretch moves against its own motion, and the turn
-    read at the edges leaves the middle off (tuning half, seed 0, locomotion knee and elbow
-    bends turned back 12.2 deg off on average where the median is 4.7: another step's knee)."""
+    mirrors the flexion: the turn that made it is twice the flexion (and a push past straight),
+    and the turn-back slerps from one edge's turn to the other's, which follows it only where
+    the flexion changes linearly over the run (a hinge held still, a short run); where the
+    flexion curves (a walking knee's swing over 0.5 s), the middle stays off by twice the curve
+    (tuning half, seed 0: locomotion bends turned back 12-22 deg off on average where the
+    median, another step's knee, is 4.7)."""
     out = done.copy()
     limit = -np.radians(ev.config.hinge_deg)
-    still = np.radians(STILL_HINGE_DEG_S) / ev.fps
     q = ev.rotations
     F = q.shape[0]
     for j in ev.hinge_axes:
@@ -686,10 +683,12 @@ def _bent_right(
             turn = rot.quat_angle(turned_back[[a, b], j], q[[a, b], j])
             if (turn >= np.radians(HALF_TURN_DEG)).all():
                 continue
-            # the flexion's steps beside each edge, outside and inside (not across the jump)
-            steps = [(a - 2, a - 1), (a, a + 1), (b - 1, b), (b + 1, b + 2)]
-            moves = [abs(flex[y] - flex[x]) for x, y in steps if 0 <= x < y < F and x >= a - 2]
-            if any(m > still for m in moves if np.isfinite(m)):
+            if a == 0 or b == F - 1:
+                out[a : b + 1, j] = False
+                continue
+            f = flex[a : b + 1]
+            chord = np.linspace(f[0], f[-1], len(f))
+            if not np.all(np.abs(f - chord) <= np.radians(LINEAR_FLEXION_DEG)):
                 out[a : b + 1, j] = False
     return out
 
@@ -697,13 +696,12 @@ def _bent_right(
 HALF_TURN_DEG = 160.0
 """A turn-back of at least this at both edges of a hinge's run undoes a flip (a half turn, the
 ambiguity of a rotation solver); a wrong-way bend turns a hinge by twice its flexion and the
-push past straight, rarely this much (tuning half, seed 0)."""
+push past straight, rarely this much."""
 
-STILL_HINGE_DEG_S = 30.0
-"""A hinge whose flexion changes by less than this (deg/s) over the frames at a run's edges
-holds still there; a wrong-way bend of a still hinge is one constant turn (tuning half, seed 0:
-bends of standing knees and resting elbows, turned back 0.1-1.6 deg off where the median is up
-to 97 deg off)."""
+LINEAR_FLEXION_DEG = 3.0
+"""How far (deg) a wrong-way-bent hinge's flexion may stray from the straight line between its
+run's edge frames for the slerped turn-back to follow it (the repair then errs by about twice
+this, as little as the neighbours' median does on a walking knee: 4-5 deg, tuning half)."""
 
 
 def _runs_touching(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:

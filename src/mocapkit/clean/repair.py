@@ -143,11 +143,7 @@ class ContactHeld:
 
 
 def unturned(
-    rotations: np.ndarray,
-    cells: np.ndarray,
-    within: np.ndarray | None = None,
-    search: int = 2,
-    constant: np.ndarray | None = None,
+    rotations: np.ndarray, cells: np.ndarray, within: np.ndarray | None = None, search: int = 2
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(out, done)``: (F, J, 4) ``rotations`` with each run of ``cells`` (per joint) turned back
     by the one rotation that turned it, and (F, J) bool of the cells so turned back (a run whose
@@ -166,9 +162,7 @@ def unturned(
     take's first or last frame, read without the joint's velocity, takes the other edge's turn. With
     ``within`` ((F, J) bool, holding ``cells``: the flagged runs) an edge whose jump is measured
     moves, inside ``within``, to a frame within ``search`` of it that jumps over 1.5 times as much:
-    a prediction made across the jump itself would turn the stretch by it twice. A run holding
-    a cell of ``constant`` ((F, J) bool) is turned back only by one constant turn read at both
-    its edges (no turn about one axis by a changing angle, no run with one edge).
+    a prediction made across the jump itself would turn the stretch by it twice.
 
     Relies on: an offset, a flip or a spike turns a stretch by one constant rotation (what
     :class:`~mocapkit.clean.detect.CancellingJumps` finds), and the joint's velocity is continuous
@@ -191,8 +185,7 @@ def unturned(
                 ends.append((a, a, _predicted(track, a - 1, a - 2 if a >= 2 else a - 1)))
             if b <= F - 2:
                 ends.append((b, b + 1, _predicted(track, b + 1, b + 2 if b <= F - 3 else b + 1)))
-            fixed = constant is not None and bool(constant[a : b + 1, j].any())
-            if not ends or (fixed and len(ends) < 2):
+            if not ends:
                 continue
             turns = {s: [_turn(track[e], p, s) for e, _, p in ends] for s in ("body", "parent")}
             # an edge at the take's first or last frame but one is predicted with no velocity
@@ -205,9 +198,7 @@ def unturned(
                 gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 side = min(gap, key=gap.get)
                 size = max(rot.quat_angle(turns[side][0], _ID), rot.quat_angle(turns[side][1], _ID))
-                if gap[side] > max(np.radians(10.0), 0.25 * size) and (
-                    fixed or not _one_axis(*turns[side])
-                ):
+                if gap[side] > max(np.radians(10.0), 0.25 * size) and not _one_axis(*turns[side]):
                     continue
             else:
                 side = _one_edge_side(track, a, b, ends[0], turns)
