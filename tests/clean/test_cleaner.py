@@ -624,3 +624,62 @@ def test_flexion_of_reads_a_hinge_as_its_own_flexion_does(takes) -> None:
         assert np.median(ev.hinge_flexion[:, j]) > 0
     other = next(j for j in range(walk.num_joints) if j not in ev.hinge_axes)
     assert np.isnan(ev.flexion_of(other, walk.rotations[:, other])).all()
+
+
+def test_bent_right_sends_a_turn_back_that_leaves_a_hinge_wrong_or_has_no_line_to_the_median(
+    takes,
+) -> None:
+    from mocapkit.clean.cleaner import _bent_right
+    from mocapkit.clean.detect import DetectConfig, Evidence
+
+    walk, _ = takes
+    ev = Evidence.for_motion(walk, DetectConfig())
+    j = walk.skeleton.index("LeftForeArm")
+    assert j in ev.hinge_axes
+    F = walk.num_frames
+    q = walk.rotations
+    done = np.zeros((F, walk.num_joints), dtype=bool)
+    done[60:70, j] = done[0:10, j] = True
+    none = np.zeros_like(done)
+    # the captured elbow itself: bent its own way, so every run stays turned back where the
+    # hinge rule did not flag it
+    assert np.array_equal(_bent_right(ev, q, done, none), done)
+    # a turn-back that folds the elbow the wrong way is no repair, flagged by the rule or not
+    axis = ev.hinge_axes[j]
+    flex = ev.hinge_flexion[:, j]
+    wrong = q.copy()
+    wrong[60:70, j] = rot.rotvec_to_quat(-(flex[60:70, None] + np.radians(40.0)) * axis)
+    kept = _bent_right(ev, wrong, done, none)
+    assert not kept[60:70, j].any() and kept[0:10, j].all()
+    # a hinge-flagged run reaching the take's first frame has one edge: no line to follow,
+    # even where the elbow holds still there (its flexion on a line)
+    held = walk.copy()
+    held.rotations[0:12, j] = held.rotations[12, j]
+    ev = Evidence.for_motion(held, DetectConfig())
+    hinge = np.zeros_like(done)
+    hinge[0:10, j] = hinge[60:62, j] = True
+    short = np.zeros_like(done)
+    short[0:10, j] = short[60:62, j] = True
+    kept = _bent_right(ev, held.rotations, short, hinge)
+    assert not kept[0:10, j].any()
+    assert kept[60:62, j].all()  # two frames: on the line between themselves
+
+
+def test_a_flip_left_at_the_takes_next_to_last_frame_is_flagged_and_turned_back(takes) -> None:
+    """The flip's exit jump falls on the take's last frames, where jumps are not measured: it
+    reads as cut off by the end, and the last frame, clean, is left out only where the step
+    into it cancels the flip's entry; both are half turns, which may come out the same way
+    round. Then the run's one full edge gives the turn for both, on the side the two edges,
+    as read, agree on (a tie chose the wrong side: 42 deg off mid-run)."""
+    walk, ctx = takes
+    F = walk.num_frames
+    for name in ("LeftForeArm", "LeftArm"):
+        j = walk.skeleton.index(name)
+        inj = inject(walk, "flip", j, 1, start=F - 10)
+        assert np.flatnonzero(inj.frames)[-1] == F - 2
+        cl = SelfSimilarityCleaner().fit(inj.motion, [ctx])
+        flagged = np.flatnonzero(cl.mask()[:, j])
+        assert flagged.min() == F - 10 and flagged.max() == F - 2, name
+        fixed = cl.repair().motion
+        err = np.degrees(rot.quat_angle(fixed.rotations[F - 12 :, j], walk.rotations[F - 12 :, j]))
+        assert err.max() < 2.0, (name, err.round(1))

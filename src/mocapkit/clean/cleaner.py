@@ -495,9 +495,10 @@ class SelfSimilarityCleaner:
         ``mask`` ((F, J) bool) overrides the MDM mask, e.g. a baseline's; without it, a
         stretch the cancelling-jumps rule found turned by one rotation is turned back
         (:func:`~mocapkit.clean.repair.unturned`; not where the noise rule flags it too: a
-        burst is no turn; where the wrong-way-hinge rule does, only a flip or a hinge held
-        still, :func:`_bent_right`) and the rest of its flagged run keeps the captured
-        rotations. ``contacts``: for the
+        burst is no turn; on a knee or elbow, not where the turn-back leaves it bent the wrong
+        way, and where the wrong-way-hinge rule flags it, only a flip or a bend whose flexion
+        changes linearly over the run, :func:`_bent_right`) and the rest of its flagged run
+        keeps the captured rotations. ``contacts``: for the
         effector chains of these constraints, the KNN word that keeps the effector nearest its
         contact point replaces the median, then IK pins the effector (changing only the written
         cells of the chain). ``foot_lock``: where the repair changed a leg, hold its planted
@@ -514,10 +515,11 @@ class SelfSimilarityCleaner:
         if mask is None:  # a stretch turned by one rotation is turned back (repair.unturned)
             fl = self.flags(threshold)
             turned = fl.live("cancelling-jumps") & flagged
-            # a wrong-way bend or a noise burst is no constant turn, though its jumps may cancel
+            # a noise burst is no turn, though its jumps may cancel
             turned &= ~_runs_touching(turned, fl.live("noise"))
             if turned.any():
                 back, done = unturned(self.motion_.rotations, turned, within=flagged)
+                # nor, on a knee or elbow, is a wrong-way bend whose flexion curves
                 done = _bent_right(self.evidence_, back, done, fl.live("wrong-way-hinge"))
                 # the jumps bound the turned stretch: the cells past them that only the words'
                 # digression flags (it spills past an error by up to a source word) hold the

@@ -651,6 +651,12 @@ def cancelling_steps(
     grows and shrinks with the joint's own), entered and left about that axis by jumps of
     different sizes. They pair after every cancelling pair.
 
+    Two turned stretches of one joint nest or lie apart; a pair that interleaves a kept one
+    (one jump inside its stretch, the other outside) with jumps under half as large is a
+    natural pair across the larger stretch's edge, and is dropped: a dancer's elbow paired two
+    of its own 1-deg step deviations across the entry of a 40-deg twist, and the flagged run
+    began three frames before the twist, so the turn-back read its turn there (newcomer).
+
     ``used_out`` ((F, J) bool, optional) receives the peaks that paired (a one-frame spike's
     with its neighbour)."""
     out = np.zeros(peaks.shape, dtype=bool)
@@ -684,15 +690,30 @@ def cancelling_steps(
                     if c > axis_cos:
                         pairs.append((tol + 1.0 - c, a, e))
         used: set[int] = set()
+        kept: list[tuple[int, int, float]] = []
         for _, a, e in sorted(pairs):
-            if a not in used and e not in used:
-                used.update((a, e))
-                out[a:e, j] = True
+            if a in used or e in used:
+                continue
+            size = _pair_size(deviations, a, e, j)
+            if any(
+                (a < a2 < e < e2 or a2 < a < e2 < e) and size < 0.5 * size2
+                for a2, e2, size2 in kept
+            ):
+                continue  # a pair of small jumps across the edge of a larger turned stretch
+            used.update((a, e))
+            kept.append((a, e, size))
+            out[a:e, j] = True
         if used_out is not None:
             used_out[sorted(used), j] = True
     if used_out is not None:
         used_out |= spikes & peaks  # paired with the frame beside them
     return out
+
+
+def _pair_size(deviations: Sequence[np.ndarray], a: int, e: int, j: int) -> float:
+    """The smaller of the two step deviations of a pair (the largest over the frames of
+    ``deviations``): how far the pair's stretch was turned."""
+    return max(min(np.linalg.norm(v[a, j]), np.linalg.norm(v[e, j])) for v in deviations)
 
 
 def _opposed(deviations: Sequence[np.ndarray], a: int, e: int, j: int) -> float:

@@ -190,13 +190,16 @@ def unturned(
             turns = {s: [_turn(track[e], p, s) for e, _, p in ends] for s in ("body", "parent")}
             # an edge at the take's first or last frame but one is predicted with no velocity
             # (one frame beyond it): the other edge's turn, read at full velocity, holds for it
+            # (the side is still the one whose two turns, as read, agree the better: with both
+            # taken from one edge they agree on either side, and a tie chose by rounding)
             rough = [a == 1, b == F - 2]
+            gap = {s: rot.quat_angle(v[0], v[-1]) for s, v in turns.items()}
             if len(ends) == 2 and rough[0] != rough[1]:
                 good = 1 if rough[0] else 0
                 turns = {s: [v[good], v[good]] for s, v in turns.items()}
             if len(ends) == 2:
-                gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 side = min(gap, key=gap.get)
+                gap = {s: rot.quat_angle(v[0], v[1]) for s, v in turns.items()}
                 size = max(rot.quat_angle(turns[side][0], _ID), rot.quat_angle(turns[side][1], _ID))
                 if gap[side] > max(np.radians(10.0), 0.25 * size) and not _one_axis(*turns[side]):
                     continue

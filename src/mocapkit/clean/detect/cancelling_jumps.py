@@ -104,8 +104,11 @@ class CancellingJumps:
         for frame in ("body", "parent"):  # as the pairs are judged
             w = mdm_mod.frame_steps(q, frame)
             u, v = w[outer] - w[own_outer], w[inner] - w[own_inner]
-            if np.linalg.norm(u + v) < self.tol * min(np.linalg.norm(u), np.linalg.norm(v)):
-                return (1, b) if a == 0 else (a, F - 2)
+            # a half turn's two steps may both come out the same way round (a flip's exit at
+            # the next-to-last frame turned the last, clean frame by 180 deg): try the other
+            for x in (u, mdm_mod._other_side(u)):
+                if np.linalg.norm(x + v) < self.tol * min(np.linalg.norm(x), np.linalg.norm(v)):
+                    return (1, b) if a == 0 else (a, F - 2)
         return a, b
 
     def _digresses(self, ev: Evidence, a: int, b: int, j: int) -> bool:
