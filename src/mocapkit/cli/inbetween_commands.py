@@ -16,6 +16,7 @@ from mocapkit.cli.common import (
     echo_json,
     expand_library,
     friendly_errors,
+    json_file_on_failure,
     load,
     load_readable,
     main,
@@ -159,6 +160,7 @@ def inbetween_cmd(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
         [clip, *lib_paths],
     )
+    json_file_on_failure(json_path)
     q = load(clip, lenient)
     warn_if_up_disagrees(q, up, clip)
     with naming(clip):

@@ -16,6 +16,7 @@ from mocapkit.cli.common import (
     echo_json,
     expand_inputs,
     friendly_errors,
+    json_file_on_failure,
     load,
     main,
     naming,
@@ -182,6 +183,7 @@ def stitch_cmd(
         ],
         [query, *data_paths],
     )
+    json_file_on_failure(json_path)
     q = load(query, lenient)
     warn_if_up_disagrees(q, up, query)
     with naming(query):
