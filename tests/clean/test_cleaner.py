@@ -683,3 +683,27 @@ def test_a_flip_left_at_the_takes_next_to_last_frame_is_flagged_and_turned_back(
         fixed = cl.repair().motion
         err = np.degrees(rot.quat_angle(fixed.rotations[F - 12 :, j], walk.rotations[F - 12 :, j]))
         assert err.max() < 2.0, (name, err.round(1))
+
+
+def test_unturned_reads_an_edge_both_ways_on_a_joint_that_accelerates() -> None:
+    """A forearm whipping back and forth (1.6 rad swings, 0.9 s period) under a 30 deg offset:
+    a prediction from outside alone misses the edge frame by the joint's acceleration (up to
+    5 deg off after the turn-back); read from inside too, the two errors cancel."""
+    from mocapkit.clean.repair import unturned
+
+    F = 100
+    t = np.arange(F) / 30.0
+    ang = 1.6 * np.sin(2 * np.pi * t / 0.9)
+    ax = np.stack([np.ones(F), 0.4 * np.sin(2 * np.pi * t / 1.7), 0.2 * np.ones(F)], 1)
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    q = rot.rotvec_to_quat(ang[:, None] * ax)[:, None]
+    d = rot.rotvec_to_quat(np.radians(30.0) * np.array([0.0, 0.0, 1.0]))
+    for start in range(30, 60, 3):
+        sl = slice(start, start + 15)
+        bad = q.copy()
+        bad[sl, 0] = rot.quat_mul(q[sl, 0], d)
+        cells = np.zeros((F, 1), dtype=bool)
+        cells[sl, 0] = True
+        back, done = unturned(bad, cells)
+        assert done[sl, 0].all(), start
+        assert np.degrees(rot.quat_angle(back[sl, 0], q[sl, 0])).max() < 1.0, start

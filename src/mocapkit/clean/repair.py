@@ -180,14 +180,22 @@ def unturned(
         for a, b in true_runs(cells[:, j]):
             if within is not None:
                 a, b = _edges_at_jumps(a, b, jumps, within[:, j], search)
-            ends = []  # (edge frame, the frame its jump enters, the prediction there)
+            # per edge: (the edge frame, the frame its jump enters, the outside frame beside
+            # it, the prediction of the edge frame from outside, of the outside frame from
+            # inside or None)
+            ends = []
             if a >= 1:
-                ends.append((a, a, _predicted(track, a - 1, a - 2 if a >= 2 else a - 1)))
+                inside = _predicted(track, a, a + 1) if b > a else None
+                ends.append((a, a, a - 1, _predicted(track, a - 1, max(a - 2, 0)), inside))
             if b <= F - 2:
-                ends.append((b, b + 1, _predicted(track, b + 1, b + 2 if b <= F - 3 else b + 1)))
+                inside = _predicted(track, b, b - 1) if b > a else None
+                ends.append((b, b + 1, b + 1, _predicted(track, b + 1, min(b + 2, F - 1)), inside))
             if not ends:
                 continue
-            turns = {s: [_turn(track[e], p, s) for e, _, p in ends] for s in ("body", "parent")}
+            turns = {
+                s: [_edge_turn(track[e], track[o], p, p_in, s) for e, _, o, p, p_in in ends]
+                for s in ("body", "parent")
+            }
             # an edge at the take's first or last frame but one is predicted with no velocity
             # (one frame beyond it): the other edge's turn, read at full velocity, holds for it
             # (the side is still the one whose two turns, as read, agree the better: with both
@@ -209,7 +217,7 @@ def unturned(
                     continue
             if not all(
                 _plausible(rot.quat_angle(d, _ID), jumps[f], f, F)
-                for d, (_, f, _) in zip(turns[side], ends, strict=True)
+                for d, (_, f, *_) in zip(turns[side], ends, strict=True)
             ):
                 continue
             d0, d1 = turns[side][0], turns[side][-1]
@@ -266,7 +274,7 @@ def _one_edge_side(track: np.ndarray, a: int, b: int, end: tuple, turns: dict) -
              for s, d in turns.items()}  # fmt: skip
     if float(rot.quat_angle(fixed["body"], fixed["parent"]).max()) < np.radians(1.0):
         return "body"
-    e, f, _ = end
+    e, f, *_ = end
     entry = f == e
     jolt = {}
     for s, fx in fixed.items():
@@ -322,6 +330,31 @@ def _predicted(q: np.ndarray, near: int, far: int) -> np.ndarray:
     the joint's frame or its parent's)."""
     qn, qf = q[near], rot.quat_fix_hemisphere(q[far], q[near])
     return rot.quat_mul(qn, rot.quat_mul(rot.quat_inv(qf), qn))
+
+
+def _edge_turn(
+    edge: np.ndarray,
+    outside: np.ndarray,
+    from_outside: np.ndarray,
+    from_inside: np.ndarray | None,
+    side: str,
+) -> np.ndarray:
+    """The turn at a run's edge, read both ways across it and averaged: the ``edge`` frame
+    against its prediction ``from_outside`` (the frames beyond it continued at their velocity),
+    and the prediction ``from_inside`` (the run's frames continued past the edge) against the
+    ``outside`` frame. The joint's acceleration bends both predictions the same way along the
+    motion, so the two readings err by about as much in opposite directions; where the run has
+    one frame, the outside reading alone.
+
+    Relies on: the captured motion's acceleration changes little over the few frames at an
+    edge. A dancer's elbow swinging fast under a 30 deg offset was read 32 and 31 deg at the two
+    edges from outside alone, 18 deg apart in direction, and the stretch went to the median,
+    39 deg off (newcomer)."""
+    out = _turn(edge, from_outside, side)
+    if from_inside is None:
+        return out
+    back = _turn(from_inside, outside, side)
+    return rot.quat_slerp(out, rot.quat_fix_hemisphere(back, out), 0.5)
 
 
 def _turn(actual: np.ndarray, predicted: np.ndarray, side: str) -> np.ndarray:

@@ -74,7 +74,8 @@ from mocapkit.stitch.search import check_same_skeleton
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
     help="Write the result (-: print it, and the other lines go to standard error; a failure, "
-    'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
+    'a mistyped option too, prints {"error": LINE} there; a run that fails writes no motion, '
+    'and a FILE checked as an output gets {"error": LINE} in place of an earlier result).',
 )
 @LENIENT
 @friendly_errors
