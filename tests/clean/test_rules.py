@@ -305,7 +305,7 @@ def test_cancelling_jumps_flag_a_still_joints_error_cut_off_by_the_take() -> Non
     CancellingJumps().apply(evidence(cut, mdm=mdm), fl)
     assert fl.mask[280:, 1].all() and not fl.mask[:280].any()
     text = CancellingJumps().describe(evidence(cut, mdm=mdm), 290, 1)
-    assert "frame 280 (15.0 deg, the joint held still for 0.1 s before" in text
+    assert "frame 280 (15.0 deg, a step over 5 times every step within 0.1 s before" in text
     assert "cut off" in text
     off = DetectConfig(still_jump_ratio=0)
     fl = Flags((300, 2))

@@ -154,8 +154,10 @@ class CancellingJumps:
                 if g is None
                 else f", one side of a one-frame pop with frame {g}: pairs with no other"
             )
+            c = ev.config
             still = (
-                f", the joint held still for {ev.config.still_jump_seconds:g} s before and after it"
+                f", a step over {c.still_jump_ratio:g} times every step within "
+                f"{c.still_jump_seconds:g} s before and after it"
                 if ev.still_jumps[p, joint]
                 else ""
             )
