@@ -170,7 +170,36 @@ class CancellingJumps:
         # a pair's frames lie between two jumps, so a run reaching the take's first or last
         # frame is an error cut off there (jumps are undefined on the two frames at each end)
         run = run_around(self.cells(ev)[:, joint], frame)
-        if run is None:
+        cand = run_around(ev.cut_off[:, joint], frame) if self.cut_off else None
+        if run is None and cand is not None:
+            a, b = cand
+            start = a == 0
+            jump = b + 1 if start else a
+            share = float((ev.mdm[a : b + 1, joint] > self.threshold).mean())
+            ratio = ev.jump_size[jump, joint] / max(ev.jump_scale[joint], 1e-12)
+            span = round(self.max_seconds * ev.fps)
+            lo = max(0, jump - span)
+            near = ev.jump_size[lo : jump + span + 1, joint].copy()
+            near[jump - lo] = 0.0
+            if ratio <= self.cut_jump_ratio:
+                big = (
+                    f"its jump is {ratio:.1f} times the joint's ordinary one, not over "
+                    f"{self.cut_jump_ratio:g}"
+                )
+            else:
+                other = lo + int(np.argmax(near))
+                big = (
+                    f"its jump is {ratio:.1f} times the joint's ordinary one, but so is another "
+                    f"within {self.max_seconds:g} s (frame {other}, {deg(near.max())}): "
+                    "not a lone error's edge"
+                )
+            parts.append(
+                f"not between two that cancel; the unpaired jump at frame {jump} may bound an "
+                f"error cut off by the take's {'start' if start else 'end'} ({a}:{b + 1}), but "
+                f"only {share:.0%} of those frames have MDM above {self.threshold:g} (over half "
+                f"needed) and {big}"
+            )
+        elif run is None:
             parts.append("not between two that cancel")
         elif run[1] == ev.shape[0] - 1:
             parts.append(
