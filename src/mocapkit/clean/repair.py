@@ -182,25 +182,34 @@ def unturned(
                 a, b = _edges_at_jumps(a, b, jumps, within[:, j], search)
             # per edge: (the edge frame, the frame its jump enters, the outside frame beside
             # it, the prediction of the edge frame from outside, of the outside frame from
-            # inside or None)
+            # inside)
             ends = []
             if a >= 1:
-                inside = _predicted(track, a, a + 1) if b > a else None
+                inside = _predicted(track, a, min(a + 1, b))
                 ends.append((a, a, a - 1, _predicted(track, a - 1, max(a - 2, 0)), inside))
             if b <= F - 2:
-                inside = _predicted(track, b, b - 1) if b > a else None
+                inside = _predicted(track, b, max(b - 1, a))
                 ends.append((b, b + 1, b + 1, _predicted(track, b + 1, min(b + 2, F - 1)), inside))
             if not ends:
                 continue
-            turns = {
-                s: [_edge_turn(track[e], track[o], p, p_in, s) for e, _, o, p, p_in in ends]
-                for s in ("body", "parent")
-            }
+            sides = ("body", "parent")
+            turns = {s: [_turn(track[e], p, s) for e, _, _, p, _ in ends] for s in sides}
             # an edge at the take's first or last frame but one is predicted with no velocity
             # (one frame beyond it): the other edge's turn, read at full velocity, holds for it
             # (the side is still the one whose two turns, as read, agree the better: with both
             # taken from one edge they agree on either side, and a tie chose by rounding)
             rough = [a == 1, b == F - 2]
+            if len(ends) == 2 and not any(rough) and b > a:
+                # read both ways too (_edge_turn); the reading whose two edges agree the better
+                # is the one rotation (inside a glitch the frames need not move as the capture)
+                both = {
+                    s: [_edge_turn(track[e], track[o], p, q, s) for e, _, o, p, q in ends]
+                    for s in sides
+                }
+                if min(rot.quat_angle(v[0], v[1]) for v in both.values()) < min(
+                    rot.quat_angle(v[0], v[1]) for v in turns.values()
+                ):
+                    turns = both
             gap = {s: rot.quat_angle(v[0], v[-1]) for s, v in turns.items()}
             if len(ends) == 2 and rough[0] != rough[1]:
                 good = 1 if rough[0] else 0
@@ -336,23 +345,22 @@ def _edge_turn(
     edge: np.ndarray,
     outside: np.ndarray,
     from_outside: np.ndarray,
-    from_inside: np.ndarray | None,
+    from_inside: np.ndarray,
     side: str,
 ) -> np.ndarray:
     """The turn at a run's edge, read both ways across it and averaged: the ``edge`` frame
     against its prediction ``from_outside`` (the frames beyond it continued at their velocity),
     and the prediction ``from_inside`` (the run's frames continued past the edge) against the
     ``outside`` frame. The joint's acceleration bends both predictions the same way along the
-    motion, so the two readings err by about as much in opposite directions; where the run has
-    one frame, the outside reading alone.
+    motion, so the two readings err by about as much in opposite directions.
 
     Relies on: the captured motion's acceleration changes little over the few frames at an
     edge. A dancer's elbow swinging fast under a 30 deg offset was read 32 and 31 deg at the two
     edges from outside alone, 18 deg apart in direction, and the stretch went to the median,
-    39 deg off (newcomer)."""
+    39 deg off (newcomer). :func:`unturned` takes this reading where its two edges agree the
+    better: inside a real glitch (a thumb popping) the frames need not move as the capture's
+    do."""
     out = _turn(edge, from_outside, side)
-    if from_inside is None:
-        return out
     back = _turn(from_inside, outside, side)
     return rot.quat_slerp(out, rot.quat_fix_hemisphere(back, out), 0.5)
 
