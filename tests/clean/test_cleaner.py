@@ -730,3 +730,36 @@ def test_unturned_reads_an_edge_from_outside_where_the_glitchs_frames_jitter() -
         back, done = unturned(bad, cells)
         assert done[sl, 0].all()
         assert np.degrees(rot.quat_angle(back[[40, 55], 0], q[[40, 55], 0])).max() < 1.0
+
+
+def test_short_of_jumps_keeps_the_capture_beside_a_turned_stretch_only_up_to_a_jump() -> None:
+    from mocapkit.clean.cleaner import _short_of_jumps
+
+    F = 40
+    done = np.zeros((F, 1), dtype=bool)
+    done[10:20, 0] = True
+    keep = np.zeros_like(done)
+    keep[20:30, 0] = keep[4:10, 0] = True
+    jumps = np.zeros_like(done)
+    jumps[20, 0] = True  # the stretch's own exit: the first kept frame is clean
+    jumps[25, 0] = True  # a jump farther on: the capture is not clean from there
+    jumps[7, 0] = True  # before the stretch, across a jump from it
+    out = _short_of_jumps(keep, done, jumps)
+    assert np.flatnonzero(out[:, 0]).tolist() == [7, 8, 9, *range(20, 25)]
+    # no jump beside the stretch: everything kept
+    assert np.array_equal(_short_of_jumps(keep, done, np.zeros_like(done)), keep)
+
+
+def test_repair_of_a_raw_cmu_thumb_glitch_leaves_no_jump(shared_path) -> None:
+    """CMU 01_13's thumb pops 169 deg at frame 1601, back at 1609 (a pair the cancelling-jumps
+    rule turns back), then thrashes on to 1614 (steps of 40-160 deg). The frames after the
+    turned stretch that only the MDM flags keep the capture only up to the next jump: kept
+    through 1621, the raw thrashing left a 23-deg jump in the repair."""
+    from mocapkit.clean.mdm import jump_size
+    from mocapkit.io import read_motion
+
+    take = read_motion(shared_path("cmu-asfamc") / "01" / "01_13.amc")
+    j = take.skeleton.index("rthumb")
+    fixed = SelfSimilarityCleaner().fit(take).repair().motion
+    jumps = np.degrees(jump_size(fixed.rotations[1592:1630, j : j + 1])[:, 0])
+    assert jumps.max() < 5.0, jumps.round(1)

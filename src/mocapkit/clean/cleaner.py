@@ -534,6 +534,11 @@ class SelfSimilarityCleaner:
                         others |= fl.live(r)
                 pad = self.motion_.seconds_to_frames(SOURCE_LEN / ANALYSIS_FPS)
                 keep = _runs_touching(flagged, done) & dilate(done, pad) & ~done & ~others
+                ev = self.evidence_
+                bar = np.maximum(
+                    ev.config.pair_ratio * ev.jump_scale, np.radians(ev.config.step_min_deg)
+                )
+                keep = _short_of_jumps(keep, done, ev.jump_peaks | (ev.jump_size > bar[None]))
                 if tex.pelvis_align is not None:  # the pelvis column: facing-aligned space
                     p = tex.pelvis
                     back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
@@ -704,6 +709,28 @@ LINEAR_FLEXION_DEG = 3.0
 """How far (deg) a wrong-way-bent hinge's flexion may stray from the straight line between its
 run's edge frames for the slerped turn-back to follow it (the repair then errs by about twice
 this, as little as the neighbours' median does on a walking knee: 4-5 deg, tuning half)."""
+
+
+def _short_of_jumps(keep: np.ndarray, done: np.ndarray, peaks: np.ndarray) -> np.ndarray:
+    """``keep`` (cells beside a turned-back stretch, ``done``, that hold the captured motion)
+    cut at the first jump (``peaks``: the jump peaks, and every jump as large as one must be)
+    away from the stretch: the stretch's own exit jump enters the first cell after it, but a
+    jump farther on means the capture is not clean there (a thumb thrashing on after the pair
+    of pops that bounds the turned stretch: CMU 01_13, whose kept raw frames left a 23 deg
+    jump in the repair)."""
+    out = keep.copy()
+    F = keep.shape[0]
+    for j in np.flatnonzero(keep.any(axis=0)):
+        for a, b in true_runs(keep[:, j]):
+            if a > 0 and done[a - 1, j]:  # after a stretch: its exit jump enters frame a
+                later = np.flatnonzero(peaks[a + 1 : b + 1, j])
+                if len(later):
+                    out[a + 1 + later[0] : b + 1, j] = False
+            elif b < F - 1 and done[b + 1, j]:  # before one: its entry jump enters b + 1
+                earlier = np.flatnonzero(peaks[a + 1 : b + 1, j])
+                if len(earlier):
+                    out[a : a + 1 + earlier[-1], j] = False
+    return out
 
 
 def _runs_touching(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
