@@ -1930,9 +1930,7 @@ def test_a_contact_cut_at_the_gaps_edge_is_the_contexts(humanoid):
     assert np.array_equal(unknown, start)  # no floor known for the joint: left as it was
 
 
-def test_cli_a_failed_run_leaves_its_error_in_the_json_file_not_an_earlier_result(
-    files, tmp_path
-):
+def test_cli_a_failed_run_leaves_its_error_in_the_json_file_not_an_earlier_result(files, tmp_path):
     """A script reading ``--json FILE`` after a run must not find the previous run's result
     there when this one failed (newcomer): the file holds ``{"error": LINE}``. An output
     refused as such (the clip itself) is never written."""
