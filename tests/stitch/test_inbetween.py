@@ -1928,28 +1928,3 @@ def test_a_contact_cut_at_the_gaps_edge_is_the_contexts(humanoid):
     assert _planted_at_ends(ex, pos, start, "Y", a, b, floor)[a - 1, 0]
     unknown = _planted_at_ends(ex, pos, start, "Y", a, b, np.full(1, np.nan))
     assert np.array_equal(unknown, start)  # no floor known for the joint: left as it was
-
-
-def test_cli_a_failed_run_leaves_its_error_in_the_json_file_not_an_earlier_result(files, tmp_path):
-    """A script reading ``--json FILE`` after a run must not find the previous run's result
-    there when this one failed (newcomer): the file holds ``{"error": LINE}``. An output
-    refused as such (the clip itself) is never written."""
-    out, js = tmp_path / "f.bvh", tmp_path / "f.json"
-    code, _, _ = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
-                     files / "lib", "--out", out, "--json", js)  # fmt: skip
-    assert code == 0 and "error" not in json.loads(js.read_text())
-    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "40:20", "--library",
-                      files / "lib", "--out", tmp_path / "g.bvh", "--json", js)  # fmt: skip
-    assert code == 2
-    got = json.loads(js.read_text())
-    assert list(got) == ["error"] and "reversed" in got["error"] and got["error"] in se
-    before = (files / "walk.bvh").read_bytes()
-    clip = files / "walk.bvh"
-    code, _, se = run("inbetween", clip, "--gap", "60:75", "--library", files / "lib",
-                      "--out", tmp_path / "h.bvh", "--json", clip)  # fmt: skip
-    assert code == 2 and (files / "walk.bvh").read_bytes() == before
-    # stitch: the same
-    code, _, se = run("stitch", files / "walk.bvh", "--library", files / "lib", "--takeoff",
-                      "9999", "--json", js)  # fmt: skip
-    assert code == 2
-    assert list(json.loads(js.read_text())) == ["error"]

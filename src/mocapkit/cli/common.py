@@ -3,7 +3,6 @@ bars, finding and loading input files, strict JSON output."""
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import os
 import re
@@ -86,17 +85,6 @@ def exception_text(e: BaseException) -> str:
     return str(e)
 
 
-_FAILURE_JSON: list[Path] = []
-
-
-def json_file_on_failure(path: str | Path | None) -> None:
-    """Have a failure of the running command (:func:`friendly_errors`) write ``{"error":
-    LINE}`` to ``path``, its ``--json FILE`` result: call it once ``path`` is checked as an
-    output (not an input, writable). None or ``-``: nothing to write."""
-    if path is not None and str(path) != "-":
-        _FAILURE_JSON.append(Path(path))
-
-
 def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     """Turn library exceptions about bad input (and OSErrors about paths) into one-line CLI
     errors with exit status 2 (no traceback).
@@ -108,27 +96,18 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     rows that follow leaves a take too short) and the error line are printed, and a command
     asked to print its JSON
     result (``--json`` as a flag, or ``--json -``) prints ``{"error": LINE}`` there instead,
-    so that a script reading standard output always gets JSON; one asked to write it to a file
-    (``--json FILE``) writes ``{"error": LINE}`` there once the file has been checked as an
-    output (:func:`json_file_on_failure`), so that a script never reads an earlier run's
-    result as this one's.
+    so that a script reading standard output always gets JSON.
     """
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        _FAILURE_JSON.clear()
         try:
             return run(*args, **kwargs)
         except click.ClickException as e:
             if kwargs.get("as_json") is True or kwargs.get("json_path") == "-":
                 echo_json({"error": e.format_message()})
                 e.json_printed = True  # type: ignore[attr-defined]  # not again by the group
-            for path in _FAILURE_JSON:
-                with contextlib.suppress(OSError):  # the error line is said either way
-                    atomic_write_text(path, to_json_text({"error": e.format_message()}) + "\n")
             raise
-        finally:
-            _FAILURE_JSON.clear()
 
     def run(*args: Any, **kwargs: Any) -> Any:
         with warnings.catch_warnings(record=True) as caught:

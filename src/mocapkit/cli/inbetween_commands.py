@@ -16,7 +16,6 @@ from mocapkit.cli.common import (
     echo_json,
     expand_library,
     friendly_errors,
-    json_file_on_failure,
     load,
     load_readable,
     main,
@@ -74,8 +73,7 @@ from mocapkit.stitch.search import check_same_skeleton
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
     help="Write the result (-: print it, and the other lines go to standard error; a failure, "
-    'a mistyped option too, prints {"error": LINE} there; a run that fails writes no motion, '
-    'and a FILE checked as an output gets {"error": LINE} in place of an earlier result).',
+    'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
 )
 @LENIENT
 @friendly_errors
@@ -161,7 +159,6 @@ def inbetween_cmd(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
         [clip, *lib_paths],
     )
-    json_file_on_failure(json_path)
     q = load(clip, lenient)
     warn_if_up_disagrees(q, up, clip)
     with naming(clip):

@@ -16,7 +16,6 @@ from mocapkit.cli.common import (
     echo_json,
     expand_inputs,
     friendly_errors,
-    json_file_on_failure,
     load,
     main,
     naming,
@@ -99,8 +98,7 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
     "json_path",
     type=click.Path(dir_okay=False, allow_dash=True),
     help="Write the result (-: print it, and the other lines go to standard error; a failure, "
-    'a mistyped option too, prints {"error": LINE} there; a run that fails writes no motion, '
-    'and a FILE checked as an output gets {"error": LINE} in place of an earlier result).',
+    'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
 )
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), help="Write a PNG figure.")
 @LENIENT
@@ -184,7 +182,6 @@ def stitch_cmd(
         ],
         [query, *data_paths],
     )
-    json_file_on_failure(json_path)
     q = load(query, lenient)
     warn_if_up_disagrees(q, up, query)
     with naming(query):
