@@ -683,6 +683,10 @@ def test_a_flip_left_at_the_takes_next_to_last_frame_is_flagged_and_turned_back(
         fixed = cl.repair().motion
         err = np.degrees(rot.quat_angle(fixed.rotations[F - 12 :, j], walk.rotations[F - 12 :, j]))
         assert err.max() < 2.0, (name, err.round(1))
+        # --explain on the last frame says it was left out as clean, not a rejection (reviewer)
+        text = str(cl.explain(name, F - 1))
+        assert "left out of the stretch cut off there" in text, text
+        assert "may bound an error" not in text
 
 
 def test_unturned_reads_an_edge_both_ways_on_a_joint_that_accelerates() -> None:

@@ -842,3 +842,30 @@ def test_turn_change_matches_the_readable_reference() -> None:
 
     q = _turning(40, J=3, seed=11)
     assert np.allclose(mdm_mod.turn_change(q), naive_turn_change(q), atol=1e-9)
+
+
+@pytest.mark.parametrize("small_ratio", [0.0, 0.3])
+def test_cancelling_steps_drop_a_small_pair_across_a_larger_stretchs_edge(small_ratio) -> None:
+    """A 40-deg turned stretch (peaks 20 and 40) and a natural pair of 1-deg step deviations at
+    17 and 23 across its entry: whichever cancels the better, the small pair is dropped and the
+    flag starts at the stretch's own entry (a dancer's elbow flagged 3 frames early; reviewer:
+    the drop must not depend on the order the pairs are taken in)."""
+    F = 60
+    v = np.zeros((F, 1, 3))
+    big = np.radians(40.0) * np.array([1.0, 0.0, 0.0])
+    v[20, 0], v[40, 0] = big, -big + np.radians(8.0) * np.array([0.0, 1.0, 0.0])  # ratio 0.2
+    small = np.radians(1.0) * np.array([0.0, 0.0, 1.0])
+    v[17, 0] = small
+    v[23, 0] = -small * (1.0 + small_ratio)  # cancels exactly, or at 0.3 (worse than 0.2)
+    peaks = np.zeros((F, 1), dtype=bool)
+    peaks[[17, 20, 23, 40], 0] = True
+    used = np.zeros_like(peaks)
+    out = mdm_mod.cancelling_steps(peaks, [v], 40, 0.45, used_out=used)
+    assert np.flatnonzero(out[:, 0]).tolist() == list(range(20, 40))
+    assert np.flatnonzero(used[:, 0]).tolist() == [20, 40]
+    # the small pair alone is a pair as before
+    alone = peaks.copy()
+    alone[[20, 40], 0] = False
+    assert np.flatnonzero(mdm_mod.cancelling_steps(alone, [v], 40, 0.45)[:, 0]).tolist() == list(
+        range(17, 23)
+    )

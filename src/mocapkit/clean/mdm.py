@@ -689,19 +689,20 @@ def cancelling_steps(
                     c = _opposed(deviations, a, e, j)
                     if c > axis_cos:
                         pairs.append((tol + 1.0 - c, a, e))
-        used: set[int] = set()
+        taken: set[int] = set()
         kept: list[tuple[int, int, float]] = []
         for _, a, e in sorted(pairs):
-            if a in used or e in used:
-                continue
-            size = _pair_size(deviations, a, e, j)
+            if a not in taken and e not in taken:
+                taken.update((a, e))
+                kept.append((a, e, _pair_size(deviations, a, e, j)))
+        used: set[int] = set()
+        for a, e, size in kept:
             if any(
                 (a < a2 < e < e2 or a2 < a < e2 < e) and size < 0.5 * size2
                 for a2, e2, size2 in kept
             ):
                 continue  # a pair of small jumps across the edge of a larger turned stretch
             used.update((a, e))
-            kept.append((a, e, size))
             out[a:e, j] = True
         if used_out is not None:
             used_out[sorted(used), j] = True

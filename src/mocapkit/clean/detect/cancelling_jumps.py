@@ -171,7 +171,15 @@ class CancellingJumps:
         # frame is an error cut off there (jumps are undefined on the two frames at each end)
         run = run_around(self.cells(ev)[:, joint], frame)
         cand = run_around(ev.cut_off[:, joint], frame) if self.cut_off else None
-        if run is None and cand is not None:
+        kept = cand is not None and (
+            self._digresses(ev, *cand, joint) or self._one_jump(ev, *cand, joint)
+        )
+        if run is None and kept:
+            parts.append(
+                "the take's first or last frame, left out of the stretch cut off there: the step "
+                "into it cancels the stretch's own jump, so it is clean"
+            )
+        elif run is None and cand is not None:
             a, b = cand
             start = a == 0
             jump = b + 1 if start else a
