@@ -752,6 +752,19 @@ def test_short_of_jumps_keeps_the_capture_beside_a_turned_stretch_only_up_to_a_j
     assert np.flatnonzero(out[:, 0]).tolist() == [7, 8, 9, *range(20, 25)]
     # no jump beside the stretch: everything kept
     assert np.array_equal(_short_of_jumps(keep, done, np.zeros_like(done)), keep)
+    # between two stretches (10:20 and 26:36) with a jump entering 23: the cells on each side
+    # of it stay with their own stretch (reviewer: cut from one side only, 23-25 went to the
+    # median); with two jumps, the cells between them go
+    two = np.zeros_like(done)
+    two[10:20, 0] = two[26:36, 0] = True
+    mid = np.zeros_like(done)
+    mid[20:26, 0] = True
+    both = np.zeros_like(done)
+    both[[22, 24], 0] = True
+    assert np.flatnonzero(_short_of_jumps(mid, two, both)[:, 0]).tolist() == [20, 21, 24, 25]
+    at23 = np.zeros_like(done)
+    at23[23, 0] = True
+    assert np.array_equal(_short_of_jumps(mid, two, at23), mid)
 
 
 def test_repair_of_a_raw_cmu_thumb_glitch_leaves_no_jump(shared_path) -> None:

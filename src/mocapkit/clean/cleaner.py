@@ -722,14 +722,16 @@ def _short_of_jumps(keep: np.ndarray, done: np.ndarray, peaks: np.ndarray) -> np
     F = keep.shape[0]
     for j in np.flatnonzero(keep.any(axis=0)):
         for a, b in true_runs(keep[:, j]):
+            jumps = np.flatnonzero(peaks[a + 1 : b + 1, j])
+            if not len(jumps):
+                continue
+            # the cells on a stretch's side of the nearest jump stay (both, between two)
+            near = np.zeros(b + 1 - a, dtype=bool)
             if a > 0 and done[a - 1, j]:  # after a stretch: its exit jump enters frame a
-                later = np.flatnonzero(peaks[a + 1 : b + 1, j])
-                if len(later):
-                    out[a + 1 + later[0] : b + 1, j] = False
-            elif b < F - 1 and done[b + 1, j]:  # before one: its entry jump enters b + 1
-                earlier = np.flatnonzero(peaks[a + 1 : b + 1, j])
-                if len(earlier):
-                    out[a : a + 1 + earlier[-1], j] = False
+                near[: 1 + jumps[0]] = True
+            if b < F - 1 and done[b + 1, j]:  # before one: its entry jump enters b + 1
+                near[1 + jumps[-1] :] = True
+            out[a : b + 1, j] = near
     return out
 
 
