@@ -792,6 +792,41 @@ def test_wrong_way_hinges() -> None:
     assert not fl.mask.any()
 
 
+def test_wrong_way_hinge_run_reaches_back_to_the_jump_that_entered_it() -> None:
+    """An elbow bent 43 deg jumps to straight (a wrong-way bend of a well-bent limb) and goes
+    on past -15 deg two frames later: the frames from the jump on are flagged, and on to the
+    frame before the exit's jump. Reached at the joint's own speed, the run is what it is; so
+    it is with ``hinge_reach_seconds`` 0."""
+    F = 90
+    base = np.radians(40.0) * (1 + np.sin(np.arange(F) / 8.0)) / 2 + np.radians(5)
+    flex = base.copy()
+    flex[10:16] = np.radians(np.linspace(0.0, -40.0, 6))
+    flex[16:20] = np.radians(-40.0)
+    rv = np.zeros((F, 1, 3))
+    rv[:, 0, 0] = flex
+    ev = evidence(rot.rotvec_to_quat(rv), hinges=[0])
+    assert np.array_equal(np.flatnonzero(ev.wrong_way[:, 0]), np.r_[12:20])
+    assert np.array_equal(np.flatnonzero(ev.big_jumps[:, 0]), [10, 20])
+    fl = Flags((F, 1))
+    WrongWayHinges.from_config(ev.config).apply(ev, fl)
+    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[10:20])
+    text = WrongWayHinges.from_config(ev.config).describe(ev, 11, 0)
+    assert "between a wrong-way bend" in text and "a jump far above the joint's own" in text
+    off = evidence(rot.rotvec_to_quat(rv), hinges=[0], config=DetectConfig(hinge_reach_seconds=0))
+    fl = Flags((F, 1))
+    WrongWayHinges.from_config(off.config).apply(off, fl)
+    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[12:20])
+    flex = base.copy()  # the same bend reached smoothly: no jump to reach back to
+    flex[4:16] = np.radians(np.linspace(np.degrees(base[4]), -40.0, 12))
+    flex[16:20] = np.radians(-40.0)
+    rv[:, 0, 0] = flex
+    ev = evidence(rot.rotvec_to_quat(rv), hinges=[0])
+    fl = Flags((F, 1))
+    WrongWayHinges.from_config(ev.config).apply(ev, fl)
+    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.flatnonzero(ev.wrong_way[:, 0]))
+    assert fl.mask[12:20, 0].all() and not ev.big_jumps[:12, 0].any()
+
+
 def test_extend_to_steps() -> None:
     bad = turn(smooth(), slice(40, 52), 1, 40.0)
     fl = flagged(90, 2, [(42, 50, 1)])

@@ -604,6 +604,7 @@ def cancelling_steps(
     pops: np.ndarray | None = None,
     axis_cos: float = 0.0,
     axis_peaks: np.ndarray | None = None,
+    axis_partners: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -644,8 +645,10 @@ def cancelling_steps(
     step, otherwise paired the exit of one pop with the entry of the next across the stance
     between (Bandai-1 validation half, walk-back_angry's toes, session 26). None: none.
 
-    ``axis_cos`` and ``axis_peaks`` ((F, J) bool, the peaks large enough; with ``axis_cos`` >
-    0): two such peaks that do not cancel pair too where their deviations point opposite ways,
+    ``axis_cos``, ``axis_peaks`` and ``axis_partners`` ((F, J) bool, the peaks large enough
+    to lead such a pair and to close one; with ``axis_cos`` > 0): two peaks that do not cancel,
+    one of ``axis_peaks`` and both of ``axis_partners`` (None: both of ``axis_peaks``), pair too
+    where their deviations point opposite ways,
     ``-v[a] . v[e] > axis_cos |v[a]| |v[e]|`` in one of the frames: a stretch turned about one
     axis by an angle that changes over it (a wrong-way bend mirrors the flexion, so its turn
     grows and shrinks with the joint's own), entered and left about that axis by jumps of
@@ -685,8 +688,16 @@ def cancelling_steps(
                 )
                 if ratio < tol:
                     pairs.append((ratio, a, e))
-                elif axis_cos > 0 and axis_peaks is not None and axis_peaks[[a, e], j].all():
-                    c = _opposed(deviations, a, e, j)
+                elif (
+                    axis_cos > 0
+                    and axis_peaks is not None
+                    and axis_peaks[[a, e], j].any()
+                    and (axis_peaks if axis_partners is None else axis_partners)[[a, e], j].all()
+                ):
+                    # a turn that passed 180 deg inside the stretch leaves it pointing the way it
+                    # entered: only between an entry and an exit where the sides can be read
+                    flip = sides is None or e - a < sided_frames or sides[a, j] > 0 > sides[e, j]
+                    c = _opposed(deviations, a, e, j, flip)
                     if c > axis_cos:
                         pairs.append((tol + 1.0 - c, a, e))
         taken: set[int] = set()
@@ -717,16 +728,30 @@ def _pair_size(deviations: Sequence[np.ndarray], a: int, e: int, j: int) -> floa
     return max(min(np.linalg.norm(v[a, j]), np.linalg.norm(v[e, j])) for v in deviations)
 
 
-def _opposed(deviations: Sequence[np.ndarray], a: int, e: int, j: int) -> float:
+def _opposed(deviations: Sequence[np.ndarray], a: int, e: int, j: int, flip: bool = False) -> float:
     """The largest cosine between ``-v[a, j]`` and ``v[e, j]`` over the frames of
-    ``deviations``."""
+    ``deviations``. ``flip``: also with the larger of the two read the other way round
+    (:func:`_other_side`, which points the opposite way) where it turns over 90 deg
+    (:data:`FLIP_MIN_DEG`): a stretch whose turn passes 180 deg between its ends (a wrong-way
+    elbow bent 40 deg at the entry and 229 deg, read as 131 deg the other way, at the exit;
+    Bandai-1 tuning half, gestures) is left about its axis by a jump pointing the way it was
+    entered."""
     best = -1.0
     for v in deviations:
         x, y = v[a, j], v[e, j]
-        n = float(np.linalg.norm(x) * np.linalg.norm(y))
-        if n > 0:
-            best = max(best, -float(x @ y) / n)
+        nx, ny = float(np.linalg.norm(x)), float(np.linalg.norm(y))
+        if nx * ny > 0:
+            c = -float(x @ y) / (nx * ny)
+            best = max(best, c)
+            if flip and max(nx, ny) > np.radians(FLIP_MIN_DEG):
+                best = max(best, -c)
     return best
+
+
+FLIP_MIN_DEG = 90.0
+"""A jump turning further than this may be read the other way round by :func:`_opposed`: its
+other representation then turns under 270 deg, which a wrong-way bend of a knee or elbow (its
+flexion mirrored, twice the flexion plus a little) reaches."""
 
 
 def one_frame_spikes(peaks: np.ndarray, deviations: Sequence[np.ndarray], tol: float) -> np.ndarray:

@@ -267,12 +267,19 @@ class Evidence:
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
         used = np.zeros(self.shape, dtype=bool)
         c = self.config
-        big = self.jump_size > c.pair_axis_ratio * self.jump_scale[None]
+        partners = self.jump_size > c.pair_axis_partner_ratio * self.jump_scale[None]
         cells = mdm_mod.cancelling_steps(
             self.jump_peaks, devs, span, c.pair_tol, sides, word, used, self.pops,
-            c.pair_axis_cos, self.jump_peaks & big,
+            c.pair_axis_cos, self.big_jumps, self.jump_peaks & partners,
         )  # fmt: skip
         return cells, used, sides
+
+    @cached_property
+    def big_jumps(self) -> np.ndarray:
+        """(F, J) bool: the jump peaks over ``pair_axis_ratio`` times the joint's ordinary
+        jump (:attr:`jump_scale`): far above anything the joint does in the take."""
+        c = self.config
+        return self.jump_peaks & (self.jump_size > c.pair_axis_ratio * self.jump_scale[None])
 
     @cached_property
     def pops(self) -> np.ndarray:

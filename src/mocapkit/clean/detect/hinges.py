@@ -11,13 +11,16 @@ from mocapkit.clean.detect._runs import deg
 from mocapkit.clean.detect.config import DetectConfig
 from mocapkit.clean.detect.evidence import Evidence
 from mocapkit.clean.detect.flags import Flags
+from mocapkit.core.runs import true_runs
 
 
 @dataclass(frozen=True)
 class WrongWayHinges:
     """Flag the frames where a straight-at-rest knee or elbow bends more than ``min_deg`` past
     straight the wrong way (flexion about the joint's main rotation axis, signed so that the
-    joint spends most of its time on the positive side), whatever the MDM.
+    joint spends most of its time on the positive side), whatever the MDM, and the frames from
+    such a run back to a jump far above the joint's own (:attr:`Evidence.big_jumps`) at most
+    ``reach_seconds`` before it, and on to one at most that long after it.
 
     The axis is fitted on the hinge's bend alone (the swing of the limb below; its twist about
     that limb is left out: a forearm twisted in a wave is no flexion), on the take's own frames,
@@ -26,22 +29,29 @@ class WrongWayHinges:
 
     Relies on: anatomy; a hinge cannot bend backwards, whatever the context holds (and several
     wrong bends on one joint would match each other in the KNN search), and it bends about an
-    axis across its limb, never about the limb itself."""
+    axis across its limb, never about the limb itself. A limb reaches a wrong-way bend through
+    the frames between, turning at its own speed: where it jumps instead, a few frames before
+    the run, the error entered there, and the frames between are the error's while they read
+    less than ``min_deg`` past straight (an elbow bent 105 deg mirrored to 2 deg at the jump,
+    then past -15 deg four frames on; Bandai-1 tuning half, gestures, bends)."""
 
     name: ClassVar[str] = "wrong-way-hinge"
     veto: ClassVar[bool] = False
     signal: ClassVar[bool] = True
     min_deg: float = 15.0
+    reach_seconds: float = 2.0 / 15.0
 
     @classmethod
     def from_config(cls, config: DetectConfig) -> WrongWayHinges:
-        return cls(config.hinge_deg)
+        return cls(config.hinge_deg, config.hinge_reach_seconds)
 
     def cells(self, ev: Evidence):
-        return ev.wrong_way
+        if self.reach_seconds <= 0:
+            return ev.wrong_way
+        return reach_jumps(ev.wrong_way, ev.big_jumps, ev.frames(self.reach_seconds))
 
     def apply(self, ev: Evidence, flags: Flags) -> None:
-        flags.flag(self.name, ev.wrong_way)
+        flags.flag(self.name, self.cells(ev))
 
     def describe(self, ev: Evidence, frame: int, joint: int, flags: Flags | None = None) -> str:
         f = ev.hinge_flexion[frame, joint]
@@ -52,4 +62,26 @@ class WrongWayHinges:
                 f"limb folded back {deg(-f)}, past any knee's or elbow's reach (over "
                 f"{ev.config.hinge_max_deg:g} deg)"
             )
+        if not ev.wrong_way[frame, joint] and self.cells(ev)[frame, joint]:
+            return (
+                f"flexion {deg(f)}, between a wrong-way bend (below -{self.min_deg:g} deg) and "
+                f"a jump far above the joint's own within {self.reach_seconds:.2g} s of it"
+            )
         return f"flexion {deg(f)} (wrong way below -{self.min_deg:g} deg)"
+
+
+def reach_jumps(runs: np.ndarray, jumps: np.ndarray, width: int) -> np.ndarray:
+    """(F, J) bool: ``runs`` with each run (per joint) stretched back to the latest of
+    ``jumps`` (F, J) bool at most ``width`` frames before its first frame, and on to the frame
+    before the earliest at most ``width + 1`` frames after its last (a jump into frame f is a
+    step between frames f-1 and f)."""
+    out = np.array(runs, dtype=bool, copy=True)
+    for j in np.flatnonzero(out.any(axis=0)):
+        for a, b in true_runs(runs[:, j]):
+            before = np.flatnonzero(jumps[max(0, a - width) : a, j])
+            if len(before):
+                out[max(0, a - width) + before[-1] : a, j] = True
+            after = np.flatnonzero(jumps[b + 1 : b + 2 + width, j])
+            if len(after):
+                out[b + 1 : b + 1 + after[0], j] = True
+    return out
