@@ -793,29 +793,32 @@ def test_wrong_way_hinges() -> None:
 
 
 def test_wrong_way_hinge_run_reaches_back_to_the_jump_that_entered_it() -> None:
-    """An elbow bent 43 deg jumps to straight (a wrong-way bend of a well-bent limb) and goes
-    on past -15 deg two frames later: the frames from the jump on are flagged, and on to the
-    frame before the exit's jump. Reached at the joint's own speed, the run is what it is; so
-    it is with ``hinge_reach_seconds`` 0."""
+    """An elbow bent 43 deg jumps to 10 deg past straight (a wrong-way bend of a well-bent
+    limb) and goes on past -15 deg a frame later; it comes back within 15 deg of straight two
+    frames before it jumps back to its own bend. The frames from the entry's jump on are flagged, and on to
+    the frame before the exit's jump. Reached at the joint's own speed, the run is what it is;
+    so it is with ``hinge_reach_seconds`` 0."""
     F = 90
     base = np.radians(40.0) * (1 + np.sin(np.arange(F) / 8.0)) / 2 + np.radians(5)
     flex = base.copy()
-    flex[10:16] = np.radians(np.linspace(0.0, -40.0, 6))
-    flex[16:20] = np.radians(-40.0)
+    flex[10:16] = np.radians(np.linspace(-10.0, -40.0, 6))
+    flex[16:18] = np.radians(-40.0)
+    flex[18:22] = np.radians(np.linspace(-30.0, -5.0, 4))
     rv = np.zeros((F, 1, 3))
     rv[:, 0, 0] = flex
     ev = evidence(rot.rotvec_to_quat(rv), hinges=[0])
-    assert np.array_equal(np.flatnonzero(ev.wrong_way[:, 0]), np.r_[12:20])
-    assert np.array_equal(np.flatnonzero(ev.big_jumps[:, 0]), [10, 20])
+    assert np.array_equal(np.flatnonzero(ev.wrong_way[:, 0]), np.r_[11:20])
+    assert np.array_equal(np.flatnonzero(ev.big_jumps[:, 0]), [10, 22])
+    rule = WrongWayHinges.from_config(ev.config)
     fl = Flags((F, 1))
-    WrongWayHinges.from_config(ev.config).apply(ev, fl)
-    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[10:20])
-    text = WrongWayHinges.from_config(ev.config).describe(ev, 11, 0)
-    assert "between a wrong-way bend" in text and "a jump far above the joint's own" in text
+    rule.apply(ev, fl)
+    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[10:22])
+    assert "between a wrong-way bend" in rule.describe(ev, 21, 0)
+    assert "jump far above the joint's own" in rule.describe(ev, 10, 0)
     off = evidence(rot.rotvec_to_quat(rv), hinges=[0], config=DetectConfig(hinge_reach_seconds=0))
     fl = Flags((F, 1))
     WrongWayHinges.from_config(off.config).apply(off, fl)
-    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[12:20])
+    assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[11:20])
     flex = base.copy()  # the same bend reached smoothly: no jump to reach back to
     flex[4:16] = np.radians(np.linspace(np.degrees(base[4]), -40.0, 12))
     flex[16:20] = np.radians(-40.0)
@@ -825,6 +828,34 @@ def test_wrong_way_hinge_run_reaches_back_to_the_jump_that_entered_it() -> None:
     WrongWayHinges.from_config(ev.config).apply(ev, fl)
     assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.flatnonzero(ev.wrong_way[:, 0]))
     assert fl.mask[12:20, 0].all() and not ev.big_jumps[:12, 0].any()
+
+
+def test_reach_jumps_edges() -> None:
+    """The latest jump within the width before a run, the earliest within it after; none
+    farther; not the jump that leaves the run before, nor the one entering the run after
+    (reviewer: a run reached back over the exit of the run before it)."""
+    from mocapkit.clean.detect.hinges import reach_jumps
+
+    runs = np.zeros((30, 1), dtype=bool)
+    runs[10:13, 0] = True
+    jumps = np.zeros((30, 1), dtype=bool)
+    jumps[[5, 7, 8, 16, 17], 0] = True
+    got = reach_jumps(runs, jumps, 3)[:, 0]
+    assert np.array_equal(np.flatnonzero(got), np.r_[8:16])  # 8 (latest), 16 (earliest) - 1
+    assert np.array_equal(np.flatnonzero(reach_jumps(runs, jumps, 1)[:, 0]), np.r_[10:13])
+    assert np.array_equal(np.flatnonzero(reach_jumps(runs, jumps, 0)[:, 0]), np.r_[10:13])
+    two = np.zeros((30, 1), dtype=bool)
+    two[[2, 3, 4, 8, 9, 10], 0] = True  # runs 2..4 and 8..10, one jump at 5: the first's exit
+    jumps = np.zeros((30, 1), dtype=bool)
+    jumps[5, 0] = True
+    assert np.array_equal(np.flatnonzero(reach_jumps(two, jumps, 4)[:, 0]), [2, 3, 4, 8, 9, 10])
+    jumps[[5, 8], 0] = [False, True]  # the second's entry: the first does not reach on to it
+    assert np.array_equal(np.flatnonzero(reach_jumps(two, jumps, 4)[:, 0]), [2, 3, 4, 8, 9, 10])
+    runs[:] = False
+    runs[0:2, 0] = True  # a run at the take's start, a jump at the end's reach
+    jumps[:] = False
+    jumps[[4, 29], 0] = True
+    assert np.array_equal(np.flatnonzero(reach_jumps(runs, jumps, 2)[:, 0]), np.r_[0:4])
 
 
 def test_extend_to_steps() -> None:

@@ -604,7 +604,6 @@ def cancelling_steps(
     pops: np.ndarray | None = None,
     axis_cos: float = 0.0,
     axis_peaks: np.ndarray | None = None,
-    axis_partners: np.ndarray | None = None,
 ) -> np.ndarray:
     """(F, J) bool: the frames ``a .. e - 1`` between two ``peaks`` of a joint (``e - a``
     at most ``max_frames``) whose deviations cancel, ``|v[a] + v[e]| < tol * min(|v[a]|,
@@ -645,14 +644,15 @@ def cancelling_steps(
     step, otherwise paired the exit of one pop with the entry of the next across the stance
     between (Bandai-1 validation half, walk-back_angry's toes, session 26). None: none.
 
-    ``axis_cos``, ``axis_peaks`` and ``axis_partners`` ((F, J) bool, the peaks large enough
-    to lead such a pair and to close one; with ``axis_cos`` > 0): two peaks that do not cancel,
-    one of ``axis_peaks`` and both of ``axis_partners`` (None: both of ``axis_peaks``), pair too
-    where their deviations point opposite ways,
+    ``axis_cos`` and ``axis_peaks`` ((F, J) bool, the peaks large enough; with ``axis_cos`` >
+    0): two such peaks that do not cancel pair too where their deviations point opposite ways,
     ``-v[a] . v[e] > axis_cos |v[a]| |v[e]|`` in one of the frames: a stretch turned about one
     axis by an angle that changes over it (a wrong-way bend mirrors the flexion, so its turn
     grows and shrinks with the joint's own), entered and left about that axis by jumps of
-    different sizes. They pair after every cancelling pair.
+    different sizes. They pair after every cancelling pair. A turn that passes 180 deg inside
+    the stretch is left by a jump pointing the way it entered (:func:`_opposed`, ``flip``):
+    that reading is tried only for two peaks next to each other (none of the joint's between)
+    whose ``sides`` read an entry then an exit (never without them).
 
     Two turned stretches of one joint nest or lie apart; a pair that interleaves a kept one
     (one jump inside its stretch, the other outside) with jumps under half as large is a
@@ -688,15 +688,11 @@ def cancelling_steps(
                 )
                 if ratio < tol:
                     pairs.append((ratio, a, e))
-                elif (
-                    axis_cos > 0
-                    and axis_peaks is not None
-                    and axis_peaks[[a, e], j].any()
-                    and (axis_peaks if axis_partners is None else axis_partners)[[a, e], j].all()
-                ):
+                elif axis_cos > 0 and axis_peaks is not None and axis_peaks[[a, e], j].all():
                     # a turn that passed 180 deg inside the stretch leaves it pointing the way it
-                    # entered: only between an entry and an exit where the sides can be read
-                    flip = sides is None or e - a < sided_frames or sides[a, j] > 0 > sides[e, j]
+                    # entered: read so only between an entry and an exit next to each other (with
+                    # it, any two jumps about one axis oppose, so their order must tell)
+                    flip = sides is not None and sides[a, j] > 0 > sides[e, j] and e == ps[i + 1]
                     c = _opposed(deviations, a, e, j, flip)
                     if c > axis_cos:
                         pairs.append((tol + 1.0 - c, a, e))

@@ -25,11 +25,11 @@ class CancellingJumps:
     left with opposite jumps; natural motion that jumps seldom jumps back by the same rotation
     (:func:`~mocapkit.clean.mdm.cancelling_steps`). A wrong-way bend turns its stretch about one
     axis by an angle that follows the joint's own flexion, so its two jumps point opposite ways
-    but differ in size: two jumps, one over ``DetectConfig.pair_axis_ratio`` times the joint's
-    ordinary one and the other over ``pair_axis_partner_ratio`` times it, that point opposite
-    ways (``pair_axis_cos``; a turn that passed 180 deg between them may be read the other way
-    round, :func:`~mocapkit.clean.mdm._opposed`) pair too; on the Bandai-1 tuning half's clean
-    takes, whole, the largest such natural pair is 3.1 times it. A jump
+    but differ in size: two jumps that both exceed ``DetectConfig.pair_axis_ratio`` times the
+    joint's ordinary one and point opposite ways (``pair_axis_cos``; an entry and the next jump,
+    an exit, may be read as a turn that passed 180 deg between them,
+    :func:`~mocapkit.clean.mdm._opposed`) pair too; on the Bandai-1
+    tuning half's clean takes, whole, the largest such natural pair is 3.1 times it. A jump
     leaving an error is not paired with a later one entering another (the frames between are
     clean), where the digression tells the two sides of each jump apart and an entry before and
     an exit after them (or the take's ends) flank

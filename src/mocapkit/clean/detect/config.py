@@ -144,12 +144,6 @@ class DetectConfig:
     pair_axis_cos: float = 0.9
     #: ... see ``pair_axis_cos``.
     pair_axis_ratio: float = 5.0
-    #: ... and the other of the two need only exceed this many times the joint's ordinary jump:
-    #: a wrong-way bend that the limb straightens out of is left by its injected extra alone (20
-    #: deg and more, 3.5 times a waving elbow's own jump; Bandai-1 tuning half, gestures, bend
-    #: seed 4), while one jump stays far above anything the joint does. Natural pairs keep both
-    #: under ``pair_axis_ratio`` (the largest on the tuning half's clean takes: 3.1 times).
-    pair_axis_partner_ratio: float = 2.5
     #: A jump is one side of a one-frame pop, and pairs with no farther jump, when the frame
     #: beside it deviates the opposite way to within ``|v_f + v_g| < pop_tol * min(|v_f|,
     #: |v_g|)``: a pop's two deviations are equal and opposite but for the joint's own
@@ -426,11 +420,8 @@ class DetectConfig:
             raise ValueError(f"still_jump_ratio must be 0 or more, got {self.still_jump_ratio!r}")
         if not 0.0 <= self.pair_axis_cos <= 1.0:  # a cosine; 0 turns the axis pairing off
             raise ValueError(f"pair_axis_cos must lie in [0, 1], got {self.pair_axis_cos!r}")
-        if not self.pair_axis_ratio >= self.pair_axis_partner_ratio >= 0.0:
-            raise ValueError(
-                "pair_axis_ratio must be at least pair_axis_partner_ratio, both 0 or more, got "
-                f"{self.pair_axis_ratio!r} and {self.pair_axis_partner_ratio!r}"
-            )
+        if not self.pair_axis_ratio >= 0.0:
+            raise ValueError(f"pair_axis_ratio must be 0 or more, got {self.pair_axis_ratio!r}")
         if not 0.0 <= self.spike_jump_share <= 1.0:
             raise ValueError(f"spike_jump_share must lie in [0, 1], got {self.spike_jump_share!r}")
         if not self.spike_jump_ratio >= 0.0:

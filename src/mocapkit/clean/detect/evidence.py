@@ -267,10 +267,9 @@ class Evidence:
         word = self.frames(SOURCE_LEN / ANALYSIS_FPS)
         used = np.zeros(self.shape, dtype=bool)
         c = self.config
-        partners = self.jump_size > c.pair_axis_partner_ratio * self.jump_scale[None]
         cells = mdm_mod.cancelling_steps(
             self.jump_peaks, devs, span, c.pair_tol, sides, word, used, self.pops,
-            c.pair_axis_cos, self.big_jumps, self.jump_peaks & partners,
+            c.pair_axis_cos, self.big_jumps,
         )  # fmt: skip
         return cells, used, sides
 

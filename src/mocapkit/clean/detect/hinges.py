@@ -74,14 +74,19 @@ def reach_jumps(runs: np.ndarray, jumps: np.ndarray, width: int) -> np.ndarray:
     """(F, J) bool: ``runs`` with each run (per joint) stretched back to the latest of
     ``jumps`` (F, J) bool at most ``width`` frames before its first frame, and on to the frame
     before the earliest at most ``width + 1`` frames after its last (a jump into frame f is a
-    step between frames f-1 and f)."""
+    step between frames f-1 and f). A jump that leaves the run before (the frame after its
+    last) or enters the run after (its first frame) is not reached for."""
     out = np.array(runs, dtype=bool, copy=True)
+    F = out.shape[0]
     for j in np.flatnonzero(out.any(axis=0)):
-        for a, b in true_runs(runs[:, j]):
-            before = np.flatnonzero(jumps[max(0, a - width) : a, j])
+        spans = true_runs(runs[:, j])
+        for k, (a, b) in enumerate(spans):
+            lo = max(0, a - width, spans[k - 1][1] + 2 if k else 0)
+            before = np.flatnonzero(jumps[lo:a, j])
             if len(before):
-                out[max(0, a - width) + before[-1] : a, j] = True
-            after = np.flatnonzero(jumps[b + 1 : b + 2 + width, j])
+                out[lo + before[-1] : a, j] = True
+            hi = min(F, b + 2 + width, spans[k + 1][0] if k + 1 < len(spans) else F)
+            after = np.flatnonzero(jumps[b + 1 : hi, j])
             if len(after):
                 out[b + 1 : b + 1 + after[0], j] = True
     return out
