@@ -780,3 +780,84 @@ def test_repair_of_a_raw_cmu_thumb_glitch_leaves_no_jump(shared_path) -> None:
     fixed = SelfSimilarityCleaner().fit(take).repair().motion
     jumps = np.degrees(jump_size(fixed.rotations[1592:1630, j : j + 1])[:, 0])
     assert jumps.max() < 5.0, jumps.round(1)
+
+
+def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
+    """A forearm's bend mirrored across straight (its flexion negated, the twist about the
+    limb kept), or mirrored and pushed 25 deg further: reflected back and bridged to the
+    frames beside the run, it is the capture again. Not done at the take's edge (no two
+    frames beside it), nor where the reflection would still bend the wrong way."""
+    from mocapkit.clean.cleaner import _reflected
+    from mocapkit.clean.detect import DetectConfig, Evidence
+    from mocapkit.clean.detect.evidence import bend_rotvecs
+
+    walk, _ = takes
+    j = walk.skeleton.index("LeftForeArm")
+    ev0 = Evidence.for_motion(walk, DetectConfig())
+    axis = ev0.hinge_axes[j]
+    rest = ev0.hinge_bones[ev0.hinges.index(j)]
+
+    def mirrored(q: np.ndarray, push_deg: float) -> np.ndarray:
+        bend = bend_rotvecs(q, rest)
+        twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+        f = bend @ axis
+        new = bend - (2 * f + np.radians(push_deg))[:, None] * axis[None]
+        return rot.quat_mul(rot.rotvec_to_quat(new), twist)
+
+    F = walk.num_frames
+    for push in (0.0, 25.0):
+        bad = walk.copy()
+        bad.rotations[60:75, j] = mirrored(walk.rotations[60:75, j], push)
+        ev = Evidence.for_motion(bad, DetectConfig())
+        assert (ev.hinge_flexion[60:75, j] < 0).all()
+        cells = np.zeros((F, walk.num_joints), dtype=bool)
+        cells[60:75, j] = True
+        out, done = _reflected(ev, cells)
+        assert done[60:75, j].all() and done.sum() == 15
+        err = np.degrees(rot.quat_angle(out[60:75, j], walk.rotations[60:75, j]))
+        assert err.max() < 3.0, (push, err.round(1))
+        assert np.array_equal(out[~done], np.asarray(bad.rotations)[~done])
+        edge = np.zeros_like(cells)  # the take's first frames: no frames before to meet
+        edge[0:10, j] = True
+        assert not _reflected(ev, edge)[1].any()
+    # a right-way bend rising 60 deg over the run from 5 deg at its edges: reflected and
+    # bridged, its middle still bends the wrong way (-50 deg): left to the median
+    q = walk.rotations[60:75, j]
+    bend = bend_rotvecs(q, rest)
+    twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+    hump = np.radians(5.0 + 60.0 * np.sin(np.linspace(0.0, np.pi, 15)))
+    bad = walk.copy()
+    new = bend + (hump - bend @ axis)[:, None] * axis[None]
+    bad.rotations[60:75, j] = rot.quat_mul(rot.rotvec_to_quat(new), twist)
+    bad.rotations[55:60, j] = bad.rotations[60, j]  # the edges held at 5 deg
+    bad.rotations[75:80, j] = bad.rotations[74, j]
+    ev = Evidence.for_motion(bad, DetectConfig())
+    cells = np.zeros((F, walk.num_joints), dtype=bool)
+    cells[60:75, j] = True
+    assert not _reflected(ev, cells)[1].any()
+
+
+def test_repair_reflects_a_wave_elbow_bent_the_wrong_way(shared_path) -> None:
+    """A Bandai elbow bent 101-140 deg through a wave, mirrored across straight for 18 frames
+    (newcomer): the take holds no other such wave, so the neighbours' median straightened the
+    arm, 125 deg off; reflected back, the repair is within a few degrees of the capture."""
+    from mocapkit.clean.detect import DetectConfig, Evidence
+    from mocapkit.clean.detect.evidence import bend_rotvecs
+    from mocapkit.io import read_motion
+
+    take = read_motion(shared_path("bandai1") / "data" / "dataset-1_byebye_happy_001.bvh")
+    j = take.skeleton.index("LowerArm_R")
+    ev = Evidence.for_motion(take, DetectConfig())
+    axis, rest = ev.hinge_axes[j], ev.hinge_bones[ev.hinges.index(j)]
+    q = take.rotations[14:32, j]
+    bend = bend_rotvecs(q, rest)
+    twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+    bad = take.copy()
+    new = bend - 2 * (bend @ axis)[:, None] * axis[None]
+    bad.rotations[14:32, j] = rot.quat_mul(rot.rotvec_to_quat(new), twist)
+    cl = SelfSimilarityCleaner().fit(bad)
+    assert cl.flags().live("wrong-way-hinge")[14:32, j].all()
+    err = np.degrees(rot.quat_angle(cl.repair().motion.rotations[:, j], take.rotations[:, j]))
+    assert err[14:32].mean() < 5.0 and err[14:32].max() < 8.0, err[14:32].round(1)
+    median = cl.repair(mask=cl.mask()).motion.rotations[14:32, j]
+    assert np.degrees(rot.quat_angle(median, take.rotations[14:32, j])).mean() > 60.0

@@ -514,14 +514,24 @@ class SelfSimilarityCleaner:
         replacement = self.replacement()
         if mask is None:  # a stretch turned by one rotation is turned back (repair.unturned)
             fl = self.flags(threshold)
+            ev = self.evidence_
+            back = np.array(self.motion_.rotations, dtype=np.float64, copy=True)
+            done = np.zeros_like(flagged)
             turned = fl.live("cancelling-jumps") & flagged
             # a noise burst is no turn, though its jumps may cancel
             turned &= ~_runs_touching(turned, fl.live("noise"))
             if turned.any():
                 back, done = unturned(self.motion_.rotations, turned, within=flagged)
                 # nor, on a knee or elbow, is a wrong-way bend whose flexion curves
-                done = _bent_right(self.evidence_, back, done, fl.live("wrong-way-hinge"))
-                # the jumps bound the turned stretch: the cells past them that only the words'
+                done = _bent_right(ev, back, done, fl.live("wrong-way-hinge"))
+            # a wrong-way bend not turned back: its flexion reflected back across straight
+            bent = fl.live("wrong-way-hinge") & flagged & ~done
+            if bent.any():
+                mirrored_back, mirrored = _reflected(ev, bent)
+                back = np.where(mirrored[..., None], mirrored_back, back)
+                done |= mirrored
+            if done.any():
+                # the jumps bound the repaired stretch: the cells past them that only the words'
                 # digression flags (it spills past an error by up to a source word) hold the
                 # captured motion; another rule's cells, or the MDM's farther off, are the
                 # median's (0.1 s kept a forearm's clean frames 4-7 past a turned twist for the
@@ -534,7 +544,6 @@ class SelfSimilarityCleaner:
                         others |= fl.live(r)
                 pad = self.motion_.seconds_to_frames(SOURCE_LEN / ANALYSIS_FPS)
                 keep = _runs_touching(flagged, done) & dilate(done, pad) & ~done & ~others
-                ev = self.evidence_
                 bar = np.maximum(
                     ev.config.pair_ratio * ev.jump_scale, np.radians(ev.config.step_min_deg)
                 )
@@ -650,6 +659,54 @@ def _by_index(contact: ContactConstraint, skeleton) -> ContactConstraint:
     if not 0 <= int(contact.joint) < skeleton.num_joints:
         raise ValueError(f"contact: joint {contact.joint} out of range ({skeleton.num_joints})")
     return contact
+
+
+def _reflected(ev: Evidence, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(out, done)``: the take's rotations with each run of ``cells`` on a straight knee or
+    elbow (:attr:`Evidence.hinge_axes`) given its bend reflected back across straight (the
+    flexion about the hinge's axis negated, the rest of the bend and the twist about the limb
+    kept), plus a flexion offset growing linearly from the one that meets the frame before the
+    run (the flexion carried on at its speed over the two frames before) to the one that meets
+    the frame after it; and (F, J) bool of the cells so repaired. A run is left out where the
+    reflection still bends the wrong way, or where it has fewer than two frames on either side.
+
+    Relies on: how a hinge comes to bend the wrong way in a capture: a solver or a swapped
+    marker picks the mirror solution of the limb's bend, so the size of the bend is still the
+    capture's and only its side is lost; an offset pushing it further past straight shows as a
+    jump at the run's edges, which the linear offset takes up. The neighbours' median, the
+    alternative, is another moment's pose: for a one-off gesture (a wave with the elbow bent
+    120 deg) it straightened the arm, 125 deg off (newcomer)."""
+    from mocapkit.clean.detect.evidence import bend_rotvecs
+
+    q = ev.rotations
+    out = np.array(q, dtype=np.float64, copy=True)
+    done = np.zeros(cells.shape, dtype=bool)
+    F = q.shape[0]
+    limit = -np.radians(ev.config.hinge_deg)
+    for j, axis in ev.hinge_axes.items():
+        rest = None if ev.hinge_bones is None else ev.hinge_bones[ev.hinges.index(j)]
+        if rest is None or not np.any(rest):
+            continue
+        flex = ev.hinge_flexion[:, j]
+        for a, b in true_runs(cells[:, j]):
+            if a < 2 or b > F - 3:
+                continue
+            seg = q[a : b + 1, j]
+            bend = bend_rotvecs(seg, rest)
+            twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), seg)
+            f = bend @ axis
+            before, after = 2 * flex[a - 1] - flex[a - 2], 2 * flex[b + 1] - flex[b + 2]
+            if not (np.isfinite(before) and np.isfinite(after)):
+                continue
+            lift = np.linspace(before + f[0], after + f[-1], len(f))
+            new = bend + (lift - 2 * f)[:, None] * axis[None]
+            fixed = rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(new), twist))
+            with np.errstate(invalid="ignore"):
+                if not (ev.flexion_of(j, fixed) >= limit).all():
+                    continue
+            out[a : b + 1, j] = fixed
+            done[a : b + 1, j] = True
+    return out, done
 
 
 def _bent_right(

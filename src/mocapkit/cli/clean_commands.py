@@ -211,7 +211,7 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
 )
 @runner_options
 @LENIENT
-@click.option("--quiet", is_flag=True, help="Print nothing but errors.")
+@click.option("--quiet", is_flag=True, help="Print nothing but errors and what --explain asks for.")
 @friendly_errors
 def clean_command(
     input_path: str,
