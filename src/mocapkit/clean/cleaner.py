@@ -706,6 +706,8 @@ def _reflected(
             before, after = 2 * flex[a - 1] - flex[a - 2], 2 * flex[b + 1] - flex[b + 2]
             if not (np.isfinite(before) and np.isfinite(after)):
                 continue
+            if _twist_jumps(q[a - 2 : b + 3, j], rest) > np.radians(ev.config.hinge_deg):
+                continue  # not the bend alone turned over: the twist is off too
             if median is not None:
                 fm = ev.flexion_of(j, median[[a, b], j])
                 reflected_miss = abs(before + f[0]) + abs(after + f[-1])
@@ -720,6 +722,21 @@ def _reflected(
             out[a : b + 1, j] = fixed
             done[a : b + 1, j] = True
     return out, done
+
+
+def _twist_jumps(q: np.ndarray, bone: np.ndarray) -> float:
+    """Radians: how far the twist about the limb ``bone`` of rotations ``q`` (a run with two
+    frames before and after it) leaves, at the run's first and last frames, the twist carried on
+    at its speed from the two frames beside each (the larger of the two)."""
+    from mocapkit.clean.detect.evidence import bend_rotvecs
+
+    bend = bend_rotvecs(q, bone)
+    tw = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+    b = np.asarray(bone, dtype=np.float64) / np.linalg.norm(bone)
+    ang = 2.0 * np.arctan2(tw[:, 1:] @ b, tw[:, 0])
+    ang = np.unwrap(ang)
+    ends = [(ang[2], 2 * ang[1] - ang[0]), (ang[-3], 2 * ang[-2] - ang[-1])]
+    return max(abs(float(np.angle(np.exp(1j * (x - y))))) for x, y in ends)
 
 
 def _bent_right(
