@@ -795,9 +795,9 @@ def test_wrong_way_hinges() -> None:
 def test_wrong_way_hinge_run_reaches_back_to_the_jump_that_entered_it() -> None:
     """An elbow bent 43 deg jumps to 10 deg past straight (a wrong-way bend of a well-bent
     limb) and goes on past -15 deg a frame later; it comes back within 15 deg of straight two
-    frames before it jumps back to its own bend. The frames from the entry's jump on are flagged, and on to
-    the frame before the exit's jump. Reached at the joint's own speed, the run is what it is;
-    so it is with ``hinge_reach_seconds`` 0."""
+    frames before it jumps back to its own bend. The frames from the entry's jump on are
+    flagged, and on to the frame before the exit's jump. Reached at the joint's own speed, the
+    run is what it is; so it is with ``hinge_reach_seconds`` 0."""
     F = 90
     base = np.radians(40.0) * (1 + np.sin(np.arange(F) / 8.0)) / 2 + np.radians(5)
     flex = base.copy()
