@@ -667,9 +667,8 @@ def _reflected(
     """``(out, done)``: the take's rotations with each run of ``cells`` on a straight knee or
     elbow (:attr:`Evidence.hinge_axes`) given its bend reflected back across straight (the
     flexion about the hinge's axis negated, the rest of the bend and the twist about the limb
-    kept), plus a flexion offset growing linearly from the one that meets the frame before the
-    run (the flexion carried on at its speed over the two frames before) to the one that meets
-    the frame after it; and (F, J) bool of the cells so repaired. A run is left out where the
+    kept), plus a flexion offset growing linearly from the one that meets the frames before the
+    run to the one that meets the frames after it (:func:`_edge_offsets`); and (F, J) bool of the cells so repaired. A run is left out where the
     reflection still bends the wrong way, or where it has fewer than two frames on either side,
     or where ``median`` (F, J, 4: the neighbours' median, the other repair) meets the flexion
     carried on from the frames beside the run more closely than the reflection does before
@@ -703,17 +702,17 @@ def _reflected(
             bend = bend_rotvecs(seg, rest)
             twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), seg)
             f = bend @ axis
-            before, after = 2 * flex[a - 1] - flex[a - 2], 2 * flex[b + 1] - flex[b + 2]
-            if not (np.isfinite(before) and np.isfinite(after)):
+            if b - a < 1 or not np.isfinite(flex[[a - 2, a - 1, b + 1, b + 2]]).all():
                 continue
             if _twist_jumps(q[a - 2 : b + 3, j], rest) > np.radians(ev.config.hinge_deg):
                 continue  # not the bend alone turned over: the twist is off too
+            off_a, off_b = _edge_offsets(flex, a, b, -f)
             if median is not None:
-                fm = ev.flexion_of(j, median[[a, b], j])
-                reflected_miss = abs(before + f[0]) + abs(after + f[-1])
-                if abs(fm[0] - before) + abs(fm[1] - after) < reflected_miss:
+                fm = ev.flexion_of(j, median[a : b + 1, j])
+                m_a, m_b = _edge_offsets(flex, a, b, fm)
+                if abs(m_a) + abs(m_b) < abs(off_a) + abs(off_b):
                     continue
-            lift = np.linspace(before + f[0], after + f[-1], len(f))
+            lift = np.linspace(off_a, off_b, len(f))
             new = bend + (lift - 2 * f)[:, None] * axis[None]
             fixed = rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(new), twist))
             with np.errstate(invalid="ignore"):
@@ -722,6 +721,26 @@ def _reflected(
             out[a : b + 1, j] = fixed
             done[a : b + 1, j] = True
     return out, done
+
+
+def _edge_offsets(flex: np.ndarray, a: int, b: int, run: np.ndarray) -> tuple[float, float]:
+    """How far the flexion ``run`` (frames a..b, at least two) misses the take's ``flex`` at
+    each edge, read both ways: the two frames outside carried on to the edge frame, and the two
+    inside carried on to the frame outside. The joint's acceleration puts each reading off, by
+    more on the side where it changes faster (a walking knee slowing to straight read 13 deg
+    outside, 1 inside, for a run that meets it); the smaller reading is taken where the two
+    agree in sign, else none."""
+
+    def one(outside: float, inside: float) -> float:
+        return (
+            float(np.sign(outside) * min(abs(outside), abs(inside)))
+            if outside * inside > 0
+            else 0.0
+        )
+
+    start = one(2 * flex[a - 1] - flex[a - 2] - run[0], flex[a - 1] - (2 * run[0] - run[1]))
+    end = one(2 * flex[b + 1] - flex[b + 2] - run[-1], flex[b + 1] - (2 * run[-1] - run[-2]))
+    return start, end
 
 
 def _twist_jumps(q: np.ndarray, bone: np.ndarray) -> float:
