@@ -861,3 +861,23 @@ def test_repair_reflects_a_wave_elbow_bent_the_wrong_way(shared_path) -> None:
     assert err[14:32].mean() < 5.0 and err[14:32].max() < 8.0, err[14:32].round(1)
     median = cl.repair(mask=cl.mask()).motion.rotations[14:32, j]
     assert np.degrees(rot.quat_angle(median, take.rotations[14:32, j])).mean() > 60.0
+
+
+def test_edge_offsets_take_the_smaller_reading_where_both_agree() -> None:
+    """A run that meets the take (a knee slowing to straight after it: the outside frames,
+    carried on, read 13 deg too little at its last frame, the inside ones 1 deg): the smaller
+    reading; a run pushed 30 deg off reads about 30 both ways; readings of opposite signs: none."""
+    from mocapkit.clean.cleaner import _edge_offsets
+
+    true = np.radians(
+        [26.9, 31.1, 37.7, 47.8, 57.9, 66.2, 69.9, 68.9, 64.4, 55.5, 42.6, 25.8, 7.9, 3.3]
+    )
+    a, b = 2, 11
+    start, end = np.degrees(_edge_offsets(true, a, b, true[a : b + 1]))
+    assert abs(start) < 3.0 and abs(end) < 1.5, (start, end)
+    start, end = np.degrees(_edge_offsets(true, a, b, true[a : b + 1] - np.radians(30.0)))
+    assert 25.0 < start < 35.0 and 15.0 < end < 35.0, (start, end)
+    bent = true.copy()
+    bent[a - 2 : a] = np.radians([40.0, 37.0])  # outside says +, inside says -
+    run = np.radians(np.r_[30.0, 20.0, np.zeros(b - a - 1)])
+    assert _edge_offsets(bent, a, b, run)[0] == 0.0
