@@ -668,11 +668,12 @@ def _reflected(
     elbow (:attr:`Evidence.hinge_axes`) given its bend reflected back across straight (the
     flexion about the hinge's axis negated, the rest of the bend and the twist about the limb
     kept), plus a flexion offset growing linearly from the one that meets the frames before the
-    run to the one that meets the frames after it (:func:`_edge_offsets`); and (F, J) bool of the cells so repaired. A run is left out where the
-    reflection still bends the wrong way, or where it has fewer than two frames on either side,
-    or where ``median`` (F, J, 4: the neighbours' median, the other repair) meets the flexion
-    carried on from the frames beside the run more closely than the reflection does before
-    its offset (the sum over the two edges).
+    run to the one that meets the frames after it (:func:`_edge_offsets`); and (F, J) bool of
+    the cells so repaired. A run is left out where the reflection still bends the wrong way,
+    where it has fewer than two frames on either side, where the twist about the limb jumps at
+    its edges (:func:`_twist_jumps`, over ``hinge_deg``), or where ``median`` (F, J, 4: the
+    neighbours' median, the other repair) meets the frames beside the run more closely than
+    the reflection does before its offset (:func:`_edge_offsets`, summed over the two edges).
 
     Relies on: how a hinge comes to bend the wrong way in a capture: a solver or a swapped
     marker picks the mirror solution of the limb's bend, so the size of the bend is still the
