@@ -820,6 +820,22 @@ def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
         edge = np.zeros_like(cells)  # the take's first frames: no frames before to meet
         edge[0:10, j] = True
         assert not _reflected(ev, edge)[1].any()
+        edge[:] = False  # a run from frame 1, one of a single frame: skipped, no exception
+        edge[1:10, j] = edge[40, j] = True
+        assert not _reflected(ev, edge)[1].any()
+        # the neighbours' median meeting the edges better (here: the capture itself, against
+        # a reflection that needs a 25-deg offset) wins
+        if push:
+            assert not _reflected(ev, cells, np.asarray(walk.rotations))[1].any()
+        folded = np.asarray(bad.rotations).copy()  # a median far off at the edges loses
+        folded[:, j] = rot.rotvec_to_quat(np.radians(130.0) * axis)
+        assert _reflected(ev, cells, folded)[1][60:75, j].all()
+        # the twist about the limb turned too (not the bend alone mirrored): not reflected
+        turned = bad.copy()
+        spin = rot.rotvec_to_quat(np.radians(30.0) * rest / np.linalg.norm(rest))
+        turned.rotations[60:75, j] = rot.quat_mul(bad.rotations[60:75, j], spin)
+        tev = Evidence.for_motion(turned, DetectConfig())
+        assert not _reflected(tev, cells)[1].any()
     # a right-way bend rising 60 deg over the run from 5 deg at its edges: reflected and
     # bridged, its middle still bends the wrong way (-50 deg): left to the median
     q = walk.rotations[60:75, j]
