@@ -71,7 +71,9 @@ class NoiseBursts:
                 "or shake, not noise"
             )
         if run is None:
-            here = f"roughness {deg(ev.roughness[frame, joint])} here"
+            # a second difference of the angular velocity: it may exceed 180 deg
+            r = deg(ev.roughness[frame, joint])
+            here = f"roughness (change of its turn's change per frame) {r} here"
             # a burst's roughness spreads to the two frames before it and the one after it
             F = ev.noise_bursts.shape[0]
             for f in (frame + 1, frame + 2, frame - 1):
