@@ -789,7 +789,7 @@ def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
     frames beside it), nor where the reflection would still bend the wrong way."""
     from mocapkit.clean.cleaner import _reflected
     from mocapkit.clean.detect import DetectConfig, Evidence
-    from mocapkit.clean.detect.evidence import bend_rotvecs
+    from mocapkit.clean.detect.evidence import bend_and_twist
 
     walk, _ = takes
     j = walk.skeleton.index("LeftForeArm")
@@ -798,8 +798,7 @@ def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
     rest = ev0.hinge_bones[ev0.hinges.index(j)]
 
     def mirrored(q: np.ndarray, push_deg: float) -> np.ndarray:
-        bend = bend_rotvecs(q, rest)
-        twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+        bend, twist = bend_and_twist(q, rest)
         f = bend @ axis
         new = bend - (2 * f + np.radians(push_deg))[:, None] * axis[None]
         return rot.quat_mul(rot.rotvec_to_quat(new), twist)
@@ -838,9 +837,7 @@ def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
         assert not _reflected(tev, cells)[1].any()
     # a right-way bend rising 60 deg over the run from 5 deg at its edges: reflected and
     # bridged, its middle still bends the wrong way (-50 deg): left to the median
-    q = walk.rotations[60:75, j]
-    bend = bend_rotvecs(q, rest)
-    twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+    bend, twist = bend_and_twist(walk.rotations[60:75, j], rest)
     hump = np.radians(5.0 + 60.0 * np.sin(np.linspace(0.0, np.pi, 15)))
     bad = walk.copy()
     new = bend + (hump - bend @ axis)[:, None] * axis[None]
@@ -858,16 +855,14 @@ def test_repair_reflects_a_wave_elbow_bent_the_wrong_way(shared_path) -> None:
     (newcomer): the take holds no other such wave, so the neighbours' median straightened the
     arm, 125 deg off; reflected back, the repair is within a few degrees of the capture."""
     from mocapkit.clean.detect import DetectConfig, Evidence
-    from mocapkit.clean.detect.evidence import bend_rotvecs
+    from mocapkit.clean.detect.evidence import bend_and_twist
     from mocapkit.io import read_motion
 
     take = read_motion(shared_path("bandai1") / "data" / "dataset-1_byebye_happy_001.bvh")
     j = take.skeleton.index("LowerArm_R")
     ev = Evidence.for_motion(take, DetectConfig())
     axis, rest = ev.hinge_axes[j], ev.hinge_bones[ev.hinges.index(j)]
-    q = take.rotations[14:32, j]
-    bend = bend_rotvecs(q, rest)
-    twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+    bend, twist = bend_and_twist(take.rotations[14:32, j], rest)
     bad = take.copy()
     new = bend - 2 * (bend @ axis)[:, None] * axis[None]
     bad.rotations[14:32, j] = rot.quat_mul(rot.rotvec_to_quat(new), twist)
@@ -897,3 +892,22 @@ def test_edge_offsets_take_the_smaller_reading_where_both_agree() -> None:
     bent[a - 2 : a] = np.radians([40.0, 37.0])  # outside says +, inside says -
     run = np.radians(np.r_[30.0, 20.0, np.zeros(b - a - 1)])
     assert _edge_offsets(bent, a, b, run)[0] == 0.0
+
+
+def test_bend_and_twist_rebuild_the_rotation_and_keep_the_bone(takes) -> None:
+    """``q = exp(bend) * twist``, the twist turning about the limb alone (it leaves the bone
+    where it was), and the bend carrying the bone where ``q`` does."""
+    from mocapkit.clean.detect import DetectConfig, Evidence
+    from mocapkit.clean.detect.evidence import bend_and_twist
+
+    walk, _ = takes
+    ev = Evidence.for_motion(walk, DetectConfig())
+    for i, j in enumerate(ev.hinges):
+        bone = ev.hinge_bones[i]
+        q = np.asarray(walk.rotations[:, j])
+        bend, twist = bend_and_twist(q, bone)
+        back = rot.quat_mul(rot.rotvec_to_quat(bend), twist)
+        assert np.allclose(np.abs(np.sum(back * q, axis=-1)), 1.0, atol=1e-12)
+        b = np.broadcast_to(bone / np.linalg.norm(bone), (len(q), 3))
+        assert np.allclose(rot.quat_apply(twist, b), b, atol=1e-12)
+        assert np.allclose(rot.quat_apply(rot.rotvec_to_quat(bend), b), rot.quat_apply(q, b))

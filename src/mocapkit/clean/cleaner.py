@@ -684,7 +684,7 @@ def _reflected(
     another cycle's pose, which meets the run's edges (a walking knee: tuning half, seed 0,
     bends mirrored and pushed 20-50 deg past straight, 4.6 deg off from the median and 10.2
     reflected); the one that meets the edges better is the better guess of the middle."""
-    from mocapkit.clean.detect.evidence import bend_rotvecs
+    from mocapkit.clean.detect.evidence import bend_and_twist
 
     q = ev.rotations
     out = np.array(q, dtype=np.float64, copy=True)
@@ -697,16 +697,14 @@ def _reflected(
             continue
         flex = ev.hinge_flexion[:, j]
         for a, b in true_runs(cells[:, j]):
-            if a < 2 or b > F - 3:
+            if a < 2 or b > F - 3 or b - a < 1:
                 continue
-            seg = q[a : b + 1, j]
-            bend = bend_rotvecs(seg, rest)
-            twist = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), seg)
-            f = bend @ axis
-            if b - a < 1 or not np.isfinite(flex[[a - 2, a - 1, b + 1, b + 2]]).all():
+            if not np.isfinite(flex[[a - 2, a - 1, b + 1, b + 2]]).all():
                 continue
             if _twist_jumps(q[a - 2 : b + 3, j], rest) > np.radians(ev.config.hinge_deg):
                 continue  # not the bend alone turned over: the twist is off too
+            bend, twist = bend_and_twist(q[a : b + 1, j], rest)
+            f = bend @ axis
             off_a, off_b = _edge_offsets(flex, a, b, -f)
             if median is not None:
                 fm = ev.flexion_of(j, median[a : b + 1, j])
@@ -748,10 +746,9 @@ def _twist_jumps(q: np.ndarray, bone: np.ndarray) -> float:
     """Radians: how far the twist about the limb ``bone`` of rotations ``q`` (a run with two
     frames before and after it) leaves, at the run's first and last frames, the twist carried on
     at its speed from the two frames beside each (the larger of the two)."""
-    from mocapkit.clean.detect.evidence import bend_rotvecs
+    from mocapkit.clean.detect.evidence import bend_and_twist
 
-    bend = bend_rotvecs(q, bone)
-    tw = rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+    tw = bend_and_twist(q, bone)[1]
     b = np.asarray(bone, dtype=np.float64) / np.linalg.norm(bone)
     ang = 2.0 * np.arctan2(tw[:, 1:] @ b, tw[:, 0])
     ang = np.unwrap(ang)

@@ -260,8 +260,10 @@ def clean_command(
     rotation, or about one axis by a changing angle, is turned back by it instead, and the rest
     of its flagged run keeps its captured rotations; on a knee or elbow bent the wrong way, only
     a half-turn flip or a bend whose flexion changes linearly over the run, as where the hinge
-    holds still), blended over 0.1 s on each side of a flagged run (those frames are written
-    too), and where a repaired
+    holds still; any other wrong-way bend has its flexion reflected back across straight where
+    that meets the frames beside it better than the median, as on a one-off gesture), blended
+    over 0.1 s on each side of a flagged run (those frames are written too), and where a
+    repaired
     joint moves a planted foot (a hip, knee or ankle, or the pelvis, under a foot on the ground)
     IK on that leg holds the foot where it was planted. All other joints and frames keep their
     rotations bit for bit (the written file's angles are derived from them again, to 1e-12 deg

@@ -75,6 +75,14 @@ def bend_rotvecs(q: np.ndarray, bone: np.ndarray | None) -> np.ndarray:
     return np.where(n > 1e-12, c / np.maximum(n, 1e-12) * ang, 0.0)
 
 
+def bend_and_twist(q: np.ndarray, bone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(bend, twist)`` of a hinge's rotations ``q`` (F, 4) about the limb ``bone`` below it:
+    the bend's rotation vectors (:func:`bend_rotvecs`) and the twist quaternions (F, 4) about
+    ``bone`` that it leaves, ``q = exp(bend) * twist``."""
+    bend = bend_rotvecs(q, bone)
+    return bend, rot.quat_mul(rot.quat_inv(rot.rotvec_to_quat(bend)), q)
+
+
 class Evidence:
     """What the rules of :data:`~mocapkit.clean.detect.PIPELINE` read, for one take.
 
