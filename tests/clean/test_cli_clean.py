@@ -99,6 +99,27 @@ def test_clean_report_on_standard_output_is_json_alone(files, tmp_path) -> None:
     )
 
 
+def test_clean_json_prints_the_report_and_errors_as_json(files, tmp_path) -> None:
+    """``--json -`` (as stitch and inbetween spell it; ``--report`` is the same option) prints
+    the report alone on stdout, and a failure, a mistyped option too, as ``{"error": LINE}``
+    there: a script reading stdout always gets JSON."""
+    code, stdout, stderr = run("clean", str(files["input"]), "--json", "-")
+    assert code == 0
+    assert json.loads(stdout)["flagged_cells"] > 0 and "LeftForeArm" in stderr
+    for args in (
+        [str(tmp_path / "missing.bvh"), "--json", "-"],
+        [str(files["input"]), "--json", "-", "--explain", "Nope:3"],
+        [str(files["input"]), "--json", "-", "--bogus"],
+    ):
+        code, stdout, stderr = run("clean", *args)
+        assert code == 2
+        err = json.loads(stdout)["error"]
+        assert err and "\n" not in err and err in stderr
+    out = tmp_path / "r.json"
+    code, _, _ = run("clean", str(files["input"]), "--json", str(out), "--quiet")
+    assert code == 0 and json.loads(out.read_text())["flagged_cells"] > 0
+
+
 def test_clean_baseline_and_errors(files, tmp_path) -> None:
     rep = tmp_path / "b.json"
     code, _, stderr = run(

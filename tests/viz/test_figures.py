@@ -110,3 +110,28 @@ def test_heat_map_decision_panel_shows_what_the_mdm_alone_does_not_decide(tmp_pa
     q = plot_mdm(mdm * 0.5, ["a", "b", "c", "d"], [], tmp_path / "g.png", 30.0, "t",
                  threshold=0.5)  # fmt: skip
     assert pale(p) > pale(q) + 2000
+
+
+def test_heat_map_names_every_rule_of_each_segment(tmp_path, monkeypatch) -> None:
+    """A segment flagged by three rules is coloured by the first, and all three are written
+    beside it (newcomer: a wrong-way knee read as mdm's alone); past 40 segments none are
+    written (they would pile up)."""
+    import mocapkit.viz.figures.clean as fc
+
+    seen: list[list[str]] = []
+    real = fc.save
+
+    def keep(fig, path):
+        seen.append([t.get_text() for ax in fig.axes for t in ax.texts])
+        return real(fig, path)
+
+    monkeypatch.setattr(fc, "save", keep)
+    F, J = 300, 4
+    why = ["mdm", "cancelling-jumps", "wrong-way-hinge"]
+    seg = {"joint_index": 2, "start": 100, "end": 119, "reasons": why}
+    fc.plot_mdm(np.zeros((F, J)), list("abcd"), [seg], tmp_path / "a.png", 30.0, "t")
+    assert seen[-1] == ["mdm + cancelling-jumps + wrong-way-hinge"]
+    many = [dict(seg, start=s, end=s + 2) for s in range(0, 287, 7)]
+    assert len(many) > 40
+    fc.plot_mdm(np.zeros((F, J)), list("abcd"), many, tmp_path / "b.png", 30.0, "t")
+    assert seen[-1] == []

@@ -138,11 +138,13 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
 )
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), help="Write the repaired take.")
 @click.option(
+    "--json",
     "--report",
-    "report_path",
-    type=click.Path(dir_okay=False),
-    help="Write a JSON report (- prints it on standard output, the summary lines then go to "
-    "standard error).",
+    "json_path",
+    type=click.Path(dir_okay=False, allow_dash=True),
+    help="Write the JSON report (-: print it, and the summary lines go to standard error; a "
+    'failure, a mistyped option too, prints {"error": LINE} there), as stitch and inbetween '
+    "do; --report is the same option.",
 )
 @click.option(
     "--mdm",
@@ -219,7 +221,7 @@ def clean_command(
     two_stage: bool,
     threshold: float,
     out_path: str | None,
-    report_path: str | None,
+    json_path: str | None,
     mdm_path: str | None,
     plot_path: str | None,
     baseline: str | None,
@@ -287,7 +289,7 @@ def clean_command(
     read or cleaned is listed in the summary and the others go on (exit status 2 at the end).
     The outputs are the same bytes in-process, with --workers or on --scheduler.
     """
-    single = {"--out": out_path, "--report": report_path, "--mdm": mdm_path,
+    single = {"--out": out_path, "--report": json_path, "--mdm": mdm_path,
               "--plot": plot_path, "--baseline": baseline, "--contact": contact_specs,
               "--explain": explain_specs, "--context": contexts}  # fmt: skip
     folder = {"--out-dir": out_dir, "--report-dir": report_dir, "--context-by": context_by,
@@ -323,7 +325,7 @@ def clean_command(
     check_outputs(
         [
             (out_path, WRITABLE) if out_path else None,
-            data_output(report_path, "report", ".json"),
+            data_output(json_path, "report", ".json"),
             npy_output(mdm_path, "MDM"),
             plot_output(plot_path),
         ],
@@ -360,9 +362,9 @@ def clean_command(
             from mocapkit.viz.figures.clean import plot_clean_report
 
             plot_clean_report(report, plot_path)
-        if report_path:
-            write_json(report_path, report.to_json())
-    say = report_lines(report_path)
+        if json_path:
+            write_json(json_path, report.to_json())
+    say = report_lines(json_path)
     if quiet:
         for e in report.explanations:
             say(str(e))
@@ -387,7 +389,7 @@ def clean_command(
         say(str(e))
     for label, path in (
         ("repaired take", out_path),
-        ("report", report_path),
+        ("report", json_path),
         ("MDM", mdm_path),
         ("plot", plot_path),
     ):

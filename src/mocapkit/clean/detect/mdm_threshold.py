@@ -96,12 +96,13 @@ class MDMHysteresis:
         own = "" if v > self.threshold else f" (below {self.threshold:g}: an abrupt cell)"
         if kinds:
             return (
-                f"MDM {v:.3f}{own} in its run {a}:{b + 1} (MDM above {self.threshold:g}, or "
-                "abrupt) seeded by " + ", ".join(kinds)
+                f"MDM {v:.3f}{own} in the stretch {a}:{b + 1} of MDM above {self.threshold:g} "
+                "(or abrupt), seeded by " + ", ".join(kinds) + "; the vetoes below may clear "
+                "or trim that stretch (the segment is what is left)"
             )
         return (
-            f"MDM {v:.3f} in its run {a}:{b + 1} above {self.threshold:g} with no seed (peak "
-            f"{peak:.3f} <= {self.seed_threshold:g}, no abrupt cell or step)"
+            f"MDM {v:.3f} in the stretch {a}:{b + 1} of MDM above {self.threshold:g}, with no "
+            f"seed (peak {peak:.3f} <= {self.seed_threshold:g}, no abrupt cell or step)"
         )
 
 

@@ -2,11 +2,11 @@
 
 Two panels share the time axis and the joint rows (labelled with joint names): on top the
 *decision*, every flagged cell coloured by the first rule that flagged it (legend: the rule
-names), pale grey where the MDM is above the threshold but no rule flagged the cell (no seed,
-or a veto cleared it: ``clean --explain`` says which), white elsewhere, so colour there means
-"flagged, and why"; below, the MDM in greys (white = like its neighbours, black = distinct)
-with the threshold marked on its colour bar, so a dark MDM cell that is not flagged is visible
-as such and no box is drawn on it.
+names) and, up to 40 segments, each segment's every rule written beside it, pale grey where the
+MDM is above the threshold but no rule flagged the cell (no seed, or a veto cleared it: ``clean
+--explain`` says which), white elsewhere, so colour there means "flagged, and why"; below, the
+MDM in greys (white = like its neighbours, black = distinct) with the threshold marked on its
+colour bar, so a dark MDM cell that is not flagged is visible as such and no box is drawn on it.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ __all__ = ["REASON_COLOURS", "plot_clean_report", "plot_mdm"]
 _MAX_ROW_LABELS = 60  # joint names readable at 7 pt on the tallest figure
 _MAX_COLUMNS = 3000  # time columns drawn: a longer take is max-pooled (a flagged frame survives)
 _UNFLAGGED = "#d9d9d9"  # MDM above the threshold, not flagged: paler than any rule's colour
+_MAX_NOTES = 40  # segments named with all their rules on the decision panel; more would pile up
 
 
 def _seg(s: Any) -> tuple[int, int, int, tuple[str, ...]]:
@@ -113,6 +114,17 @@ def plot_mdm(
             r = reasons[0] if reasons else None
             col = colours[reason_names.index(r)] if r in reason_names else "black"
             ax_d.plot([(a + b) / 2 * dt] * 2, [j - 0.45, j + 0.45], color=col, lw=1.5)
+    # a colour tells one rule; each segment's every rule is written beside it, so a bend that
+    # mdm, cancelling-jumps and wrong-way-hinge all flagged does not read as mdm's alone
+    noted = 0 < n_flagged <= _MAX_NOTES
+    if noted:
+        for s in segments:
+            j, a, b, reasons = _seg(s)
+            text = " + ".join(reasons) if reasons else "flagged"
+            right = (b + 1) * dt < 0.7 * seconds
+            x = (b + 0.5) * dt + seconds / 200.0 if right else (a - 0.5) * dt - seconds / 200.0
+            ax_d.text(x, j, text, fontsize=5.5, va="center", ha="left" if right else "right",
+                      color="#333333", clip_on=True)  # fmt: skip
     shown = set(np.unique(decision).tolist())
     handles = [
         Patch(color=c, label=r)
@@ -138,7 +150,11 @@ def plot_mdm(
         wrap(f"{head}: {n_flagged} flagged segment{'s' if n_flagged != 1 else ''}", 80),
         fontsize=10,
     )
-    ax_d.set_title("decision: the flagged cells, by the first rule to flag them", fontsize=9)
+    ax_d.set_title(
+        "decision: the flagged cells, coloured by the first rule to flag them"
+        + ("; beside each segment, every rule that flagged it" if noted else ""),
+        fontsize=9,
+    )
     im = ax_m.imshow(
         _pool(mdm, np.max).T,
         aspect="auto",
