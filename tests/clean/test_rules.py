@@ -813,7 +813,7 @@ def test_wrong_way_hinge_run_reaches_back_to_the_jump_that_entered_it() -> None:
     fl = Flags((F, 1))
     rule.apply(ev, fl)
     assert np.array_equal(np.flatnonzero(fl.mask[:, 0]), np.r_[10:22])
-    assert "between a wrong-way bend" in rule.describe(ev, 21, 0)
+    assert "between a wrong-way or out-of-plane bend" in rule.describe(ev, 21, 0)
     assert "jump far above the joint's own" in rule.describe(ev, 10, 0)
     off = evidence(rot.rotvec_to_quat(rv), hinges=[0], config=DetectConfig(hinge_reach_seconds=0))
     fl = Flags((F, 1))
@@ -1155,6 +1155,64 @@ def test_wrong_way_hinge_held_elbow_takes_the_contexts_axis() -> None:
     m = hinge_flags(wrong_bend(q, slice(60, 72), 30.0), context_rotations=ctx)
     assert m[60:72, 0].all() and m.sum() == 12  # must fire
     assert not hinge_flags(q, context_rotations=ctx).any()  # must not fire
+
+
+def out_of_plane(q: np.ndarray, frames: slice, deg: float) -> np.ndarray:
+    """``q`` with the limb below swung ``deg`` sideways (about z, across the bending plane)
+    over ``frames``."""
+    out = q.copy()
+    side = rot.rotvec_to_quat(np.array([0.0, 0.0, np.radians(deg)]))
+    out[frames, 0] = rot.quat_mul(side, q[frames, 0])
+    return out
+
+
+def test_hinge_swung_out_of_its_plane_is_flagged() -> None:
+    # a waving elbow (bends 10-70 deg, forearm twisting +-70 deg) keeps to its plane: no flag
+    q = twisting_elbow(bend_deg=40.0, swing_deg=30.0, twist_deg=70.0)
+    ev = evidence(q, hinges=[0], hinge_bones=BONE)
+    assert np.nanmax(ev.hinge_off_plane[:, 0]) < 1e-9 and ev.planar_hinges[0]
+    assert not hinge_flags(q).any()  # must not fire
+    # must fire: swung 25 deg sideways for 12 frames, flexion still the right way
+    bad = out_of_plane(q, slice(60, 72), 25.0)
+    ev = evidence(bad, hinges=[0], hinge_bones=BONE)
+    assert (ev.hinge_flexion[60:72, 0] > 0).all()
+    m = hinge_flags(bad)
+    assert m[60:72, 0].all() and m.sum() == 12
+    assert "out of its plane, as no hinge bends" in WrongWayHinges().describe(ev, 65, 0)
+    assert "out of its bending plane (a bend over 10)" in WrongWayHinges().describe(ev, 30, 0)
+    # must not fire: 8 deg sideways is under hinge_plane_deg; and the switch turns it off
+    assert not hinge_flags(out_of_plane(q, slice(60, 72), 8.0)).any()
+    assert not hinge_flags(bad, config=DetectConfig(hinge_plane_deg=0)).any()
+
+
+def test_hinge_plane_is_not_judged_on_a_ball_jointed_rig() -> None:
+    """A rig whose elbow swings sideways over the whole take (a video-to-BVH solve: medians of
+    3-13 deg out of the plane) is not judged by its plane: the same 25-deg swing is not flagged
+    there, and --explain says why."""
+    t = np.arange(300) / FPS
+    q = twisting_elbow(bend_deg=40.0, swing_deg=30.0)
+    side = rot.rotvec_to_quat(
+        np.stack([np.zeros(300), np.zeros(300), np.radians(9.0 * np.sin(2.3 * t))], axis=1)
+    )
+    loose = q.copy()
+    loose[:, 0] = rot.quat_mul(side, q[:, 0])
+    ev = evidence(loose, hinges=[0], hinge_bones=BONE)
+    assert not ev.planar_hinges[0]
+    bad = out_of_plane(loose, slice(60, 72), 25.0)
+    assert not hinge_flags(bad).any()  # must not fire
+    ev = evidence(bad, hinges=[0], hinge_bones=BONE)
+    assert "not judged" in WrongWayHinges().describe(ev, 65, 0)
+    # must fire: the same rig's elbow bent the wrong way is still flagged
+    m = hinge_flags(wrong_bend(loose, slice(150, 162), 110.0))
+    assert m[150:162, 0].all()
+
+
+def test_bends_as_hinge_holds_a_repair_to_the_plane() -> None:
+    q = twisting_elbow(bend_deg=40.0, swing_deg=30.0)
+    ev = evidence(out_of_plane(q, slice(60, 72), 25.0), hinges=[0], hinge_bones=BONE)
+    assert ev.bends_as_hinge(0, q[:, 0])
+    assert not ev.bends_as_hinge(0, ev.rotations[60:72, 0])  # off the plane
+    assert not ev.bends_as_hinge(0, wrong_bend(q, slice(0, 300), 90.0)[:, 0])  # wrong way
 
 
 def test_bend_rotvecs_leave_the_twist_out() -> None:

@@ -45,6 +45,7 @@ EVIDENCE_KEYS = {
     "spike_deg": "smallest angle by which the run leaves the joint's own smooth path",
     "roughness_deg": "largest second difference of the angular velocity in the run (per frame)",
     "wrong_way_deg": "how far the hinge bends the wrong way",
+    "off_plane_deg": "how far the hinge's limb leaves its bending plane",
     "held_seconds": "how long the joint is held exactly still",
 }
 """What each key of a segment's ``evidence`` measures (degrees, seconds), in the report."""

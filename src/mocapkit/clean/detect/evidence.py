@@ -473,6 +473,63 @@ class Evidence:
         with np.errstate(invalid="ignore"):
             return self.hinge_flexion < -np.radians(self.config.hinge_deg)
 
+    @cached_property
+    def hinge_off_plane(self) -> np.ndarray:
+        """(F, J) radians: how far each judged straight hinge's limb swings out of its bending
+        plane (:meth:`off_plane_of`), NaN on other joints and on hinges without the limb's rest
+        direction (no ``hinge_bones``: the full rotations mix the twist in)."""
+        out = np.full(self.rotations.shape[:2], np.nan)
+        if self.hinge_bones is None:
+            return out
+        for j in self.hinge_axes:
+            out[:, j] = self.off_plane_of(j, self.rotations[:, j])
+        return out
+
+    def off_plane_of(self, joint: int, q: np.ndarray) -> np.ndarray:
+        """(F,) radians: the part of the bend of rotations ``q`` (F, 4) of straight hinge
+        ``joint`` (:func:`bend_rotvecs`, the twist about the limb left out) across its main axis
+        (:attr:`hinge_axes`): the turn that takes the limb out of the plane it bends in."""
+        axis = self.hinge_axes[joint]
+        rest = None if self.hinge_bones is None else self.hinge_bones[self.hinges.index(joint)]
+        if rest is None or not np.any(rest):
+            return np.full(len(q), np.nan)
+        own = bend_rotvecs(np.asarray(q, dtype=np.float64), rest)
+        return np.linalg.norm(own - np.outer(own @ axis, axis), axis=1)
+
+    @cached_property
+    def planar_hinges(self) -> np.ndarray:
+        """(J,) bool: the judged hinges that keep to their plane over the take (median distance
+        from it at most ``hinge_planar_deg``): the rig bends them as hinges."""
+        off = self.hinge_off_plane
+        out = np.zeros(off.shape[1], dtype=bool)
+        for j in np.flatnonzero(np.isfinite(off).all(axis=0)) if len(off) else []:
+            out[j] = np.median(off[:, j]) <= np.radians(self.config.hinge_planar_deg)
+        return out
+
+    def bends_as_hinge(self, joint: int, q: np.ndarray) -> bool:
+        """Whether every frame of rotations ``q`` (F, 4) of straight hinge ``joint`` bends as
+        the rule judges a knee or elbow may: no more than ``hinge_deg`` past straight the wrong
+        way, and (on a planar hinge, :attr:`planar_hinges`) within ``hinge_plane_deg`` of its
+        plane. A repair is held to it."""
+        c = self.config
+        with np.errstate(invalid="ignore"):
+            if (self.flexion_of(joint, q) < -np.radians(c.hinge_deg)).any():
+                return False
+            if c.hinge_plane_deg > 0 and self.planar_hinges[joint]:
+                return not (self.off_plane_of(joint, q) > np.radians(c.hinge_plane_deg)).any()
+        return True
+
+    @cached_property
+    def off_plane(self) -> np.ndarray:
+        """(F, J) bool: planar hinges (:attr:`planar_hinges`) whose limb leaves its plane by
+        more than ``hinge_plane_deg`` (never with that at 0)."""
+        c = self.config
+        if c.hinge_plane_deg <= 0:
+            return np.zeros(self.shape, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            far = self.hinge_off_plane > np.radians(c.hinge_plane_deg)
+        return far & self.planar_hinges[None]
+
     # ------------------------------------------------------------------ needing the maps
     def _frozen_params(self) -> dict:
         c = self.config

@@ -290,6 +290,8 @@ def segment_evidence(
     if "wrong-way-hinge" in reasons:
         with np.errstate(invalid="ignore"):
             put("wrong_way_deg", -np.degrees(np.nanmin(ev.hinge_flexion[sl, joint])))
+            if ev.off_plane[sl, joint].any():
+                put("off_plane_deg", np.degrees(np.nanmax(ev.hinge_off_plane[sl, joint])))
     if "frozen" in reasons:
         put("held_seconds", ev.frozen[sl, joint].sum() / ev.fps)
     return out
