@@ -498,7 +498,10 @@ class SelfSimilarityCleaner:
         burst is no turn; on a knee or elbow, not where the turn-back leaves it bent the wrong
         way, and where the wrong-way-hinge rule flags it, only a flip or a bend whose flexion
         changes linearly over the run, :func:`_bent_right`) and the rest of its flagged run
-        keeps the captured rotations. ``contacts``: for the
+        keeps the captured rotations; a wrong-way bend (not a half-turn flip) has its flexion
+        reflected back instead where that passes its checks (:func:`_reflected`). Those cells
+        are written as they are from ``margin`` frames inside their seams
+        (:func:`~mocapkit.clean.repair.repair_cells`, ``exact``). ``contacts``: for the
         effector chains of these constraints, the KNN word that keeps the effector nearest its
         contact point replaces the median, then IK pins the effector (changing only the written
         cells of the chain). ``foot_lock``: where the repair changed a leg, hold its planted
@@ -512,6 +515,7 @@ class SelfSimilarityCleaner:
         contacts = [_by_index(c, self.motion_.skeleton) for c in contacts]
         flagged = self.mask(threshold) if mask is None else np.asarray(mask, dtype=bool)
         replacement = self.replacement()
+        exact = None  # the cells whose replacement is the capture's own motion moved as a whole
         if mask is None:  # a stretch turned by one rotation is turned back (repair.unturned)
             fl = self.flags(threshold)
             ev = self.evidence_
@@ -524,8 +528,12 @@ class SelfSimilarityCleaner:
                 back, done = unturned(self.motion_.rotations, turned, within=flagged)
                 # nor, on a knee or elbow, is a wrong-way bend whose flexion curves
                 done = _bent_right(ev, back, done, fl.live("wrong-way-hinge"))
-            # a wrong-way bend not turned back: its flexion reflected back across straight
-            bent = fl.live("wrong-way-hinge") & flagged & ~done
+            # a wrong-way bend: its flexion reflected back across straight, where that passes
+            # its checks, rather than turned back (but a half-turn flip): the reflection undoes
+            # a mirrored bend whatever its flexion does, the turn-back only where it changes
+            # linearly (a CMU elbow mirrored for 20 frames at 120 fps: 2.0 deg off turned back,
+            # 0.05 reflected; Bandai-1 tuning half, injected bends and flips: no figure moved)
+            bent = fl.live("wrong-way-hinge") & flagged & ~_half_turns(ev, back, done)
             if bent.any():
                 mirrored_back, mirrored = _reflected(ev, bent, replacement)
                 back = np.where(mirrored[..., None], mirrored_back, back)
@@ -552,6 +560,7 @@ class SelfSimilarityCleaner:
                     p = tex.pelvis
                     back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
                 replacement = np.where((done | keep)[..., None], back, replacement)
+                exact = done | keep
         for c in contacts:
             replacement = self._contact_replacement(c, replacement, flagged)
         result = repair_cells(
@@ -561,6 +570,7 @@ class SelfSimilarityCleaner:
             margin,
             to_file=tex.pelvis_align,
             pelvis=tex.pelvis,
+            exact=exact,
         )
         motion = result.motion
         targets = [c.target(self.motion_) for c in contacts]
@@ -665,15 +675,16 @@ def _reflected(
     ev: Evidence, cells: np.ndarray, median: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(out, done)``: the take's rotations with each run of ``cells`` on a straight knee or
-    elbow (:attr:`Evidence.hinge_axes`) given its bend reflected back across straight (the
-    flexion about the hinge's axis negated, the rest of the bend and the twist about the limb
-    kept), plus a flexion offset growing linearly from the one that meets the frames before the
-    run to the one that meets the frames after it (:func:`_edge_offsets`); and (F, J) bool of
-    the cells so repaired. A run is left out where the reflection still bends the wrong way,
-    where it has fewer than two frames on either side, where the twist about the limb jumps at
-    its edges (:func:`_twist_jumps`, over ``hinge_deg``), or where ``median`` (F, J, 4: the
-    neighbours' median, the other repair) meets the frames beside the run more closely than
-    the reflection does before its offset (:func:`_edge_offsets`, summed over the two edges).
+    elbow (:attr:`Evidence.hinge_axes`) given its bend reflected back across straight (the flexion
+    about the hinge's axis negated, the rest of the bend and the twist about the limb kept), plus a
+    flexion offset growing linearly from the one that meets the frames before the run to the one
+    that meets the frames after it (:func:`_edge_offsets`); and (F, J) bool of the cells so
+    repaired. A run is left out where the reflection still bends the wrong way (or out of the
+    hinge's plane, :meth:`Evidence.bends_as_hinge`), where it has fewer than two frames on either
+    side, where the twist about the limb jumps at its edges (:func:`_twist_jumps`, over
+    ``hinge_deg``), or where ``median`` (F, J, 4: the neighbours' median, the other repair) meets
+    the frames beside the run more closely than the reflection does before its offset
+    (:func:`_edge_offsets`, summed over the two edges).
 
     Relies on: how a hinge comes to bend the wrong way in a capture: a solver or a swapped
     marker picks the mirror solution of the limb's bend, so the size of the bend is still the
@@ -690,7 +701,6 @@ def _reflected(
     out = np.array(q, dtype=np.float64, copy=True)
     done = np.zeros(cells.shape, dtype=bool)
     F = q.shape[0]
-    limit = -np.radians(ev.config.hinge_deg)
     for j, axis in ev.hinge_axes.items():
         rest = None if ev.hinge_bones is None else ev.hinge_bones[ev.hinges.index(j)]
         if rest is None or not np.any(rest):
@@ -714,9 +724,8 @@ def _reflected(
             lift = np.linspace(off_a, off_b, len(f))
             new = bend + (lift - 2 * f)[:, None] * axis[None]
             fixed = rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(new), twist))
-            with np.errstate(invalid="ignore"):
-                if not (ev.flexion_of(j, fixed) >= limit).all():
-                    continue
+            if not ev.bends_as_hinge(j, fixed):
+                continue
             out[a : b + 1, j] = fixed
             done[a : b + 1, j] = True
     return out, done
@@ -762,8 +771,8 @@ def _bent_right(
     """``done`` less the runs on a straight knee or elbow whose turn-back is no repair; those go
     to the neighbours' median:
 
-    - any run the turn-back leaves bent the wrong way (flexion below ``-hinge_deg`` on a frame,
-      :meth:`Evidence.flexion_of`);
+    - any run the turn-back leaves bent the wrong way (flexion below ``-hinge_deg`` on a frame)
+      or out of its plane (:meth:`Evidence.bends_as_hinge`);
     - a run the wrong-way-hinge rule flags (``hinge``) that is not a flip (turned back by less
       than :data:`HALF_TURN_DEG` at an edge) where the hinge's flexion, as given, strays from
       the straight line between the run's edge frames by over :data:`LINEAR_FLEXION_DEG`, or
@@ -779,16 +788,14 @@ def _bent_right(
     (tuning half, seed 0: locomotion bends turned back 12-22 deg off on average where the
     median, another step's knee, is 4.7)."""
     out = done.copy()
-    limit = -np.radians(ev.config.hinge_deg)
     q = ev.rotations
     F = q.shape[0]
     for j in ev.hinge_axes:
         flex = ev.hinge_flexion[:, j]
         for a, b in true_runs(done[:, j]):
-            with np.errstate(invalid="ignore"):
-                if (ev.flexion_of(j, turned_back[a : b + 1, j]) < limit).any():
-                    out[a : b + 1, j] = False
-                    continue
+            if not ev.bends_as_hinge(j, turned_back[a : b + 1, j]):
+                out[a : b + 1, j] = False
+                continue
             if not hinge[a : b + 1, j].any():
                 continue
             turn = rot.quat_angle(turned_back[[a, b], j], q[[a, b], j])
@@ -801,6 +808,17 @@ def _bent_right(
             chord = np.linspace(f[0], f[-1], len(f))
             if not np.all(np.abs(f - chord) <= np.radians(LINEAR_FLEXION_DEG)):
                 out[a : b + 1, j] = False
+    return out
+
+
+def _half_turns(ev: Evidence, turned_back: np.ndarray, done: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the runs of ``done`` turned back by at least :data:`HALF_TURN_DEG` at both
+    edges (a flip's half turn)."""
+    out = np.zeros(done.shape, dtype=bool)
+    for j in np.flatnonzero(done.any(axis=0)):
+        for a, b in true_runs(done[:, j]):
+            turn = rot.quat_angle(turned_back[[a, b], j], ev.rotations[[a, b], j])
+            out[a : b + 1, j] = bool((turn >= np.radians(HALF_TURN_DEG)).all())
     return out
 
 

@@ -250,7 +250,8 @@ def clean_command(
     back about the same axis by two large jumps: cancelling-jumps; a one-frame pop is left to
     the spike rule), noise bursts, joints held still
     while their neighbours move on (frozen; a dropout repeats one value bit for bit; a joint held
-    through the whole take is one it does not animate), knees or elbows bent the wrong way, and
+    through the whole take is one it does not animate), knees or elbows bent the wrong way or
+    swung out of the plane they bend in (on a rig whose hinges keep to it), and
     spikes (a joint off its own smooth path for at most 1/15 s by 20 to 40 deg, more the more the
     joint itself jumps). Vetoes clear mdm, cancelling-jumps and frozen stretches where the motion is
     natural: no step near the stretch (smooth), a motif the joint repeats (recurring), a joint
@@ -260,13 +261,13 @@ def clean_command(
     path over the ground, animated bone offsets) are not checked. With --out, flagged cells are
     replaced by the neighbours' median (a stretch the cancelling-jumps rule found turned by one
     rotation, or about one axis by a changing angle, is turned back by it instead, and the rest
-    of its flagged run keeps its captured rotations; on a knee or elbow bent the wrong way, only
-    a half-turn flip or a bend whose flexion changes linearly over the run, as where the hinge
-    holds still; any other wrong-way bend has its flexion reflected back across straight where
-    that meets the frames beside it better than the median, as on a one-off gesture), blended
-    over 0.1 s on each side of a flagged run (those frames are written too), and where a
-    repaired
-    joint moves a planted foot (a hip, knee or ankle, or the pelvis, under a foot on the ground)
+    of its flagged run keeps its captured rotations; a knee or elbow bent the wrong way has its
+    flexion reflected back across straight where that meets the frames beside it better than
+    the median, as on a one-off gesture, else only a half-turn flip or a bend whose flexion
+    changes linearly over the run is turned back), blended over 0.1 s on each side of a flagged
+    run (those frames are written too; a turned-back or reflected run is written as it is from
+    0.1 s inside its edges), and where a repaired joint moves a planted foot (a hip, knee or
+    ankle, or the pelvis, under a foot on the ground)
     IK on that leg holds the foot where it was planted. All other joints and frames keep their
     rotations bit for bit (the written file's angles are derived from them again, to 1e-12 deg
     and 12 significant digits, so an unchanged angle reads as the input file had it).
