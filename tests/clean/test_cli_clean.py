@@ -110,6 +110,8 @@ def test_clean_json_prints_the_report_and_errors_as_json(files, tmp_path) -> Non
         [str(tmp_path / "missing.bvh"), "--json", "-"],
         [str(files["input"]), "--json", "-", "--explain", "Nope:3"],
         [str(files["input"]), "--json", "-", "--bogus"],
+        [str(files["input"]), "--report", "-", "--bogus"],  # the same option under its old name
+        [str(files["input"]), "--report=-", "--threshold", "abc"],
     ):
         code, stdout, stderr = run("clean", *args)
         assert code == 2

@@ -1158,11 +1158,13 @@ def test_wrong_way_hinge_held_elbow_takes_the_contexts_axis() -> None:
 
 
 def out_of_plane(q: np.ndarray, frames: slice, deg: float) -> np.ndarray:
-    """``q`` with the limb below swung ``deg`` sideways (about z, across the bending plane)
-    over ``frames``."""
+    """``q`` with the limb below (+y at rest) swung ``deg`` out of its bending plane (the plane
+    across x) over ``frames``: turned towards +x about the axis across the limb and x."""
     out = q.copy()
-    side = rot.rotvec_to_quat(np.array([0.0, 0.0, np.radians(deg)]))
-    out[frames, 0] = rot.quat_mul(side, q[frames, 0])
+    now = rot.quat_apply(q[frames, 0], np.broadcast_to(BONE[0], (len(q[frames]), 3)))
+    across = np.cross(now, [1.0, 0.0, 0.0])
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    out[frames, 0] = rot.quat_mul(rot.rotvec_to_quat(np.radians(deg) * across), q[frames, 0])
     return out
 
 
@@ -1172,39 +1174,68 @@ def test_hinge_swung_out_of_its_plane_is_flagged() -> None:
     ev = evidence(q, hinges=[0], hinge_bones=BONE)
     assert np.nanmax(ev.hinge_off_plane[:, 0]) < 1e-9 and ev.planar_hinges[0]
     assert not hinge_flags(q).any()  # must not fire
-    # must fire: swung 25 deg sideways for 12 frames, flexion still the right way
+    # must fire: swung 25 deg out of its plane for 12 frames, flexion still the right way
     bad = out_of_plane(q, slice(60, 72), 25.0)
     ev = evidence(bad, hinges=[0], hinge_bones=BONE)
-    assert (ev.hinge_flexion[60:72, 0] > 0).all()
+    assert np.allclose(np.degrees(ev.hinge_off_plane[60:72, 0]), 25.0, atol=1e-6)
+    assert (ev.hinge_flexion[60:72, 0] > 0).all() and ev.planar_hinges[0]
     m = hinge_flags(bad)
     assert m[60:72, 0].all() and m.sum() == 12
     assert "out of its plane, as no hinge bends" in WrongWayHinges().describe(ev, 65, 0)
-    assert "out of its bending plane (a bend over 10)" in WrongWayHinges().describe(ev, 30, 0)
-    # must not fire: 8 deg sideways is under hinge_plane_deg; and the switch turns it off
+    assert "out of its bending plane (flagged over 10)" in WrongWayHinges().describe(ev, 30, 0)
+    # must not fire: 8 deg out of the plane is under hinge_plane_deg; and the switch turns it off
     assert not hinge_flags(out_of_plane(q, slice(60, 72), 8.0)).any()
     assert not hinge_flags(bad, config=DetectConfig(hinge_plane_deg=0)).any()
+    # an error on a tenth of the take (30 frames, 20 deg off) does not switch the judging off
+    # (reviewer: the least-squares axis leaned to it, and the take read off its plane)
+    long = out_of_plane(q, slice(150, 180), 20.0)
+    ev = evidence(long, hinges=[0], hinge_bones=BONE)
+    assert ev.planar_hinges[0] and hinge_flags(long)[150:180, 0].all()
 
 
 def test_hinge_plane_is_not_judged_on_a_ball_jointed_rig() -> None:
-    """A rig whose elbow swings sideways over the whole take (a video-to-BVH solve: medians of
-    3-13 deg out of the plane) is not judged by its plane: the same 25-deg swing is not flagged
-    there, and --explain says why."""
+    """A rig whose elbow bends in planes tilted +-15 deg from one another over the take (a
+    video-to-BVH or SMPL solve) is not judged by its plane: its own bends would read up to 15
+    deg off it, and do fire once the gate is forced open (a hinge_planar_deg of 90); a 25-deg
+    swing is not flagged either, and --explain says why. Its wrong-way bends still are."""
     t = np.arange(300) / FPS
     q = twisting_elbow(bend_deg=40.0, swing_deg=30.0)
-    side = rot.rotvec_to_quat(
-        np.stack([np.zeros(300), np.zeros(300), np.radians(9.0 * np.sin(2.3 * t))], axis=1)
+    tilt = rot.rotvec_to_quat(
+        np.stack([np.zeros(300), np.radians(15.0) * np.sin(2.3 * t), np.zeros(300)], axis=1)
     )
     loose = q.copy()
-    loose[:, 0] = rot.quat_mul(side, q[:, 0])
+    loose[:, 0] = rot.quat_mul(tilt, q[:, 0])  # the bend axis turned about the limb's rest line
     ev = evidence(loose, hinges=[0], hinge_bones=BONE)
     assert not ev.planar_hinges[0]
+    assert not hinge_flags(loose).any()  # must not fire
+    assert hinge_flags(loose, config=DetectConfig(hinge_planar_deg=90.0)).any()  # gate open
     bad = out_of_plane(loose, slice(60, 72), 25.0)
-    assert not hinge_flags(bad).any()  # must not fire
+    assert not hinge_flags(bad).any()
     ev = evidence(bad, hinges=[0], hinge_bones=BONE)
     assert "not judged" in WrongWayHinges().describe(ev, 65, 0)
     # must fire: the same rig's elbow bent the wrong way is still flagged
     m = hinge_flags(wrong_bend(loose, slice(150, 162), 110.0))
     assert m[150:162, 0].all()
+
+
+def test_hinge_axis_is_fitted_on_the_frames_that_keep_to_its_plane() -> None:
+    """An error's frames off the hinge's plane (a forearm swung 60 deg out of it for 40 of
+    300 frames) tilt a least-squares axis, and the take's own frames then read off their plane
+    (a flip on a Bandai-1 elbow: 9 deg, tuning half, byebye_happy); the axis is fitted again on
+    the frames near the last fit's plane, and the clean frames read within a degree of it."""
+    from mocapkit.clean.detect.evidence import _main_axis, bend_rotvecs
+
+    q = twisting_elbow(bend_deg=75.0, swing_deg=45.0, twist_deg=40.0)
+    bad = out_of_plane(q, slice(200, 240), 60.0)
+    ev = evidence(bad, hinges=[0], hinge_bones=BONE)
+    clean = np.r_[0:200, 240:300]
+    assert np.degrees(ev.hinge_off_plane[clean, 0]).max() < 1.0
+    assert ev.off_plane[200:240, 0].all() and not ev.off_plane[clean, 0].any()
+    bends = bend_rotvecs(bad[:, 0], BONE[0])
+    plain = _main_axis(bends, BONE[0], 0.0)
+    assert np.degrees(np.arccos(abs(float(plain @ [1.0, 0.0, 0.0])))) > 2.5  # leans to them
+    robust = _main_axis(bends, BONE[0], np.radians(10.0))
+    assert abs(float(robust @ [1.0, 0.0, 0.0])) > np.cos(np.radians(0.5))
 
 
 def test_bends_as_hinge_holds_a_repair_to_the_plane() -> None:

@@ -290,7 +290,7 @@ def clean_command(
     read or cleaned is listed in the summary and the others go on (exit status 2 at the end).
     The outputs are the same bytes in-process, with --workers or on --scheduler.
     """
-    single = {"--out": out_path, "--report": json_path, "--mdm": mdm_path,
+    single = {"--out": out_path, "--json/--report": json_path, "--mdm": mdm_path,
               "--plot": plot_path, "--baseline": baseline, "--contact": contact_specs,
               "--explain": explain_specs, "--context": contexts}  # fmt: skip
     folder = {"--out-dir": out_dir, "--report-dir": report_dir, "--context-by": context_by,

@@ -290,10 +290,10 @@ def _json_on_stdout(cmd: click.Command | None, args: Sequence[str]) -> bool:
     opt = next((p for p in cmd.params if isinstance(p, click.Option) and "--json" in p.opts), None)
     if opt is None:
         return False
-    for i, a in enumerate(args):
-        if a == "--json":
+    for i, a in enumerate(args):  # under any of its names (clean's --report too)
+        if a in opt.opts:
             return bool(opt.is_flag) or args[i + 1 : i + 2] == ["-"]
-        if a == "--json=-":
+        if any(a == f"{name}=-" for name in opt.opts):
             return True
     return False
 

@@ -361,16 +361,18 @@ class DetectConfig:
     #: long after it: the error entered or left there, and its frames nearer straight read as
     #: no wrong-way bend (0: off).
     hinge_reach_seconds: float = 2.0 / 15.0
-    #: A knee or elbow whose limb swings out of its bending plane by more than this (degrees:
-    #: the bend's turn across the hinge's main axis) is bent a way no hinge bends. Clean
-    #: Bandai-1 hinges stay within 1.8 deg of their plane (tuning half, every take), CMU's are
-    #: one-axis joints (0); a mirrored bend of a forearm that carries its twist left it by
-    #: 13-79 deg (tuning half, gestures) (0: off).
+    #: A knee or elbow whose limb swings out of its bending plane by more than this (degrees,
+    #: the angle between the limb and the plane across the hinge's main axis) is bent a way no
+    #: hinge bends. Clean Bandai-1 hinges stay within 2.3 deg of their plane (every take), CMU's
+    #: are one-axis joints (0); a forearm that carries its twist, mirrored about its full
+    #: rotation's main axis, left it (tuning half, gestures). The hinge's axis is fitted again on
+    #: its frames within this of the last fit's plane, so that an error's frames do not tilt it
+    #: (0: off).
     hinge_plane_deg: float = 10.0
-    #: The plane is judged only on a hinge that keeps to it: its median distance from the plane
-    #: over the take at most this (degrees). Many rigs bend their knees and elbows as ball
-    #: joints (video-to-BVH, some solvers: medians of 3-13 deg, maxima 20-58, in the BVH
-    #: corpus), and there the plane says nothing.
+    #: The plane is judged only on a hinge that keeps to it: the median tilt of the plane of its
+    #: frames bent more than ``hinge_bend_deg`` at most this (degrees). Many rigs bend their
+    #: knees and elbows as ball joints (video-to-BVH, SMPL, some solvers in the BVH corpus), and
+    #: there the plane says nothing.
     hinge_planar_deg: float = 2.0
 
     # ------------------------------------------------------------------ extension

@@ -73,11 +73,12 @@ class WrongWayHinges:
             plane = ""
         elif not ev.planar_hinges[joint]:
             plane = (
-                f"; {deg(off)} out of its bending plane (not judged: the joint leaves it by over "
-                f"{c.hinge_planar_deg:g} deg on half the take's frames)"
+                f"; {deg(off)} out of its bending plane (not judged: the rig bends this joint "
+                f"in planes tilted over {c.hinge_planar_deg:g} deg from it on half the take's "
+                "bent frames)"
             )
         else:
-            plane = f"; {deg(off)} out of its bending plane (a bend over {c.hinge_plane_deg:g})"
+            plane = f"; {deg(off)} out of its bending plane (flagged over {c.hinge_plane_deg:g})"
         if ev.off_plane[frame, joint] and not ev.wrong_way[frame, joint]:
             return f"bent {deg(off)} out of its plane, as no hinge bends; flexion {deg(f)}"
         if (

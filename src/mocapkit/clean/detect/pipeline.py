@@ -289,7 +289,8 @@ def segment_evidence(
         put("roughness_deg", np.degrees(ev.roughness[sl, joint].max()))
     if "wrong-way-hinge" in reasons:
         with np.errstate(invalid="ignore"):
-            put("wrong_way_deg", -np.degrees(np.nanmin(ev.hinge_flexion[sl, joint])))
+            if ev.wrong_way[sl, joint].any():
+                put("wrong_way_deg", -np.degrees(np.nanmin(ev.hinge_flexion[sl, joint])))
             if ev.off_plane[sl, joint].any():
                 put("off_plane_deg", np.degrees(np.nanmax(ev.hinge_off_plane[sl, joint])))
     if "frozen" in reasons:

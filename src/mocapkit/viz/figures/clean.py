@@ -121,7 +121,7 @@ def plot_mdm(
         for s in segments:
             j, a, b, reasons = _seg(s)
             text = " + ".join(reasons) if reasons else "flagged"
-            right = (b + 1) * dt < 0.7 * seconds
+            right = F - 1 - b >= a  # the side with more room
             x = (b + 0.5) * dt + seconds / 200.0 if right else (a - 0.5) * dt - seconds / 200.0
             ax_d.text(x, j, text, fontsize=5.5, va="center", ha="left" if right else "right",
                       color="#333333", clip_on=True)  # fmt: skip
