@@ -893,6 +893,32 @@ def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
     assert not _reflected(ev, cells)[1].any()
 
 
+def test_repair_turns_back_a_forearm_swung_out_of_its_plane(takes) -> None:
+    """A forearm turned 30 deg out of its bending plane by one rotation for 15 frames: the
+    wrong-way-hinge rule flags it (out of its plane) beside cancelling-jumps, but its flexion
+    is the right way, so it is a stretch turned by one rotation and is turned back (0.03 deg
+    off), not sent to the neighbours' median as a mirrored bend whose flexion curves (2.0 deg
+    off; a newcomer's waving forearm: its wave flattened)."""
+    from mocapkit.clean.detect import DetectConfig, Evidence
+
+    walk, _ = takes
+    j = walk.skeleton.index("LeftForeArm")
+    ev = Evidence.for_motion(walk, DetectConfig())
+    rest = ev.hinge_bones[ev.hinges.index(j)]
+    across = np.cross(rest, ev.hinge_axes[j])
+    bad = walk.copy()
+    turn = rot.rotvec_to_quat(np.radians(30.0) * across / np.linalg.norm(across))
+    bad.rotations[60:75, j] = rot.quat_mul(walk.rotations[60:75, j], turn)
+    cl = SelfSimilarityCleaner().fit(bad)
+    fl = cl.flags()
+    assert fl.live("wrong-way-hinge")[60:75, j].all()
+    assert fl.live("cancelling-jumps")[60:75, j].all()
+    assert not cl.evidence_.wrong_way[:, j].any()
+    fixed = cl.repair().motion.rotations[60:75, j]
+    err = np.degrees(rot.quat_angle(fixed, walk.rotations[60:75, j]))
+    assert err.max() < 0.5, err.round(2)
+
+
 def test_repair_reflects_a_wave_elbow_bent_the_wrong_way(shared_path) -> None:
     """A Bandai elbow bent 101-140 deg through a wave, mirrored across straight for 18 frames
     (newcomer): the take holds no other such wave, so the neighbours' median straightened the

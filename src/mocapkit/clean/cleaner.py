@@ -524,16 +524,21 @@ class SelfSimilarityCleaner:
             turned = fl.live("cancelling-jumps") & flagged
             # a noise burst is no turn, though its jumps may cancel
             turned &= ~_runs_touching(turned, fl.live("noise"))
+            # the hinge rule's runs that bend the wrong way somewhere: a mirrored flexion (its
+            # runs only out of the hinge's plane keep a right-way flexion: a stretch turned by
+            # one rotation, as any other joint's; newcomer: a waving forearm swung sideways was
+            # sent to the median, its wave flattened, 7 deg off where the turn-back is exact)
+            wrong = _runs_touching(fl.live("wrong-way-hinge"), ev.wrong_way)
             if turned.any():
                 back, done = unturned(self.motion_.rotations, turned, within=flagged)
                 # nor, on a knee or elbow, is a wrong-way bend whose flexion curves
-                done = _bent_right(ev, back, done, fl.live("wrong-way-hinge"))
+                done = _bent_right(ev, back, done, wrong)
             # a wrong-way bend: its flexion reflected back across straight, where that passes
             # its checks, rather than turned back (but a half-turn flip): the reflection undoes
             # a mirrored bend whatever its flexion does, the turn-back only where it changes
             # linearly (a CMU elbow mirrored for 20 frames at 120 fps: 2.0 deg off turned back,
             # 0.05 reflected; Bandai-1 tuning half, injected bends and flips: no figure moved)
-            bent = fl.live("wrong-way-hinge") & flagged & ~_half_turns(ev, back, done)
+            bent = wrong & flagged & ~_half_turns(ev, back, done)
             if bent.any():
                 mirrored_back, mirrored = _reflected(ev, bent, replacement)
                 back = np.where(mirrored[..., None], mirrored_back, back)

@@ -150,9 +150,12 @@ def plot_mdm(
         wrap(f"{head}: {n_flagged} flagged segment{'s' if n_flagged != 1 else ''}", 80),
         fontsize=10,
     )
-    ax_d.set_title(
-        "decision: the flagged cells, coloured by the first rule to flag them"
-        + ("; beside each segment, every rule that flagged it" if noted else ""),
+    ax_d.set_title(  # wrapped to the panel: a short take's figure is 7 in wide
+        wrap(
+            "decision: the flagged cells, coloured by the first rule to flag them"
+            + ("; beside each segment, every rule that flagged it" if noted else ""),
+            int(w_in * 11),
+        ),
         fontsize=9,
     )
     im = ax_m.imshow(
