@@ -106,6 +106,17 @@ def test_clean_json_prints_the_report_and_errors_as_json(files, tmp_path) -> Non
     code, stdout, stderr = run("clean", str(files["input"]), "--json", "-")
     assert code == 0
     assert json.loads(stdout)["flagged_cells"] > 0 and "LeftForeArm" in stderr
+    # with --out, how each segment was repaired: the injected flip turned back, in the report
+    # and on its summary line (newcomer: the report did not say)
+    out = tmp_path / "fixed.bvh"
+    code, stdout, stderr = run("clean", str(files["input"]), "--json", "-", "--out", str(out))
+    rep = json.loads(stdout)
+    arm = [s for s in rep["segments"] if s["joint"] == "LeftForeArm"]
+    assert arm and arm[0]["repair"].get("turned back", 0) >= 3
+    assert set(rep["repair_methods_are"]) >= {"median", "turned back", "reflected"}
+    for s in rep["segments"]:
+        assert sum(s["repair"].values()) == s["stop"] - s["start"]
+    assert "LeftForeArm" in stderr and "repaired: turned back" in stderr
     for args in (
         [str(tmp_path / "missing.bvh"), "--json", "-"],
         [str(files["input"]), "--json", "-", "--explain", "Nope:3"],

@@ -516,6 +516,7 @@ class SelfSimilarityCleaner:
         flagged = self.mask(threshold) if mask is None else np.asarray(mask, dtype=bool)
         replacement = self.replacement()
         exact = None  # the cells whose replacement is the capture's own motion moved as a whole
+        how = np.where(flagged, 0, -1).astype(np.int8)  # per cell, its REPAIR_METHODS index
         if mask is None:  # a stretch turned by one rotation is turned back (repair.unturned)
             fl = self.flags(threshold)
             ev = self.evidence_
@@ -566,8 +567,14 @@ class SelfSimilarityCleaner:
                     back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
                 replacement = np.where((done | keep)[..., None], back, replacement)
                 exact = done | keep
+                how[done & flagged] = 1
+                if bent.any():
+                    how[mirrored & flagged] = 2
+                how[keep & flagged] = 3
         for c in contacts:
+            before = replacement
             replacement = self._contact_replacement(c, replacement, flagged)
+            how[flagged & np.any(replacement != before, axis=-1)] = 4
         result = repair_cells(
             self.motion_,
             flagged,
@@ -577,6 +584,7 @@ class SelfSimilarityCleaner:
             pelvis=tex.pelvis,
             exact=exact,
         )
+        result.how = how
         motion = result.motion
         targets = [c.target(self.motion_) for c in contacts]
         for c, t in zip(contacts, targets, strict=True):

@@ -68,6 +68,26 @@ class RepairResult:
     margin: int
     held_contacts: object | None = None
     contacts: tuple[ContactHeld, ...] = ()
+    how: np.ndarray | None = None
+
+    def methods(self, joint: int, start: int, end: int) -> dict[str, int]:
+        """How the flagged cells of ``joint``, frames ``start`` to ``end`` inclusive, were
+        repaired: {method (:data:`REPAIR_METHODS`): cells}. ``how`` (F, J) int8 holds, per flagged
+        cell, the index of its method (-1 elsewhere); without it, every flagged cell is the
+        median's."""
+        if self.how is None:
+            n = int(self.flagged[start : end + 1, joint].sum())
+            return {REPAIR_METHODS[0]: n} if n else {}
+        codes = self.how[start : end + 1, joint]
+        counts = {m: int((codes == i).sum()) for i, m in enumerate(REPAIR_METHODS)}
+        return {m: n for m, n in counts.items() if n}
+
+
+REPAIR_METHODS = ("median", "turned back", "reflected", "captured kept", "contact word")
+"""How a flagged cell is repaired (:attr:`RepairResult.how`): the neighbours' median; turned
+back by the one rotation that turned its stretch; its hinge's flexion reflected back across
+straight; the captured rotation kept (the cells beside a turned-back stretch that only the
+words' digression flags); the neighbour word whose effector lands nearest a contact."""
 
 
 @dataclass(frozen=True)

@@ -51,6 +51,17 @@ EVIDENCE_KEYS = {
 """What each key of a segment's ``evidence`` measures (degrees, seconds), in the report."""
 
 
+REPAIR_METHOD_NOTES = {
+    "median": "the neighbours' median (the KNN words' rotations)",
+    "turned back": "turned back by the one rotation that turned the stretch (read at its edges)",
+    "reflected": "the knee's or elbow's flexion reflected back across straight",
+    "captured kept": "the captured rotation kept (beside a turned-back stretch, only the words' "
+    "digression flags it)",
+    "contact word": "the neighbour word whose effector lands nearest a --contact point",
+}
+"""What each method of a segment's ``repair`` ({method: cells}) means, in the report."""
+
+
 @dataclass(frozen=True, eq=False)
 class CleanReport:
     """What a cleaning run found and did.
@@ -121,7 +132,11 @@ class CleanReport:
             "context": list(self.context),
             "rules": list(self.rules),
             "config": None if self.config is None else self.config.as_dict(),
-            "segments": [s.as_dict() for s in self.segments],
+            "segments": [
+                {**s.as_dict(), "repair": self.repair.methods(s.joint_index, s.start, s.end)}
+                for s in self.segments
+            ],
+            "repair_methods_are": REPAIR_METHOD_NOTES,
             "evidence_keys": EVIDENCE_KEYS,
             "flagged_cells": self.flagged_cells,
             "repaired_cells": self.repaired_cells,

@@ -378,9 +378,13 @@ def clean_command(
     if not segments:
         say("  no flagged segment")
     for s in segments[:50]:
+        how = ""
+        if out_path:  # how the repair wrote it: cells per method
+            done = report.repair.methods(s.joint_index, s.start, s.end)
+            how = "; repaired: " + ", ".join(f"{m} {n}" for m, n in done.items())
         say(
             f"  {s.joint:>16s}  frames {s.start:5d}:{s.end + 1:<5d}  MDM peak {s.peak:.2f}  "
-            f"{', '.join(s.reasons)}"
+            f"{', '.join(s.reasons)}{how}"
         )
     if len(segments) > 50:
         say(f"  ... {len(segments) - 50} more (see --report)")
