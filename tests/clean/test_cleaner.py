@@ -893,6 +893,21 @@ def test_reflected_puts_a_mirrored_bend_back_on_its_side(takes) -> None:
     assert not _reflected(ev, cells)[1].any()
 
 
+def mirrored_bend(take: Motion, j: int, frames: slice) -> Motion:
+    """``take`` with hinge ``j``'s bend mirrored across straight over ``frames`` (its flexion
+    negated, the twist about the limb kept): a solver's mirror solution of the limb."""
+    from mocapkit.clean.detect import DetectConfig, Evidence
+    from mocapkit.clean.detect.evidence import bend_and_twist
+
+    ev = Evidence.for_motion(take, DetectConfig())
+    axis, rest = ev.hinge_axes[j], ev.hinge_bones[ev.hinges.index(j)]
+    bend, twist = bend_and_twist(take.rotations[frames, j], rest)
+    bad = take.copy()
+    new = bend - 2 * (bend @ axis)[:, None] * axis[None]
+    bad.rotations[frames, j] = rot.quat_mul(rot.rotvec_to_quat(new), twist)
+    return bad
+
+
 def test_repair_turns_back_a_forearm_swung_out_of_its_plane(takes) -> None:
     """A forearm turned 30 deg out of its bending plane by one rotation for 15 frames: the
     wrong-way-hinge rule flags it (out of its plane) beside cancelling-jumps, but its flexion
@@ -923,18 +938,11 @@ def test_repair_reflects_a_wave_elbow_bent_the_wrong_way(shared_path) -> None:
     """A Bandai elbow bent 101-140 deg through a wave, mirrored across straight for 18 frames
     (newcomer): the take holds no other such wave, so the neighbours' median straightened the
     arm, 125 deg off; reflected back, the repair is within a few degrees of the capture."""
-    from mocapkit.clean.detect import DetectConfig, Evidence
-    from mocapkit.clean.detect.evidence import bend_and_twist
     from mocapkit.io import read_motion
 
     take = read_motion(shared_path("bandai1") / "data" / "dataset-1_byebye_happy_001.bvh")
     j = take.skeleton.index("LowerArm_R")
-    ev = Evidence.for_motion(take, DetectConfig())
-    axis, rest = ev.hinge_axes[j], ev.hinge_bones[ev.hinges.index(j)]
-    bend, twist = bend_and_twist(take.rotations[14:32, j], rest)
-    bad = take.copy()
-    new = bend - 2 * (bend @ axis)[:, None] * axis[None]
-    bad.rotations[14:32, j] = rot.quat_mul(rot.rotvec_to_quat(new), twist)
+    bad = mirrored_bend(take, j, slice(14, 32))
     cl = SelfSimilarityCleaner().fit(bad)
     assert cl.flags().live("wrong-way-hinge")[14:32, j].all()
     err = np.degrees(rot.quat_angle(cl.repair().motion.rotations[:, j], take.rotations[:, j]))
@@ -949,18 +957,11 @@ def test_repair_reflects_a_fast_cmu_elbow_rather_than_turning_it_back(shared_pat
     slerped from one edge's turn to the other's) it came out 2.0 deg off on average, as the
     flexion curves over the run; reflected it is 0.05 deg off, 0.28 after a blend smoothing the
     whole run over 25 frames, and 0.17 written as it is beyond the seams."""
-    from mocapkit.clean.detect import DetectConfig, Evidence
-    from mocapkit.clean.detect.evidence import bend_and_twist
     from mocapkit.io import read_motion
 
     take = read_motion(shared_path("cmu-asfamc") / "01" / "01_01.amc")[700:1300]
     j = take.skeleton.index("rradius")
-    ev = Evidence.for_motion(take, DetectConfig())
-    axis, rest = ev.hinge_axes[j], ev.hinge_bones[ev.hinges.index(j)]
-    bend, twist = bend_and_twist(take.rotations[300:320, j], rest)
-    bad = take.copy()
-    new = bend - 2 * (bend @ axis)[:, None] * axis[None]
-    bad.rotations[300:320, j] = rot.quat_mul(rot.rotvec_to_quat(new), twist)
+    bad = mirrored_bend(take, j, slice(300, 320))
     cl = SelfSimilarityCleaner().fit(bad)
     fl = cl.flags()
     assert fl.live("cancelling-jumps")[300:320, j].all()
