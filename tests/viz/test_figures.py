@@ -123,7 +123,10 @@ def test_heat_map_names_every_rule_of_each_segment(tmp_path, monkeypatch) -> Non
 
     def keep(fig, path):
         seen.append([t.get_text() for ax in fig.axes for t in ax.texts])
+        sides.append([t.get_horizontalalignment() for ax in fig.axes for t in ax.texts])
         return real(fig, path)
+
+    sides: list[list[str]] = []
 
     monkeypatch.setattr(fc, "save", keep)
     F, J = 300, 4
@@ -131,6 +134,12 @@ def test_heat_map_names_every_rule_of_each_segment(tmp_path, monkeypatch) -> Non
     seg = {"joint_index": 2, "start": 100, "end": 119, "reasons": why}
     fc.plot_mdm(np.zeros((F, J)), list("abcd"), [seg], tmp_path / "a.png", 30.0, "t")
     assert seen[-1] == ["mdm + cancelling-jumps + wrong-way-hinge"]
+    # two segments close on one row: each label on the side with room, never over the other
+    near = dict(seg, start=124, end=129, reasons=["frozen"])
+    fc.plot_mdm(np.zeros((F, J)), list("abcd"), [seg, near], tmp_path / "c.png", 30.0, "t")
+    assert sorted(zip(seen[-1], sides[-1], strict=True)) == [
+        ("frozen", "left"), ("mdm + cancelling-jumps + wrong-way-hinge", "right")
+    ]
     many = [dict(seg, start=s, end=s + 2) for s in range(0, 287, 7)]
     assert len(many) > 40
     fc.plot_mdm(np.zeros((F, J)), list("abcd"), many, tmp_path / "b.png", 30.0, "t")

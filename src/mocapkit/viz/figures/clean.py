@@ -118,13 +118,21 @@ def plot_mdm(
     # mdm, cancelling-jumps and wrong-way-hinge all flagged does not read as mdm's alone
     noted = 0 < n_flagged <= _MAX_NOTES
     if noted:
-        for s in segments:
-            j, a, b, reasons = _seg(s)
+        runs = sorted(_seg(s) for s in segments)
+        for i, (j, a, b, reasons) in enumerate(runs):
             text = " + ".join(reasons) if reasons else "flagged"
-            right = F - 1 - b >= a  # the side with more room
-            x = (b + 0.5) * dt + seconds / 200.0 if right else (a - 0.5) * dt - seconds / 200.0
-            ax_d.text(x, j, text, fontsize=5.5, va="center", ha="left" if right else "right",
-                      color="#333333", clip_on=True)  # fmt: skip
+            # on the side with room for it before the row's next segment (or the take's end),
+            # else the other; none where neither has (two labels would overlap)
+            after = next((a2 for j2, a2, _, _ in runs[i + 1 :] if j2 == j), F)
+            before = max((b2 + 1 for j2, _, b2, _ in runs[:i] if j2 == j), default=0)
+            need = len(text) / 24.0 / (0.8 * w_in) * F + F / 100.0  # 5.5 pt: ~24 chars an inch
+            if after - (b + 1) >= need:
+                x, ha = (b + 0.5) * dt + seconds / 200.0, "left"
+            elif a - before >= need:
+                x, ha = (a - 0.5) * dt - seconds / 200.0, "right"
+            else:
+                continue
+            ax_d.text(x, j, text, fontsize=5.5, va="center", ha=ha, color="#333333", clip_on=True)
     shown = set(np.unique(decision).tolist())
     handles = [
         Patch(color=c, label=r)
