@@ -970,6 +970,26 @@ def test_repair_reflects_a_fast_cmu_elbow_rather_than_turning_it_back(shared_pat
     assert err[300:320].mean() < 0.25 and err[300:320].max() < 0.6, err[300:320].round(2)
 
 
+def test_repair_of_mirrored_cmu_elbows_leaves_no_jump(shared_path) -> None:
+    """Two mirrored CMU elbow bends (01_01's rradius in a 5 s cut, 120 fps) that broke the
+    reflection-first repair (reviewer): one whose flexion grazes -15 deg inside the run, so the
+    wrong-way-hinge rule's run splits and each piece was reflected on its own (14 deg off, a
+    22-deg step at the split); one reaching the take's last frame, whose refused turn-back was
+    written as "captured" beside the reflected part (a 142-deg step). Reflected whole, or left
+    to the median, neither leaves a step over the capture's own by more than 2 deg."""
+    from mocapkit.io import read_motion
+
+    take = read_motion(shared_path("cmu-asfamc") / "01" / "01_01.amc")[700:1300]
+    j = take.skeleton.index("rradius")
+    for (a, b), worst in (((250, 270), 1.0), ((580, 600), 10.0)):
+        res = SelfSimilarityCleaner().fit(mirrored_bend(take, j, slice(a, b))).repair()
+        got, true = res.motion.rotations[:, j], take.rotations[:, j]
+        err = np.degrees(rot.quat_angle(got[a:b], true[a:b]))
+        assert err.max() < worst, (a, err.round(1))
+        steps = np.degrees(rot.quat_angle(got[1:], got[:-1]) - rot.quat_angle(true[1:], true[:-1]))
+        assert steps[a - 40 :].max() < 2.0, (a, steps[a - 40 :].max())
+
+
 def test_edge_offsets_take_the_smaller_reading_where_both_agree() -> None:
     """A run that meets the take (a knee slowing to straight after it: the outside frames,
     carried on, read 13 deg too little at its last frame, the inside ones 1 deg): the smaller

@@ -140,6 +140,12 @@ def test_heat_map_names_every_rule_of_each_segment(tmp_path, monkeypatch) -> Non
     assert sorted(zip(seen[-1], sides[-1], strict=True)) == [
         ("frozen", "left"), ("mdm + cancelling-jumps + wrong-way-hinge", "right")
     ]
+    # a gap that holds one label, not two: the first label placed there takes it (reviewer)
+    three = [dict(seg, start=100, end=119, reasons=["mdm"]),
+             dict(seg, start=130, end=135, reasons=["mdm"]),
+             dict(seg, start=137, end=140, reasons=["spike"])]  # fmt: skip
+    fc.plot_mdm(np.zeros((F, J)), list("abcd"), three, tmp_path / "d.png", 30.0, "t")
+    assert sorted(zip(seen[-1], sides[-1], strict=True)) == [("mdm", "left"), ("spike", "left")]
     many = [dict(seg, start=s, end=s + 2) for s in range(0, 287, 7)]
     assert len(many) > 40
     fc.plot_mdm(np.zeros((F, J)), list("abcd"), many, tmp_path / "b.png", 30.0, "t")

@@ -525,23 +525,31 @@ class SelfSimilarityCleaner:
             turned = fl.live("cancelling-jumps") & flagged
             # a noise burst is no turn, though its jumps may cancel
             turned &= ~_runs_touching(turned, fl.live("noise"))
-            # the hinge rule's runs that bend the wrong way somewhere: a mirrored flexion (its
-            # runs only out of the hinge's plane keep a right-way flexion: a stretch turned by
-            # one rotation, as any other joint's; newcomer: a waving forearm swung sideways was
-            # sent to the median, its wave flattened, 7 deg off where the turn-back is exact)
-            wrong = _runs_touching(fl.live("wrong-way-hinge"), ev.wrong_way)
             if turned.any():
                 back, done = unturned(self.motion_.rotations, turned, within=flagged)
-                # nor, on a knee or elbow, is a wrong-way bend whose flexion curves
-                done = _bent_right(ev, back, done, wrong)
+            # the hinge rule's runs (joined through a turned stretch: a mirrored flexion that
+            # grazes -hinge_deg splits the rule's run, and each piece reflected on its own met
+            # the other's error; reviewer) that bend the wrong way somewhere: a mirrored
+            # flexion. Its runs only out of the hinge's plane keep a right-way flexion: a
+            # stretch turned by one rotation, as any other joint's (newcomer: a waving forearm
+            # swung sideways was sent to the median, its wave flattened)
+            wrong = _runs_touching(fl.live("wrong-way-hinge") | done, ev.wrong_way) & flagged
+            # nor, on a knee or elbow, is a wrong-way bend whose flexion curves
+            done = _bent_right(ev, back, done, wrong)
+            # a stretch whose turn-back is refused is no turned stretch (reviewer: its cells
+            # beside the run were kept as "captured" with the refused turn-back's rotations)
+            back = np.where(done[..., None], back, self.motion_.rotations)
             # a wrong-way bend: its flexion reflected back across straight, where that passes
             # its checks, rather than turned back (but a half-turn flip): the reflection undoes
             # a mirrored bend whatever its flexion does, the turn-back only where it changes
             # linearly (a CMU elbow mirrored for 20 frames at 120 fps: 2.0 deg off turned back,
             # 0.05 reflected; Bandai-1 tuning half, injected bends and flips: no figure moved)
-            bent = wrong & flagged & ~_half_turns(ev, back, done)
+            bent = wrong & ~_half_turns(ev, back, done)
+            mirrored = np.zeros_like(flagged)
             if bent.any():
                 mirrored_back, mirrored = _reflected(ev, bent, replacement)
+                # a turned-back stretch is reflected whole or not at all
+                mirrored &= ~_runs_touching(done, done & bent & ~mirrored)
                 back = np.where(mirrored[..., None], mirrored_back, back)
                 done |= mirrored
             if done.any():
@@ -566,15 +574,16 @@ class SelfSimilarityCleaner:
                     p = tex.pelvis
                     back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
                 replacement = np.where((done | keep)[..., None], back, replacement)
-                exact = done | keep
                 how[done & flagged] = 1
-                if bent.any():
-                    how[mirrored & flagged] = 2
+                how[mirrored & flagged] = 2
                 how[keep & flagged] = 3
         for c in contacts:
             before = replacement
             replacement = self._contact_replacement(c, replacement, flagged)
             how[flagged & np.any(replacement != before, axis=-1)] = 4
+        # written as they are past their seams: the capture's own motion moved as a whole, each
+        # method its own source (a seam between a reflected and a turned-back cell is a seam)
+        exact = np.where((how >= 1) & (how <= 3), how, 0).astype(np.int8)
         result = repair_cells(
             self.motion_,
             flagged,

@@ -412,14 +412,15 @@ def repair_cells(
         to_file: (F, 4) ``X``: the pelvis column of ``replacement`` (and of the composite) is in
             the facing-aligned space ``X * q``; it is mapped back with ``X^-1``.
         pelvis: the pelvis joint index for ``to_file``.
-        exact: (F, J) bool, flagged cells whose replacement is the capture's own motion moved as
-            a whole (a stretch turned back, a bend reflected, captured frames kept): smooth
-            already, so the blend reaches into them only near a seam (a frame where the
-            composite changes source), fading from the smoothed value there to the replacement
-            itself ``margin`` frames in. Elsewhere the whole composite is smoothed: a
-            Savitzky-Golay fit (order 2) over ``2 margin + 1`` frames takes the curve out of a
-            fast joint's motion, 25 frames at 120 fps (a reflected CMU elbow 0.1 deg off became
-            2.7 deg off).
+        exact: (F, J) int (or bool), flagged cells whose replacement is the capture's own
+            motion moved as a whole (a stretch turned back, a bend reflected, captured frames
+            kept), non-zero, one value per source: smooth already, so the blend reaches into
+            them only near a seam (a frame where the composite changes source: the capture, a
+            replacement smoothed whole, or another value of ``exact``), fading from the smoothed
+            value there to the replacement itself ``margin`` frames in. Elsewhere the whole
+            composite is smoothed: a Savitzky-Golay fit (order 2) over ``2 margin + 1`` frames
+            takes the curve out of a fast joint's motion, 25 frames at 120 fps (a reflected CMU
+            elbow 0.1 deg off became 2.7 deg off).
     """
     F, J = motion.num_frames, motion.num_joints
     flagged = np.asarray(flagged, dtype=bool)
@@ -447,8 +448,9 @@ def repair_cells(
             smooth = rot.quat_normalize(smooth)
         else:
             smooth = comp
-        if exact is not None and margin > 0 and exact[:, j].any():
-            smooth = _fade_into(comp, smooth, flagged[:, j], exact[:, j] & flagged[:, j], margin)
+        if exact is not None and margin > 0 and (exact[:, j] != 0).any():
+            own = np.where(flagged[:, j], np.asarray(exact[:, j], dtype=np.int64), 0)
+            smooth = _fade_into(comp, smooth, flagged[:, j], own, margin)
         cells = written[:, j]
         new = smooth[cells]
         # keep the file's sign convention (w >= 0 where the input had it) for stable output
@@ -465,13 +467,14 @@ def repair_cells(
 
 
 def _fade_into(
-    comp: np.ndarray, smooth: np.ndarray, flagged: np.ndarray, exact: np.ndarray, margin: int
+    comp: np.ndarray, smooth: np.ndarray, flagged: np.ndarray, sources: np.ndarray, margin: int
 ) -> np.ndarray:
-    """``smooth`` (F, 4) with the ``exact`` frames (F,) bool of one joint's composite
-    ``comp`` faded back to ``comp``: the smoothed value at a seam (where the composite's source
-    changes: capture, exact replacement, other replacement), the composite ``margin`` frames in,
-    slerped between."""
-    source = np.where(exact, 2, np.where(flagged, 1, 0))
+    """``smooth`` (F, 4) with the exact frames of one joint's composite ``comp`` (``sources``
+    (F,) int, non-zero there, one value per source) faded back to ``comp``: the smoothed value
+    at a seam (where the composite's source changes: the capture, a replacement smoothed whole,
+    another exact source), the composite ``margin`` frames in, slerped between."""
+    exact = sources != 0
+    source = np.where(exact, sources + 1, np.where(flagged, 1, 0))
     seams = np.flatnonzero(np.diff(source) != 0) + 0.5  # between frames s and s + 1
     if len(seams) == 0:
         return np.where(exact[:, None], comp, smooth)

@@ -119,17 +119,21 @@ def plot_mdm(
     noted = 0 < n_flagged <= _MAX_NOTES
     if noted:
         runs = sorted(_seg(s) for s in segments)
+        taken: dict[int, float] = {}  # per row, the frame the last label placed reaches
         for i, (j, a, b, reasons) in enumerate(runs):
             text = " + ".join(reasons) if reasons else "flagged"
             # on the side with room for it before the row's next segment (or the take's end),
-            # else the other; none where neither has (two labels would overlap)
+            # else the other, past the row's labels placed so far; none where neither has
             after = next((a2 for j2, a2, _, _ in runs[i + 1 :] if j2 == j), F)
             before = max((b2 + 1 for j2, _, b2, _ in runs[:i] if j2 == j), default=0)
+            before = max(before, taken.get(j, 0.0))
             need = len(text) / 24.0 / (0.8 * w_in) * F + F / 100.0  # 5.5 pt: ~24 chars an inch
             if after - (b + 1) >= need:
                 x, ha = (b + 0.5) * dt + seconds / 200.0, "left"
+                taken[j] = b + 1 + need
             elif a - before >= need:
                 x, ha = (a - 0.5) * dt - seconds / 200.0, "right"
+                taken[j] = float(b + 1)
             else:
                 continue
             ax_d.text(x, j, text, fontsize=5.5, va="center", ha=ha, color="#333333", clip_on=True)
