@@ -261,6 +261,16 @@ def test_clean_a_one_frame_take_says_it_is_too_short(files, tmp_path) -> None:
     assert len(stderr.strip().splitlines()) == 1
 
 
+def test_clean_a_take_held_still_says_no_joint_rotates(files, tmp_path) -> None:
+    """A take whose joints never rotate (a VR file of the corpus) gets one line saying so
+    (newcomer: "only 0 joint(s) move" read oddly)."""
+    still = read_motion(files["clean"])[:120]
+    still.rotations[:] = still.rotations[0]
+    code, _, stderr = run("clean", str(write_motion(still, tmp_path / "still.bvh")))
+    assert code == 2 and len(stderr.strip().splitlines()) == 1
+    assert "nothing to compare: no joint rotates" in stderr
+
+
 def test_explain_reads_frames_and_times_as_every_option_does() -> None:
     """--explain JOINT:TIME uses the CLI's one reading of a position: a time inside the last
     frame's span is the last frame (as --trim takes it), not "outside"."""

@@ -209,9 +209,11 @@ class SelfSimilarityCleaner:
         if groups is None:
             groups = default_groups(motion.skeleton, include=np.flatnonzero(active))
         if not groups:
+            n = int(active.sum())
+            moving = "no joint rotates" if n == 0 else f"only {n} joint(s) rotate"
             raise ValueError(
-                "fewer than two joints of a group rotate (the take holds still, or only "
-                f"{int(active.sum())} joint(s) move): self-similarity compares joints in groups"
+                f"nothing to compare: {moving} (a take held still?), and self-similarity compares "
+                "joints in groups of two or more that rotate"
             )
         self.groups_ = list(groups)
         exclude = (
