@@ -24,6 +24,7 @@ from mocapkit.clean.detect import (
 from mocapkit.clean.dtw import pose_distance_matrices
 from mocapkit.clean.knn import Context, GroupNeighbours, search_group, untainted
 from mocapkit.clean.repair import (
+    REPAIR_METHODS,
     ContactConstraint,
     RepairResult,
     chain_of,
@@ -576,16 +577,16 @@ class SelfSimilarityCleaner:
                     p = tex.pelvis
                     back[:, p] = rot.quat_mul(tex.pelvis_align, back[:, p])
                 replacement = np.where((done | keep)[..., None], back, replacement)
-                how[done & flagged] = 1
-                how[mirrored & flagged] = 2
-                how[keep & flagged] = 3
+                how[done & flagged] = _TURNED
+                how[mirrored & flagged] = _REFLECTED
+                how[keep & flagged] = _KEPT
         for c in contacts:
             before = replacement
             replacement = self._contact_replacement(c, replacement, flagged)
-            how[flagged & np.any(replacement != before, axis=-1)] = 4
+            how[flagged & np.any(replacement != before, axis=-1)] = _CONTACT
         # written as they are past their seams: the capture's own motion moved as a whole, each
         # method its own source (a seam between a reflected and a turned-back cell is a seam)
-        exact = np.where((how >= 1) & (how <= 3), how, 0).astype(np.int8)
+        exact = np.where(np.isin(how, (_TURNED, _REFLECTED, _KEPT)), how, 0).astype(np.int8)
         result = repair_cells(
             self.motion_,
             flagged,
@@ -833,6 +834,11 @@ def _bent_right(
             if not np.all(np.abs(f - chord) <= np.radians(LINEAR_FLEXION_DEG)):
                 out[a : b + 1, j] = False
     return out
+
+
+_TURNED, _REFLECTED, _KEPT, _CONTACT = (
+    REPAIR_METHODS.index(m) for m in ("turned back", "reflected", "captured kept", "contact word")
+)  # the codes of RepairResult.how; 0 is the median
 
 
 def _half_turns(ev: Evidence, turned_back: np.ndarray, done: np.ndarray) -> np.ndarray:

@@ -60,6 +60,9 @@ class RepairResult:
             :class:`~mocapkit.features.FootContacts`), None when feet were not locked.
         contacts: how each :class:`ContactConstraint` given to the repair held
             (:class:`ContactHeld`), in the order given.
+        how: (F, J) int8, per flagged cell the index in :data:`REPAIR_METHODS` of how its
+            replacement was made (-1 elsewhere; None: all the median's). The foot lock and a
+            contact's IK adjust cells afterwards without changing their method here.
     """
 
     motion: Motion
@@ -83,11 +86,19 @@ class RepairResult:
         return {m: n for m, n in counts.items() if n}
 
 
-REPAIR_METHODS = ("median", "turned back", "reflected", "captured kept", "contact word")
-"""How a flagged cell is repaired (:attr:`RepairResult.how`): the neighbours' median; turned
-back by the one rotation that turned its stretch; its hinge's flexion reflected back across
-straight; the captured rotation kept (the cells beside a turned-back stretch that only the
-words' digression flags); the neighbour word whose effector lands nearest a contact."""
+REPAIR_METHOD_NOTES = {
+    "median": "the neighbours' median (the KNN words' rotations)",
+    "turned back": "turned back by the one rotation that turned the stretch (read at its edges)",
+    "reflected": "the knee's or elbow's flexion reflected back across straight",
+    "captured kept": "the captured rotation kept (beside a turned-back stretch, only the words' "
+    "digression flags it)",
+    "contact word": "the neighbour word whose effector lands nearest a --contact point",
+}
+"""How a flagged cell is repaired (:attr:`RepairResult.how`), and what each way means (the
+report's ``repair_methods_are``)."""
+
+REPAIR_METHODS = tuple(REPAIR_METHOD_NOTES)
+"""The methods' names in :attr:`RepairResult.how`'s order."""
 
 
 @dataclass(frozen=True)

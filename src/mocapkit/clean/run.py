@@ -23,7 +23,7 @@ import numpy as np
 
 from mocapkit.clean.cleaner import Progress, Segment, SelfSimilarityCleaner
 from mocapkit.clean.detect import DetectConfig, Explanation
-from mocapkit.clean.repair import ContactConstraint, RepairResult
+from mocapkit.clean.repair import REPAIR_METHOD_NOTES, ContactConstraint, RepairResult
 from mocapkit.core.motion import Motion
 from mocapkit.summary import nominal_fps
 
@@ -51,15 +51,6 @@ EVIDENCE_KEYS = {
 """What each key of a segment's ``evidence`` measures (degrees, seconds), in the report."""
 
 
-REPAIR_METHOD_NOTES = {
-    "median": "the neighbours' median (the KNN words' rotations)",
-    "turned back": "turned back by the one rotation that turned the stretch (read at its edges)",
-    "reflected": "the knee's or elbow's flexion reflected back across straight",
-    "captured kept": "the captured rotation kept (beside a turned-back stretch, only the words' "
-    "digression flags it)",
-    "contact word": "the neighbour word whose effector lands nearest a --contact point",
-}
-"""What each method of a segment's ``repair`` ({method: cells}) means, in the report."""
 
 
 @dataclass(frozen=True, eq=False)

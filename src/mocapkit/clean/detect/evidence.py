@@ -530,16 +530,15 @@ class Evidence:
 
     @cached_property
     def planar_hinges(self) -> np.ndarray:
-        """(J,) bool: the judged hinges that keep to their plane over the take: the median tilt
-        of the plane each frame's bend lies in, from the hinge's (the limb's angle off the
-        plane, over the sine of the bend), over the frames bent more than ``hinge_bend_deg``,
-        at most ``hinge_planar_deg``; not a hinge bent that far on fewer than three frames (a
-        forearm held straight through a take fitted an axis along itself, and every frame read
-        90 deg off the plane: an Axis Neuron file of the BVH corpus). The tilt, not the angle
-        off the plane: a rig
-        whose knee is mostly near straight keeps that angle small whatever its axis does
-        (reviewer: an SMPL knee, median bend 15 deg, bent over 30 deg with its plane tilted 8.6
-        deg)."""
+        """(J,) bool: the judged hinges that keep to their plane over the take: the median tilt of
+        the plane each frame's bend lies in, from the hinge's (the limb's angle off the plane,
+        over the sine of the bend), over the frames bent more than ``hinge_bend_deg``, at most
+        ``hinge_planar_deg``; not a hinge bent that far on fewer than three frames (a forearm
+        held straight through a take fitted an axis along itself, and every frame read 90 deg
+        off the plane: an Axis Neuron file of the BVH corpus). The tilt, not the angle off the
+        plane: a rig whose knee is mostly near straight keeps that angle small whatever its axis
+        does (reviewer: an SMPL knee, median bend 15 deg, bent over 30 deg with its plane tilted
+        8.6 deg)."""
         off = self.hinge_off_plane
         out = np.zeros(off.shape[1], dtype=bool)
         if not len(off):

@@ -34,7 +34,7 @@ class WrongWayHinges:
     its limb, never about the limb itself nor out of the plane that axis sets. A forearm that
     carries its twist and is mirrored about its full rotation's main axis may keep a right-way
     flexion and leave the plane instead (Bandai-1 tuning half, gestures: an elbow 31 deg out of its
-    plane at flexion +14, where clean takes stay within 1.8 deg). A limb reaches a wrong-way bend
+    plane at flexion +14, where clean takes stay within 2.3 deg). A limb reaches a wrong-way bend
     through the frames between, turning at its own speed: where it jumps instead, a few frames
     before the run, the error entered there, and the frames between are the error's while they read
     less than ``min_deg`` past straight (an elbow bent 105 deg mirrored to 2 deg at the jump, then
