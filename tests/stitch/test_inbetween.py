@@ -19,6 +19,7 @@ from mocapkit.cli import main
 from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
 from mocapkit.io import read_motion, write_motion
+from mocapkit.stitch import inbetween as inbetween_module
 from mocapkit.stitch.inbetween import (
     DEFAULT_CONFIG,
     Candidate,
@@ -39,6 +40,15 @@ from mocapkit.stitch.inbetween import (
 naive = load_sibling(__file__, "naive")
 inbetween_naive = load_sibling(__file__, "inbetween_naive")
 with_ground_root = load_sibling(__file__, "motions").with_ground_root
+
+
+@pytest.fixture(autouse=True)
+def library_alone(request, monkeypatch):
+    """The tests here pin what the library does, on procedural clips that repeat one cycle
+    exactly: the clip's own frames beside the gap would match the gap exactly and fill it.
+    They search the library alone; the tests marked ``own_frames`` search the clip too."""
+    if request.node.get_closest_marker("own_frames") is None:
+        monkeypatch.setattr(inbetween_module, "with_own_frames", lambda lib, *a, **k: lib)
 
 
 def _lerp(a: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -1928,3 +1938,81 @@ def test_a_contact_cut_at_the_gaps_edge_is_the_contexts(humanoid):
     assert _planted_at_ends(ex, pos, start, "Y", a, b, floor)[a - 1, 0]
     unknown = _planted_at_ends(ex, pos, start, "Y", a, b, np.full(1, np.nan))
     assert np.array_equal(unknown, start)  # no floor known for the joint: left as it was
+
+
+@pytest.mark.own_frames
+def test_the_clips_own_steps_beside_the_gap_are_searched(humanoid):
+    """A gait the library holds nothing like (a walk played backwards, the library's walks
+    forwards only, backwards search off) is filled from the clip's own steps beside the gap,
+    reported with the clip's own frame numbers; with own_frames off, from the library."""
+    walk, lib = humanoid
+    back = walk[::-1].copy()
+    a, b = 60, 90
+    alone = replace(DEFAULT_CONFIG, backwards=False, foot_lock=False)
+    lib_only = inbetween(back, (a, b), lib, up="Y", method="library", clip_name="back",
+                         config=replace(alone, own_frames=False))  # fmt: skip
+    res = inbetween(back, (a, b), lib, up="Y", method="library", clip_name="back", config=alone)
+    assert "back" not in lib_only.library_names and "back" in res.library_names
+    own = [x for x in res.blended_from if x["source"] == "back"]
+    assert sum(x["weight"] for x in own) > 0.9
+    for x in own:  # the clip's frames, never the gap's
+        s0, s1 = x["source_frames"]
+        assert s1 <= a or s0 >= b, x
+    P = forward_kinematics(back)[0][a:b]
+    err = lambda r: np.linalg.norm(forward_kinematics(r.motion)[0][a:b] - P, axis=-1).mean()  # noqa: E731
+    assert err(res) < 0.5 * err(lib_only)
+    np.testing.assert_array_equal(res.motion.rotations[:a], back.rotations[:a])
+    np.testing.assert_array_equal(res.motion.rotations[b:], back.rotations[b:])
+
+
+@pytest.mark.own_frames
+def test_own_frames_respect_future_frames_and_a_stretchs_least_length(humanoid):
+    """Only a stretch of at least OWN_PIECE_MIN_SECONDS is searched, and after the gap only
+    the frames the method may look at (future_frames): the LaFAN1 benchmark's 10 past frames
+    and 1 future frame search the library alone."""
+    from mocapkit.stitch.inbetween import OWN_PIECE_MIN_SECONDS, own_pieces, with_own_frames
+
+    walk, lib = humanoid
+    least = walk.seconds_to_frames(OWN_PIECE_MIN_SECONDS)
+    assert [f for f, _ in own_pieces(walk, 60, 90)] == [0, 90]
+    assert own_pieces(walk, least - 1, 90, future_frames=least - 1) == []
+    (first, piece), = own_pieces(walk, least, 90, future_frames=least - 1)  # fmt: skip
+    assert first == 0 and piece.num_frames == least
+    prepared = prepare_library(lib, walk, ["w1", "w2", "r", "i"], up="Y")
+    win = walk[30 : 30 + 10 + 30 + 1]
+    assert with_own_frames(prepared, win, 10, 40, "win", "Y", future_frames=1) is prepared
+    res = inbetween(win, (10, 40), prepared, up="Y", future_frames=1, method="library")
+    assert "clip" not in res.library_names
+
+
+@pytest.mark.own_frames
+def test_own_frames_merge_keeps_each_clips_reversed_copy_half_the_library_on(humanoid):
+    """The merged library keeps forwards then backwards, each in the same order, so the
+    reversed copy of motion i is motion i + n/2; every warp's rows point at the motion they
+    were computed from, and frames map to the clip's own numbers both ways."""
+    from mocapkit.stitch.inbetween import with_own_frames
+
+    walk, lib = humanoid
+    prepared = prepare_library(lib[:2], walk, ["w1", "w2"], up="Y")
+    merged = with_own_frames(prepared, walk, 60, 90, "clip", "Y")
+    n = len(merged.motions) // 2
+    assert merged.names == ("w1", "w2", "clip", "clip") * 2
+    assert merged.backwards == (False,) * n + (True,) * n
+    for i in range(n):
+        np.testing.assert_array_equal(
+            merged.motions[i + n].rotations, merged.motions[i].rotations[::-1]
+        )
+    assert merged.frames == prepared.frames + 60 + (walk.num_frames - 90)
+    assert merged.clip_frames(2, 5, 10) == (5, 10)  # frames 0..59 of the clip
+    assert merged.clip_frames(3, 5, 10) == (95, 100)  # frames 90.. of the clip
+    F = merged.motions[n + 3].num_frames  # the piece after the gap, played backwards
+    assert merged.clip_frames(n + 3, 0, 5) == (90 + F - 5, 90 + F)
+    for W, W0 in zip(merged.warped, prepared.warped, strict=True):
+        assert W.feats.shape[0] == W.clip.shape[0] == W.time.shape[0] == W.pelvis.shape[0]
+        for i in range(len(merged.motions)):
+            rows = W.clip == i
+            t = W.time[rows]
+            assert rows.any() and t[0] == 0 and t[-1] <= merged.motions[i].num_frames - 1
+        for i in range(len(prepared.motions)):  # the library's own rows, unchanged
+            j = i if i < len(prepared.motions) // 2 else i + 2
+            np.testing.assert_array_equal(W.feats[W.clip == j], W0.feats[W0.clip == i])

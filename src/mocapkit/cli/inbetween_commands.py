@@ -89,8 +89,10 @@ def inbetween_cmd(
 ) -> None:
     """Replace frames A:B of CLIP (B excluded) by motion found in the library.
 
-    Every segment of every library clip (also played backwards), of the gap's length and of
-    nearby lengths time-warped to fit, is scored by how well its body-local poses match the last
+    Every segment of every library clip (also played backwards), and of CLIP itself beside
+    the gap (each stretch of at least 1 s before and after it: the take's own steps are its
+    person's, style's and gait's), of the gap's length and of nearby lengths time-warped to
+    fit, is scored by how well its body-local poses match the last
     two frames before the gap and the first frame after it, how the pelvis rises and falls with
     the steps just before the gap (its vertical speed and acceleration, whatever the person's
     height), and how the body travels over the ground across the gap. The best segments
@@ -148,7 +150,11 @@ def inbetween_cmd(
     for why in unnamed[1:] if fails else unnamed:
         click.echo(f"mocapkit: error: --library: {why}", err=True)
     if len(others) < len(lib_paths):
-        click.echo(f"mocapkit: note: {clip} left out of the library (it is the clip)", err=True)
+        click.echo(
+            f"mocapkit: note: {clip} is the clip: not searched as a library file (its frames "
+            "beside the gap are searched anyway)",
+            err=True,
+        )
         lib_paths = others
     if fails:
         if unnamed:
