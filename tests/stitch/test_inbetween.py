@@ -2016,3 +2016,18 @@ def test_own_frames_merge_keeps_each_clips_reversed_copy_half_the_library_on(hum
         for i in range(len(prepared.motions)):  # the library's own rows, unchanged
             j = i if i < len(prepared.motions) // 2 else i + 2
             np.testing.assert_array_equal(W.feats[W.clip == j], W0.feats[W0.clip == i])
+
+
+@pytest.mark.own_frames
+def test_cli_names_the_clips_own_frames_and_the_sidecar_the_clip_once(files, humanoid):
+    """A fill from the clip's own frames says so, and the sidecar lists the clip once among
+    its inputs (it was read once, though searched as a library clip too)."""
+    from mocapkit.provenance import find_provenance
+
+    _, lib = humanoid
+    write_motion(lib[3], files / "idle.bvh")  # nothing like the walk: its own steps fill it
+    code, so, _ = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
+                      files / "idle.bvh", "--out", files / "own_fill.bvh")  # fmt: skip
+    assert code == 0 and "walk.bvh (the clip's own frames) frames" in so
+    inputs = find_provenance(files / "own_fill.bvh").inputs
+    assert sum(Path(x).name == "walk.bvh" for x in inputs) == 1

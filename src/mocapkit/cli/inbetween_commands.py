@@ -208,8 +208,9 @@ def inbetween_cmd(
         path = "ground path (from its start velocity over the gap)" if ends else "ground path"
         mixed = len(res.blended_from) > 1
         weight = f", weight {_percent(res.blended_from[0]['weight'])}" if mixed else ""
+        own = " (the clip's own frames)" if res.source == str(clip) else ""
         say(
-            f"best library segment: {res.source} frames {s0}:{s1}"
+            f"best library segment: {res.source}{own} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
             f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at {where}, {path} "
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"

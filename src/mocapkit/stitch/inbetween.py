@@ -913,12 +913,11 @@ def with_own_frames(
         )
         for W1, W2 in zip(library.warped, own.warped, strict=True)
     )  # fmt: skip
-    ones = lambda lib: lib.file_frames or (1.0,) * len(lib.motions)  # noqa: E731
     return InbetweenLibrary(
         merged(library.motions, own.motions), merged(library.names, own.names), library.up,
         warped, library.frames + own.frames,
         merged(library.backwards or (False,) * n1, own.backwards or (False,) * n2),
-        merged(ones(library), ones(own)),
+        merged(library.file_frames or (1.0,) * n1, own.file_frames or (1.0,) * n2),
         merged(library.floors, own.floors) if library.floors else (),
         merged(library.first_frames or (0,) * n1, firsts * (2 if twice else 1)),
     )  # fmt: skip
@@ -2329,8 +2328,8 @@ class Inbetween:
             params["blended_from"] = [dict(x) for x in self.blended_from]
         return Provenance(
             "inbetween", str(output), float(self.motion.fps), F,
-            [self.clip_name, *self.library_names], params, segs, trans,
-        )  # fmt: skip
+            list(dict.fromkeys([self.clip_name, *self.library_names])), params, segs, trans,
+        )  # fmt: skip  # the clip once, though its own frames were searched as a library clip
 
     def to_json(self) -> dict[str, Any]:
         c = self.candidate
