@@ -130,9 +130,10 @@ class Provenance:
         filled, then filled again elsewhere): each "clip" segment of ``file`` becomes the
         segments of ``earlier`` it copied (clipped to its frames; a time-warped segment's
         source frames in proportion), ``earlier``'s transitions inside it come along, a
-        transition's end on a copied frame names the clip it came from, ``earlier``'s inputs
-        are added, and ``parameters["earlier"]`` lists the tools and parameters that made
-        ``file``, oldest first. Unchanged when ``earlier`` is of another frame rate or shorter
+        transition's end on a copied frame names the clip it came from, as does a segment
+        made from copied frames (:func:`_named_back`), ``earlier``'s inputs are added, and
+        ``parameters["earlier"]`` lists the tools and parameters that made ``file``, oldest
+        first. Unchanged when ``earlier`` is of another frame rate or shorter
         than the frames copied (then it is not this file's sidecar any more)."""
         copied = [s for s in self.segments if s.kind == "clip" and s.source is not None
                   and same_file(s.source, file)]  # fmt: skip
@@ -144,7 +145,7 @@ class Provenance:
         trans = [_traced_ends(t, earlier, file) for t in self.transitions]
         for s in self.segments:
             if s not in copied:
-                segs.append(s)
+                segs.append(_named_back(s, earlier, file))
                 continue
             s0, s1 = int(s.source_start or 0), int(s.source_stop or 0)
             shift = s.output_start - s0
@@ -181,6 +182,24 @@ class Provenance:
 
 def _close(x: float, y: float) -> bool:
     return abs(x - y) <= 1e-6 * max(abs(x), abs(y))
+
+
+def _named_back(s: Segment, earlier: Provenance, file: str) -> Segment:
+    """``s`` (not a copy of ``file``'s frames: a fill made from them, say) naming the clip its
+    source frames of ``file`` were copied from, where ``earlier`` says they all were copied
+    from one (an in-betweening of a take filled before, from the take's own frames); else
+    ``s`` as it is (it names ``file``, a file on disk with its own sidecar)."""
+    if s.source is None or s.source_start is None or s.source_stop is None:
+        return s
+    if not same_file(s.source, file):
+        return s
+    for x in earlier.segments:
+        if x.kind == "clip" and x.source_start is not None and x.output_start <= s.source_start \
+                and s.source_stop <= x.output_stop:  # fmt: skip
+            shift = x.source_start - x.output_start
+            return replace(s, source=x.source, source_start=s.source_start + shift,
+                           source_stop=s.source_stop + shift)  # fmt: skip
+    return s
 
 
 def _traced_ends(t: TransitionTaken, earlier: Provenance, file: str) -> TransitionTaken:

@@ -1986,36 +1986,65 @@ def test_own_frames_respect_future_frames_and_a_stretchs_least_length(humanoid):
 
 
 @pytest.mark.own_frames
-def test_own_frames_merge_keeps_each_clips_reversed_copy_half_the_library_on(humanoid):
-    """The merged library keeps forwards then backwards, each in the same order, so the
-    reversed copy of motion i is motion i + n/2; every warp's rows point at the motion they
-    were computed from, and frames map to the clip's own numbers both ways."""
+def test_own_frames_are_added_after_the_library_each_with_its_reversed_copy(humanoid):
+    """The clip's pieces come after the library's motions, so a candidate's index into the
+    library the caller prepared still means that motion; every motion's reversed copy is
+    known (reversed_of), every warp's rows point at the motion they were computed from, and
+    frames map to the clip's own numbers both ways."""
     from mocapkit.stitch.inbetween import with_own_frames
 
     walk, lib = humanoid
     prepared = prepare_library(lib[:2], walk, ["w1", "w2"], up="Y")
     merged = with_own_frames(prepared, walk, 60, 90, "clip", "Y")
-    n = len(merged.motions) // 2
-    assert merged.names == ("w1", "w2", "clip", "clip") * 2
-    assert merged.backwards == (False,) * n + (True,) * n
-    for i in range(n):
+    assert merged.names == ("w1", "w2", "w1", "w2", "clip", "clip", "clip", "clip")
+    assert merged.motions[:4] == prepared.motions
+    assert merged.backwards == (False, False, True, True, False, False, True, True)
+    for i in range(len(merged.motions)):
+        r = merged.reversed_of(i)
+        assert merged.reversed_of(r) == i and merged.backwards[r] != merged.backwards[i]
         np.testing.assert_array_equal(
-            merged.motions[i + n].rotations, merged.motions[i].rotations[::-1]
+            merged.motions[r].rotations, merged.motions[i].rotations[::-1]
         )
     assert merged.frames == prepared.frames + 60 + (walk.num_frames - 90)
-    assert merged.clip_frames(2, 5, 10) == (5, 10)  # frames 0..59 of the clip
-    assert merged.clip_frames(3, 5, 10) == (95, 100)  # frames 90.. of the clip
-    F = merged.motions[n + 3].num_frames  # the piece after the gap, played backwards
-    assert merged.clip_frames(n + 3, 0, 5) == (90 + F - 5, 90 + F)
+    assert merged.clip_frames(4, 5, 10) == (5, 10)  # frames 0..59 of the clip
+    assert merged.clip_frames(5, 5, 10) == (95, 100)  # frames 90.. of the clip
+    F = merged.motions[7].num_frames  # the piece after the gap, played backwards
+    assert merged.clip_frames(7, 0, 5) == (90 + F - 5, 90 + F)
     for W, W0 in zip(merged.warped, prepared.warped, strict=True):
         assert W.feats.shape[0] == W.clip.shape[0] == W.time.shape[0] == W.pelvis.shape[0]
         for i in range(len(merged.motions)):
-            rows = W.clip == i
-            t = W.time[rows]
-            assert rows.any() and t[0] == 0 and t[-1] <= merged.motions[i].num_frames - 1
+            t = W.time[W.clip == i]
+            assert len(t) and t[0] == 0 and t[-1] <= merged.motions[i].num_frames - 1
         for i in range(len(prepared.motions)):  # the library's own rows, unchanged
-            j = i if i < len(prepared.motions) // 2 else i + 2
-            np.testing.assert_array_equal(W.feats[W.clip == j], W0.feats[W0.clip == i])
+            np.testing.assert_array_equal(W.feats[W.clip == i], W0.feats[W0.clip == i])
+    with pytest.raises(ValueError, match="backwards"):
+        with_own_frames(
+            prepared, walk, 60, 90, "clip", "Y", replace(DEFAULT_CONFIG, backwards=False)
+        )
+
+
+@pytest.mark.own_frames
+def test_a_start_gap_with_own_frames_names_its_segment_in_the_callers_library(humanoid):
+    """A gap at the clip's start is filled on the reversed clip; its segment, mapped back to
+    the other way of playing, is the same motion of the caller's prepared library (review:
+    with the clip's pieces between the library's two halves it named another clip)."""
+    walk, lib = humanoid
+    prepared = prepare_library(lib, walk, ["w1", "w2", "r", "i"], up="Y")
+    for gap in ((0, 30), (0, 60)):
+        res = inbetween(walk, gap, prepared, up="Y", clip_name="walk")
+        c = res.candidate
+        if res.source == "walk":  # the clip's own frames, after the library's
+            assert c.clip >= len(prepared.motions)
+            s0 = res.source_frames[0]
+            assert s0 >= gap[1]
+        else:
+            assert prepared.names[c.clip] == res.source
+            assert bool(prepared.backwards[c.clip]) == res.backwards
+    alone = inbetween(walk, (0, 30), prepared, up="Y",
+                      config=replace(DEFAULT_CONFIG, own_frames=False))  # fmt: skip
+    c = alone.candidate
+    assert prepared.names[c.clip] == alone.source
+    assert bool(prepared.backwards[c.clip]) == alone.backwards
 
 
 @pytest.mark.own_frames
@@ -2031,3 +2060,33 @@ def test_cli_names_the_clips_own_frames_and_the_sidecar_the_clip_once(files, hum
     assert code == 0 and "walk.bvh (the clip's own frames) frames" in so
     inputs = find_provenance(files / "own_fill.bvh").inputs
     assert sum(Path(x).name == "walk.bvh" for x in inputs) == 1
+
+
+@pytest.mark.own_frames
+def test_a_second_fill_from_the_takes_own_frames_names_the_original_take(files, humanoid):
+    """Filling a filled take again from its own frames: where those frames were the original
+    take's, the sidecar names the original take and its frame numbers (review: it named the
+    intermediate file); the clip is listed once among the inputs."""
+    from mocapkit.provenance import find_provenance
+
+    _, lib = humanoid
+    write_motion(lib[3], files / "idle.bvh")
+    first = files / "walk_once.bvh"
+    second = files / "walk_twice.bvh"
+    assert run("inbetween", files / "walk.bvh", "--gap", "100:130", "--library",
+               files / "idle.bvh", "--out", first)[0] == 0  # fmt: skip
+    assert run("inbetween", first, "--gap", "40:70", "--library", files / "idle.bvh",
+               "--out", second)[0] == 0  # fmt: skip
+    p = find_provenance(second)
+    (mid,) = [s for s in p.segments if s.kind == "inbetween" and s.output_start == 40]
+    assert [s.output_start for s in p.segments if s.kind == "inbetween"] == [40, 100]
+    earlier = find_provenance(first)
+    copied = [s for s in earlier.segments if s.kind == "clip"]
+    from_take = any(s.output_start <= mid.source_start and mid.source_stop <= s.output_stop
+                    for s in copied)  # fmt: skip
+    assert Path(mid.source).name == ("walk.bvh" if from_take else "walk_once.bvh")
+    assert from_take  # the walk repeats: its own frames before 100 hold the best match
+    walk = read_motion(files / "walk.bvh")
+    got = read_motion(second)
+    assert got.num_frames == walk.num_frames
+    assert sum(Path(x).name == "walk_once.bvh" for x in p.inputs) == 1

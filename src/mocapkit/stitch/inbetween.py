@@ -697,6 +697,17 @@ class InbetweenLibrary:
     first_frames: tuple[int, ...] = ()
     """Per motion: the frame of its file that is its frame 0 (0 but for a piece of the clip
     itself, :func:`with_own_frames`)."""
+    reversed_copies: tuple[int, ...] = ()
+    """Per motion: the index of the same frames played the other way; empty where the
+    motions are laid out as :func:`prepare_library` lays them (every clip forwards, then every
+    clip backwards in the same order: :meth:`reversed_of`)."""
+
+    def reversed_of(self, clip: int) -> int:
+        """The index of motion ``clip`` played the other way (the library searched both ways)."""
+        if self.reversed_copies:
+            return self.reversed_copies[clip]
+        n = len(self.motions) // 2
+        return (clip + n) % (2 * n)
 
     def clip_frames(self, clip: int, start: int, stop: int) -> tuple[int, int]:
         """Frames ``start:stop`` of library motion ``clip`` as frames of the file it came from
@@ -877,49 +888,39 @@ def with_own_frames(
     future_frames: int | None = None,
 ) -> InbetweenLibrary:
     """``library`` with the clip's own frames beside the gap ``a:b`` (:func:`own_pieces`) added
-    as library clips named ``clip_name`` (their frames numbered as the clip's:
-    :attr:`InbetweenLibrary.first_frames`); ``library`` itself where
-    :attr:`InbetweenConfig.own_frames` is off or no stretch is long enough. Every clip keeps
-    its place among the ones played forwards or backwards (forwards first, in the same
-    order), so a clip's reversed copy is still ``len(motions) // 2`` further on."""
+    after its motions as library clips named ``clip_name`` (their frames numbered as the
+    clip's: :attr:`InbetweenLibrary.first_frames`), so the library's own indices stay as they
+    were; ``library`` itself where :attr:`InbetweenConfig.own_frames` is off or no stretch is
+    long enough. ValueError where ``library`` was searched both ways and ``config`` says
+    otherwise (or the reverse)."""
     pieces = own_pieces(clip, a, b, future_frames) if config.own_frames else []
     if not pieces:
         return library
+    if any(library.backwards) != config.backwards:
+        raise ValueError("the library was prepared with another 'backwards' than the config's")
     own = prepare_library(
         [m for _, m in pieces], clip, [str(clip_name)] * len(pieces), up=up, config=config
     )
-    firsts = [f for f, _ in pieces]
     n1, n2 = len(library.motions), len(own.motions)
-    twice = bool(any(library.backwards))
-    h1, h2 = (n1 // 2, n2 // 2) if twice else (n1, n2)  # the clips played forwards
-    # new index of each motion: forwards (library's, own), then backwards (library's, own)
-    map1 = np.array([i if i < h1 else i + h2 for i in range(n1)], np.int32)
-    map2 = np.array([h1 + j if j < h2 else h1 + h1 + j for j in range(n2)], np.int32)
-    order = np.argsort(np.concatenate([map1, map2]), kind="stable")
-
-    def merged(x1, x2) -> tuple:
-        both = list(x1) + list(x2)
-        return tuple(both[k] for k in order)
-
-    def column(v1, v2):
-        return None if v1 is None or v2 is None else np.concatenate([v1, v2])
-
     warped = tuple(
         _Warped(
             W1.rate, np.ascontiguousarray(np.concatenate([W1.feats, W2.feats])),
             np.concatenate([W1.ground, W2.ground]), np.concatenate([W1.heading, W2.heading]),
-            np.concatenate([map1[W1.clip], map2[W2.clip]]),
-            np.concatenate([W1.time, W2.time]), column(W1.pelvis, W2.pelvis),
+            np.concatenate([W1.clip, W2.clip + n1]), np.concatenate([W1.time, W2.time]),
+            None if W1.pelvis is None or W2.pelvis is None
+            else np.concatenate([W1.pelvis, W2.pelvis]),
         )
         for W1, W2 in zip(library.warped, own.warped, strict=True)
     )  # fmt: skip
+    both_ways = config.backwards
     return InbetweenLibrary(
-        merged(library.motions, own.motions), merged(library.names, own.names), library.up,
-        warped, library.frames + own.frames,
-        merged(library.backwards or (False,) * n1, own.backwards or (False,) * n2),
-        merged(library.file_frames or (1.0,) * n1, own.file_frames or (1.0,) * n2),
-        merged(library.floors, own.floors) if library.floors else (),
-        merged(library.first_frames or (0,) * n1, firsts * (2 if twice else 1)),
+        library.motions + own.motions, library.names + own.names, library.up, warped,
+        library.frames + own.frames, (library.backwards or (False,) * n1) + own.backwards,
+        (library.file_frames or (1.0,) * n1) + (own.file_frames or (1.0,) * n2),
+        library.floors + own.floors if library.floors else (),
+        (library.first_frames or (0,) * n1) + tuple(f for f, _ in pieces) * (n2 // len(pieces)),
+        tuple(library.reversed_of(i) for i in range(n1))
+        + tuple(n1 + own.reversed_of(j) for j in range(n2)) if both_ways else (),
     )  # fmt: skip
 
 
@@ -2569,16 +2570,15 @@ def averaged(
 def _reversed(res: Inbetween, lib: InbetweenLibrary) -> Inbetween:
     """``res``, the fill of the reversed clip's end, as the fill of the clip's start: the motion
     reversed, the gap and the junction scores mirrored, every library segment played the other
-    way (:func:`inbetween` for a gap at the clip's start; ``lib`` holds every clip both ways,
-    forwards first)."""
+    way (:func:`inbetween` for a gap at the clip's start; ``lib`` holds every clip both ways:
+    :meth:`InbetweenLibrary.reversed_of`)."""
     from dataclasses import replace
 
     F = res.motion.num_frames
     a, b = res.gap
     c = res.candidate
     if c is not None:  # the same frames of the library clip played the other way
-        n = len(lib.motions) // 2
-        other = (c.clip + n) % (2 * n)
+        other = lib.reversed_of(c.clip)
         last = lib.motions[c.clip].num_frames - 1
         c = replace(
             c,
