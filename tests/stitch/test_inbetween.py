@@ -993,7 +993,7 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
     assert f"{by_take[first]:.0%}" in line
     negative = sum(x["weight"] < -0.0005 for x in bf)
     assert negative >= 1 and f"{negative} count negatively" in line
-    assert f"from {len(bf)} library segments of {len(by_take)} take(s)" in so
+    assert f"from {len(bf)} segments of {len(by_take)} take(s)" in so
 
 
 def test_shares_by_take_names_a_clashing_file_by_its_path():
@@ -1333,7 +1333,8 @@ def test_kalman_needs_no_library(files, tmp_path, humanoid):
     code, _, se = run(
         "inbetween", files / "walk.bvh", "--gap", "60:75", "--out", tmp_path / "x.bvh"
     )
-    assert code == 2 and "--library is needed" in se and not (tmp_path / "x.bvh").exists()
+    assert code == 2 and "needs a library, or 1 s of the clip" in se, se
+    assert not (tmp_path / "x.bvh").exists()
 
 
 def test_foot_lock_holds_a_planted_foot_where_the_context_plants_it():
@@ -2090,3 +2091,24 @@ def test_a_second_fill_from_the_takes_own_frames_names_the_original_take(files, 
     got = read_motion(second)
     assert got.num_frames == walk.num_frames
     assert sum(Path(x).name == "walk_once.bvh" for x in p.inputs) == 1
+
+
+@pytest.mark.own_frames
+def test_a_take_long_enough_is_filled_from_itself_without_a_library(files, humanoid, tmp_path):
+    """No library (or the take itself as the only --library item, newcomer report: it said
+    'no library motion besides the clip'): the take's own frames beside the gap fill it; a
+    take without a second's stretch beside the gap gets one error line naming it."""
+    walk, _ = humanoid
+    res = inbetween(walk, (60, 90), None, up="Y", clip_name="walk")
+    assert res.method == "library" and set(res.library_names) == {"walk"}
+    P = forward_kinematics(walk)[0][60:90]
+    assert np.linalg.norm(forward_kinematics(res.motion)[0][60:90] - P, axis=-1).mean() < 2.0
+    for extra in ((), ("--library", files / "walk.bvh")):
+        out = tmp_path / f"self{len(extra)}.bvh"
+        code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", *extra,
+                           "--out", out)  # fmt: skip
+        assert code == 0 and out.exists(), se
+        assert "(the clip's own frames)" in so and "error" not in se
+    short = walk[:50]
+    with pytest.raises(ValueError, match=r"short: method 'auto' needs a library, or 1 s"):
+        inbetween(short, (20, 30), [], up="Y", clip_name="short")

@@ -50,7 +50,8 @@ from mocapkit.stitch.search import check_same_skeleton
     multiple=True,
     metavar="LIB",
     help="Library motion files or folders (their .bvh, .npz, .amc, .glb and .gltf files, "
-    "sub-folders included); repeatable; needed unless --method kalman.",
+    "sub-folders included); repeatable. Optional: CLIP's own frames beside the gap (each "
+    "stretch of at least 1 s) are searched with or without it.",
 )
 @click.option(
     "--method",
@@ -129,6 +130,7 @@ def inbetween_cmd(
       mocapkit inbetween walk.bvh --gap 60:90 --library lib/ --out walk_filled.bvh
       mocapkit inbetween walk.bvh --gap 2.0s:3.0s --library a.bvh --library b.bvh --out o.bvh
       mocapkit inbetween take.bvh --gap :20 --library lib/ --out take_start_filled.bvh
+      mocapkit inbetween long_take.bvh --gap 300:330 --out long_take_filled.bvh
     """
     from mocapkit.provenance import sidecar_path
     from mocapkit.stitch.inbetween import check_gap, inbetween
@@ -140,11 +142,11 @@ def inbetween_cmd(
     except RangeError as e:
         raise CLIError(str(e)) from None
     check_input_file(clip)
-    if not library and method != "kalman":
-        raise CLIError("--library is needed (only --method kalman fills a gap without one)")
     lib_paths, unnamed = expand_library(library, MOTION_SUFFIXES)
     others = [p for p in lib_paths if not same_file(p, clip)]
-    fails = not others and method != "kalman"
+    # library items given, none of them usable (the clip itself alone is not a failure: its
+    # own frames beside the gap are searched anyway)
+    fails = bool(unnamed) and not others and method != "kalman"
     # a library job goes on past a bad --library item, one line each; where none is left, the
     # error line names the first (not said twice)
     for why in unnamed[1:] if fails else unnamed:
@@ -157,10 +159,8 @@ def inbetween_cmd(
         )
         lib_paths = others
     if fails:
-        if unnamed:
-            more = f"; {len(unnamed) - 1} more above" if len(unnamed) > 1 else ""
-            raise CLIError(f"--library: no usable library file ({unnamed[0]}{more})")
-        raise CLIError("--library: no library motion besides the clip")
+        more = f"; {len(unnamed) - 1} more above" if len(unnamed) > 1 else ""
+        raise CLIError(f"--library: no usable library file ({unnamed[0]}{more})")
     check_outputs(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
         [clip, *lib_paths],
@@ -185,7 +185,7 @@ def inbetween_cmd(
             kept.append((p, m))
         except ValueError as e:
             skipped.append(one_line(e))
-    none_kept = not kept and method != "kalman"
+    none_kept = bool(skipped) and not kept and method != "kalman"
     for why in skipped[1:] if none_kept else skipped:
         click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
     if none_kept:
@@ -255,12 +255,12 @@ def inbetween_cmd(
         say(
             f"filled frames {a}:{b} from {res.source} (L-score of its junction with the clip at "
             f"frame {at}: {res.library_lscore:.6g}; a gap at the clip's "
-            f"{'start' if a == 0 else 'end'} is filled from the library alone, free at the "
-            f"{'first' if a == 0 else 'last'} frame)"
+            f"{'start' if a == 0 else 'end'} is filled from its one side by the best segment, "
+            f"free at the {'first' if a == 0 else 'last'} frame)"
         )
     else:
         n = len(res.blended_from)
-        what = res.source if n == 1 else f"{n} library segments of {len(takes)} take(s)"
+        what = res.source if n == 1 else f"{n} segments of {len(takes)} take(s)"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
             scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}"

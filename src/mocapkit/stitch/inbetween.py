@@ -878,7 +878,7 @@ def own_pieces(
 
 
 def with_own_frames(
-    library: InbetweenLibrary,
+    library: InbetweenLibrary | None,
     clip: Motion,
     a: int,
     b: int,
@@ -891,16 +891,22 @@ def with_own_frames(
     after its motions as library clips named ``clip_name`` (their frames numbered as the
     clip's: :attr:`InbetweenLibrary.first_frames`), so the library's own indices stay as they
     were; ``library`` itself where :attr:`InbetweenConfig.own_frames` is off or no stretch is
-    long enough. ValueError where ``library`` was searched both ways and ``config`` says
-    otherwise (or the reverse)."""
+    long enough. ``library`` None: the clip's pieces alone (None where there are none).
+    ValueError where ``library`` was searched both ways and ``config`` says otherwise (or the
+    reverse)."""
+    from dataclasses import replace
+
     pieces = own_pieces(clip, a, b, future_frames) if config.own_frames else []
     if not pieces:
         return library
-    if any(library.backwards) != config.backwards:
+    if library is not None and any(library.backwards) != config.backwards:
         raise ValueError("the library was prepared with another 'backwards' than the config's")
     own = prepare_library(
         [m for _, m in pieces], clip, [str(clip_name)] * len(pieces), up=up, config=config
     )
+    own = replace(own, first_frames=tuple(f for f, _ in pieces) * (len(own.motions) // len(pieces)))
+    if library is None:
+        return own
     n1, n2 = len(library.motions), len(own.motions)
     warped = tuple(
         _Warped(
@@ -918,7 +924,7 @@ def with_own_frames(
         library.frames + own.frames, (library.backwards or (False,) * n1) + own.backwards,
         (library.file_frames or (1.0,) * n1) + (own.file_frames or (1.0,) * n2),
         library.floors + own.floors if library.floors else (),
-        (library.first_frames or (0,) * n1) + tuple(f for f, _ in pieces) * (n2 // len(pieces)),
+        (library.first_frames or (0,) * n1) + own.first_frames,
         tuple(library.reversed_of(i) for i in range(n1))
         + tuple(n1 + own.reversed_of(j) for j in range(n2)) if both_ways else (),
     )  # fmt: skip
@@ -2439,8 +2445,6 @@ def inbetween(
         raise ValueError(f"future_frames must be >= 1, got {future_frames}")
     up = up or features.detect_up_axis(clip)
     no_library = library is None or (isinstance(library, (list, tuple)) and not library)
-    if no_library and method != "kalman":
-        raise ValueError(f"method {method!r} needs a library (only 'kalman' works without)")
     F = clip.num_frames
     one_sided = a == 0 or b == F
     if one_sided and method == "kalman":
@@ -2449,8 +2453,15 @@ def inbetween(
             "Kalman transition needs context on both sides of the gap; fill it from a library"
         )
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
-    if lib is not None and not _own_added:
+    if not _own_added and (lib is not None or method != "kalman"):
         lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames)
+    if lib is None and method != "kalman":
+        raise ValueError(
+            f"{clip_name}: method {method!r} needs a library, or {OWN_PIECE_MIN_SECONDS:g} s "
+            f"of the clip before or after the gap {a}:{b} to search"
+            f"{'' if config.own_frames else ' (InbetweenConfig.own_frames is off)'}"
+            " (only 'kalman' works without)"
+        )
     if a == 0:  # the reversed clip's end, filled from the library played the other way
         if lib is not None and not any(lib.backwards):
             raise ValueError(

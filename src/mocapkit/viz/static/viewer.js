@@ -674,7 +674,7 @@
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
-      blended.length > 1 ? 'by combining ' + blended.length + ' library segments of ' + takes.length + ' take(s), by take: ' +
+      blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + takes.length + ' take(s), by take: ' +
         takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
         ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); best match: ' +
         segText(blended[0]) + '; every segment in the sidecar' :
