@@ -245,9 +245,9 @@ def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     from mocapkit.stitch.inbetween import inbetween
 
     walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
-    lib = [datasets.procedural_motion("walk", 6.0, seed=s).motion for s in (1, 2)]
+    lib = [datasets.procedural_motion(k, 6.0, seed=s).motion for k, s in (("idle", 1), ("run", 2))]
     out = tmp_path / "filled.bvh"
-    res = inbetween(walk, (60, 90), lib, up="Y", output=str(out))
+    res = inbetween(walk, (60, 90), lib, up="Y", output=str(out), clip_name="walk.bvh")
     write_motion(res.motion, out)
     page = write_page(
         tmp_path / "filled.html", [ViewMotion(res.motion, str(out), provenance=res.provenance(out))]
@@ -263,4 +263,8 @@ def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     text = b.eval("document.body.innerText")
     assert f"of {len(shares_by_take(res.blended_from))} take(s), by take: {name} " in text
     assert f"{name} {round(100 * share)}%" in text
+    # the walk repeats one cycle and the library holds no walk: its own frames beside the gap
+    # are the best match, and the page says they are the take's own
+    assert res.blended_from[0]["source"] == "walk.bvh"
+    assert "best match: walk.bvh (the take's own frames) frames" in text
     _assert_no_errors(b)

@@ -665,7 +665,7 @@
   if (stitch && stitch.kind === 'inbetween') {
     var pct = function (w) { var r = Math.round(100 * Number(w)); return (r === 0 ? 0 : r) + '%'; };
     var segText = function (x) {
-      return base(x.data) + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '') +
+      return base(x.data) + (stitch.query && x.data === stitch.query ? ' (the take\'s own frames)' : '') + ' frames ' + x.frames[0] + '\u2013' + (x.frames[1] - 1) + (x.backwards ? ' played backwards' : '') +
         (x.rate != null && Number(x.rate) !== 1 ? ' at speed \u00d7' + Number(x.rate) : '') +
         (x.weight != null ? ' (weight ' + pct(x.weight) + ')' : '');
     };
