@@ -108,7 +108,7 @@ def inbetween_cmd(
     1.5 s is filled by the best segment alone (combined segments drift out of step over a few
     strides, and their feet slide). The legs are then
     fitted by IK: planted feet held and raised onto the clip's floor (as far as the legs may
-    turn at 180 deg/s, so a fill from an unlike library can leave a foot a little low), swinging
+    turn at 360 deg/s, so a fill from an unlike library can leave a foot a little low), swinging
     feet passing over it no lower than the segments lifted them. The gap needs at least 3 frames
     of the clip before it and 1 after it, or is at the clip's start (0:B, 3 frames after it) or
     end (A:F, 3 frames before it): such a gap is filled from the one side, by the best segment

@@ -283,7 +283,7 @@ class InbetweenConfig:
     report: Foot_L 40-81 deg in one frame on Bandai-1 walk-back/walk-left fills; now within 3
     deg of the fill's own largest step); tuning takes at 15, 30, 45 frames: L2P 2.160, 2.594,
     3.169 and foot skate 38.3, 38.8, 40.9 cm/s (38.6, 39.3, 41.5 before)."""
-    lock_max_speed_deg: float = 180.0
+    lock_max_speed_deg: float = 360.0
     """Fastest the foot lock's corrections of the legs may turn (degrees per second), as
     :attr:`blend_max_speed_deg` limits the end offsets: a hold let go of within a frame or two
     snapped a knee (see there). Slower, the lock lags its holds and the feet slide; faster, the
@@ -303,7 +303,14 @@ class InbetweenConfig:
     32.8, 32.9 / 32.0, 32.4 / 31.6 cm/s (the takes' own 31.9 / 32.2). On the benchmark's
     tuning windows 180 against 90 (both smoothed): foot skate at 5 / 15 / 30 / 45 frames 25.9
     / 34.7 / 36.4 / 40.6 -> 25.8 / 33.1 / 34.8 / 38.7 (person and gait left out) and 25.8 /
-    31.8 / 32.1 / 32.1 -> 25.7 / 30.6 / 30.9 / 31.2 (person), L2P within 0.3%."""
+    31.8 / 32.1 / 32.1 -> 25.7 / 30.6 / 30.9 / 31.2 (person), L2P within 0.3%. 360 against
+    180 (session 36, smoothed; at 15 / 30 frames): foot skate 33.09 / 34.80 -> 32.65 / 34.02
+    cm/s (person and gait left out) and 30.55 / 30.91 -> 30.23 / 30.37 (person), L2P within
+    0.1%, the legs' largest angular acceleration in a window (median / 99th percentile /
+    largest, degrees per frame²) the same to 0.2 (12.6 / 25.4 / 25.6 and 13.3 / 32.3 / 38.8
+    at 180, 12.8 / 25.4 / 25.6 and 13.4 / 32.3 / 38.8 at 360; the truth's 18.9 / 38.6 / 38.9
+    and 20.7 / 40.1 / 43.2): smoothed, the faster limit adds no jolt, and the lock keeps up
+    with its holds; 720 gave the same as 360."""
     lock_smooth_seconds: float = 1.0 / 30.0
     """The foot lock's corrections of the legs are smoothed over frames by a Gaussian this wide
     (its sigma, seconds; :func:`_smoothed_correction`; 0: off). Relies on: a captured joint
