@@ -2430,9 +2430,11 @@ def inbetween(
 ) -> Inbetween:
     """Replace frames ``A..B-1`` of ``clip`` (``gap`` = ``(A, B)`` or ``"A:B"``) by motion found
     in ``library`` (motions, or an :class:`InbetweenLibrary` from :func:`prepare_library` to
-    reuse over many gaps); see the module docstring. ``future_frames`` limits how many frames
-    from B on the method may look at (default: the L-score window). Frames before A and from B
-    on are returned unchanged. ``method``: "auto" (the library, or the Kalman transition when
+    reuse over many gaps; None or empty: the clip's own frames beside the gap alone, ValueError
+    where it has no stretch long enough); see the module docstring. ``future_frames`` limits
+    how many frames from B on the method may look at (default: the L-score window for the
+    junction's scores, every frame for the clip's own frames searched). Frames before A and
+    from B on are returned unchanged. ``method``: "auto" (the library, or the Kalman transition when
     the best candidate's two-sided L-score is more than ``config.fallback_margin`` times the
     Kalman transition's own, ``config.fallback`` is on and the gap is within
     ``config.kalman_max_seconds``), "library" (never fall back) or "kalman" (the Kalman
