@@ -492,32 +492,6 @@ def test_fallback_when_kalman_scores_lower(humanoid):
     assert high.method == "library"
 
 
-@pytest.mark.parametrize("twist_deg", [-25.0, 12.0, 35.0])
-def test_the_ground_warp_turns_the_path_by_the_chords_and_the_body_by_the_facings(twist_deg):
-    """A segment whose path is the context's but whose body faces ``twist_deg`` off at its end
-    (the pelvis turned there, as it swings with a step): warped onto the context, its pelvis
-    path is the context's (turned by the facings' angle, it would bow out sideways), and its
-    body faces as the context does at the end."""
-    from mocapkit import features
-    from mocapkit.stitch.inbetween import _ground_warp
-
-    walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
-    a, b = 60, 90
-    seg = walk[a - 1 : b + 1].copy()
-    yaw = rot.rotvec_to_quat(np.array([0.0, np.radians(twist_deg), 0.0]))
-    seg.rotations[-1, 0] = rot.quat_mul(yaw, seg.rotations[-1, 0])
-    out = _ground_warp(seg, walk, a - 1, b, "Y")
-    path = features.root_trajectory(out, "Y")
-    truth = features.root_trajectory(walk[a - 1 : b + 1], "Y")
-    assert np.abs(path - truth).max() < 1e-6 * np.abs(truth).max()
-
-    def heading(m):  # degrees, at the last frame
-        return np.degrees(np.arctan2(*features.facing_directions(m, "Y")[-1, [0, 2]]))
-
-    assert abs(heading(out) - heading(walk[: b + 1])) < 1e-6
-    assert abs(heading(seg) - heading(walk[: b + 1])) > 0.9 * abs(twist_deg)
-
-
 def test_backward_walk_from_forward_library(humanoid):
     """A walk played backwards is filled from the forward walks played backwards: the library
     copy that is the gap's own frames reversed is found, named by the file's frames (ascending)

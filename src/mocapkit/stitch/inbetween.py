@@ -82,12 +82,10 @@ library frames passed over. The readable twin is tests/stitch/inbetween_naive.py
 rotations, lerp of translations) and moved over the ground by a transform that varies along the
 gap: at i = 0 it puts the segment's pelvis ground position and facing on the context's at A-1,
 at i = g+1 on the context's at B, in between the heading and position corrections grow linearly
-with i; the pelvis path is turned by the angle between the segment's and the context's chords
-(pelvis A-1 to B), not by the facings' (:func:`_ground_warp`). The remaining differences of
-every joint's local rotation (``log(q_ctx q_seg⁻¹)``) and local translation at both ends are
-then blended in (inertialization: each end's offset fades over
-:attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights; a joint's larger
-rotation offset over more frames, so that the correction turns it no faster than
+with i. The remaining differences of every joint's local rotation (``log(q_ctx q_seg⁻¹)``) and
+local translation at both ends are then blended in (inertialization: each end's offset fades
+over :attr:`InbetweenConfig.blend_seconds` from its end, with smoothstep weights; a joint's
+larger rotation offset over more frames, so that the correction turns it no faster than
 :attr:`InbetweenConfig.blend_max_speed_deg`), so frames A-1 and B of the result are the
 context's exactly and the frames between are the library's motion turned by a share of the two
 ends' mean rotation offset held across the middle (:attr:`InbetweenConfig.offset_keep`: the
@@ -1477,13 +1475,6 @@ def _offset_blend(
     return out_r, out_t
 
 
-CHORD_MIN_M = 0.2
-"""The ground warp turns a segment's path by its chord (:func:`_ground_warp`) when both
-chords are at least twice this long, by the facings below this, and by a blend of the two
-between: the pelvis sways 2-3 cm to each side of a walk's line, which sets a chord's direction
-to within about 4 degrees at 0.4 m, and a body turning on the spot has no chord to go by."""
-
-
 def _ground_warp(
     seg: Motion,
     ctx: Motion,
@@ -1497,24 +1488,7 @@ def _ground_warp(
     putting its frame ``before`` on ``ctx[i_start]`` (pelvis ground position and facing) to the
     one putting its frame n-1-``after`` on ``ctx[i_end]``; ``i_end`` None: by the first alone.
     The ``before`` and ``after`` frames beyond them go along (the growth carried on), so that
-    the segment's velocity there can be read.
-
-    The body's heading turns by the facings' difference at the end (spread linearly), the
-    pelvis path by the angle between the two chords, the segment's pelvis start to end and the
-    context's from ``i_start`` to ``i_end`` (:data:`CHORD_MIN_M`), then stretched along the
-    context's to meet its end. Relies on: the facing swings with every step (the pelvis and
-    trunk turn by several degrees each way at a walk), so the facings of two frames in
-    different phases of a step differ by more than the paths turn: on the tuning windows the
-    two angles differed by 6 degrees in half the segments and by over 28 in a tenth, and
-    turning the path by the facings' angle bowed it out sideways, 7.6 cm RMS from the chord at
-    30 frames against the capture's 5.0 (tuning windows, the take's person and gait left out
-    of the library; turned by the chord, 4.8). L2P at 5 / 15 / 30 / 45 frames 0.848 / 2.316 /
-    3.296 / 4.214 by the facings, 0.848 / 2.236 / 3.124 / 3.969 by the chords; with the
-    person left out, 0.724 / 1.912 / 2.605 / 3.117 and 0.722 / 1.868 / 2.590 / 2.950. Turning
-    the body by the chord's angle too was as good (within 0.01 of interpolation's L2P but at
-    45 frames with the gait left out, 0.609 against 0.618) and would turn a body whose segment
-    travels another way from its facing than the context's (a forward walk filling a side
-    step) away from the context's facing."""
+    the segment's velocity there can be read."""
     from mocapkit import features
 
     n = seg.num_frames
@@ -1523,35 +1497,18 @@ def _ground_warp(
     if i_end is None:
         return moved
     T1 = features.ground_alignment(ctx, i_end, moved, n - 1 - after, up=up)
-    side, upv, fwd = features.ground_frame(up)
-
-    def pelvis_on_ground(m: Motion, i: int) -> np.ndarray:
-        p = features.root_trajectory(m[i : i + 1], up)[0]
-        return p[0] * side + p[1] * fwd
-
-    p0 = pelvis_on_ground(moved, before)
-    chord_seg = pelvis_on_ground(moved, n - 1 - after) - p0
-    chord_ctx = pelvis_on_ground(ctx, i_end) - p0
-    mpu = features.metres_per_unit(ctx, None)
-    shorter = min(np.linalg.norm(chord_seg), np.linalg.norm(chord_ctx)) * mpu
-    by_chord = float(np.clip(shorter / CHORD_MIN_M - 1.0, 0.0, 1.0))
-    cross, dot = float(np.cross(chord_seg, chord_ctx) @ upv), float(chord_seg @ chord_ctx)
-    chord_turn = math.atan2(cross, dot)
-    path_turn = T1.angle + by_chord * math.remainder(chord_turn - T1.angle, 2.0 * math.pi)
-    # spread along the segment: the path turned by u·path_turn about the start pelvis, then
-    # moved by u times what puts its end pelvis on the context's; the body turned by u·dθ
+    # T1 = rotation by dθ about the origin then a translation; spread it along the segment as a
+    # rotation by u·dθ about the start pelvis then the translation that makes u = 1 exact.
+    p0 = features.root_trajectory(moved[before : before + 1], up)[0]
+    side, _, fwd = features.ground_frame(up)
+    p0_3 = p0[0] * side + p0[1] * fwd
     u = (np.arange(n) - before) / max(n - 1 - before - after, 1)
-    turned_end = features.GroundTransform(path_turn, np.zeros(3), up).apply(chord_seg)
-    resid = chord_ctx - turned_end
+    resid = T1.apply(p0_3) - p0_3  # where T1 moves the start pelvis (rotation included)
     out = moved.copy()
-
-    def turns(angle: float) -> np.ndarray:
-        ground = features.GroundTransform
-        return np.stack([ground(x, np.zeros(3), up).quaternion for x in u * angle])
-
-    root = moved.root_positions - p0
-    out.root_positions = rot.quat_apply(turns(path_turn), root) + p0 + u[:, None] * resid[None]
-    out.rotations[:, 0] = rot.quat_mul(turns(T1.angle), moved.rotations[:, 0])
+    q = np.stack([features.GroundTransform(a, np.zeros(3), up).quaternion for a in u * T1.angle])
+    root = moved.root_positions - p0_3
+    out.root_positions = rot.quat_apply(q, root) + p0_3 + u[:, None] * resid[None]
+    out.rotations[:, 0] = rot.quat_mul(q, moved.rotations[:, 0])
     if out.translations is not None:
         out.translations[:, 0] = out.root_positions
     return out
