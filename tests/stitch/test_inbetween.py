@@ -1377,6 +1377,39 @@ def test_foot_lock_holds_a_planted_foot_where_the_context_plants_it():
     np.testing.assert_array_equal(out.rotations[b:], drift.rotations[b:])
 
 
+def test_foot_lock_holds_a_planted_foot_through_a_short_gap():
+    """A 5-frame gap inside a foot's contact, filled with a drift of the body away and back:
+    the lock keeps the foot within a third of the slide the fill gives it (the hold fades in
+    and out over :attr:`InbetweenConfig.lock_ramp_seconds`, leaving a short gap held)."""
+    from dataclasses import replace
+
+    from mocapkit.features import foot_contacts
+    from mocapkit.stitch.inbetween import _lock_feet
+
+    walk = datasets.procedural_motion("walk", 4.0, seed=5).motion
+    con = foot_contacts(walk, up="Y")
+    k = 0
+    runs = np.flatnonzero(np.diff(con.contacts[:, k].astype(int)) == 1) + 1
+    start = int(next(r for r in runs if r > 40))
+    stop = start + int(np.argmin(con.contacts[start:, k]))
+    a, b = start + 1, start + 6
+    assert b + 1 < stop
+    drift = walk.copy()
+    u = np.sin(np.pi * np.clip((np.arange(walk.num_frames) - (a - 1)) / (b - a + 1), 0, 1))
+    drift.root_positions = walk.root_positions + u[:, None] * np.array([0.04, 0.0, 0.0])
+    out = _lock_feet(drift, a, b, "Y", replace(DEFAULT_CONFIG, foot_lock=True))
+    foot = int(con.joints[k])
+    P, _ = forward_kinematics(out)
+    D, _ = forward_kinematics(drift)
+    T, _ = forward_kinematics(walk)
+
+    def slide(X):  # the foot's ground path over frames a-1..b, less the capture's
+        return np.abs(X[a - 1 : b + 1, foot][:, [0, 2]] - T[a - 1 : b + 1, foot][:, [0, 2]]).max()
+
+    assert slide(D) > 0.03
+    assert slide(P) < slide(D) / 3
+
+
 def test_a_foot_lock_correction_that_turns_the_other_way_is_spread_over_frames():
     """Newcomer report: the lock's correction of a foot went from -18 deg to +21.5 deg about
     one axis between two frames, a 40 deg snap that a cap on its size alone let through."""
