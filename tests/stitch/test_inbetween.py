@@ -1379,8 +1379,8 @@ def test_foot_lock_holds_a_planted_foot_where_the_context_plants_it():
 
 def test_foot_lock_holds_a_planted_foot_through_a_short_gap():
     """A 5-frame gap inside a foot's contact, filled with a drift of the body away and back:
-    the lock keeps the foot within a third of the slide the fill gives it (the hold fades in
-    and out over :attr:`InbetweenConfig.lock_ramp_seconds`, leaving a short gap held)."""
+    the lock keeps the foot within 38% of the slide the fill gives it (the hold fades in and
+    out over :attr:`InbetweenConfig.lock_ramp_seconds`: 31% at 1/15 s, 45% at 0.1 s)."""
     from dataclasses import replace
 
     from mocapkit.features import foot_contacts
@@ -1407,7 +1407,7 @@ def test_foot_lock_holds_a_planted_foot_through_a_short_gap():
         return np.abs(X[a - 1 : b + 1, foot][:, [0, 2]] - T[a - 1 : b + 1, foot][:, [0, 2]]).max()
 
     assert slide(D) > 0.03
-    assert slide(P) < slide(D) / 3
+    assert slide(P) < 0.38 * slide(D)
 
 
 def test_a_foot_lock_correction_that_turns_the_other_way_is_spread_over_frames():
