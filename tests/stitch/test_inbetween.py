@@ -1410,6 +1410,32 @@ def test_foot_lock_holds_a_planted_foot_through_a_short_gap():
     assert slide(P) < 0.38 * slide(D)
 
 
+def test_swing_clearance_raises_a_swinging_foot_and_leaves_one_standing_on_something():
+    """A free foot the library segments lifted higher than the fill does is raised to their
+    clearance only while it swings: one standing still off the floor (on a box, which the
+    contact detector, assuming a flat floor, does not call planted) keeps the fill's height
+    (newcomer report: CMU 03_01's foot on a box slid 11 cm over a 0.1 s gap)."""
+    from mocapkit.features import character_height
+    from mocapkit.stitch.inbetween import SWING_SPEED_FRACTION, _swing_clearance
+
+    ex = datasets.procedural_motion("walk", 1.0, seed=5).motion
+    F = ex.num_frames
+    speed = 1.5 * SWING_SPEED_FRACTION * character_height(ex, "Y")  # units per second
+    still = np.tile([0.0, 40.0, 0.0], (F, 1))  # standing 40 units up, not moving
+    moving = still.copy()
+    moving[:, 0] = np.arange(F) * speed * ex.frame_time
+    pos = np.stack([still, moving], axis=1)  # (F, 2, 3)
+    planted = np.zeros((F, 2), bool)
+    targets, weights = pos.copy(), np.zeros((F, 2))
+    clearance = np.full((F, 2), 60.0)  # the segments had both feet higher there
+    known = np.ones((F, 2), bool)
+    t, w = _swing_clearance(ex, pos, planted, targets, weights, "Y", clearance, known)
+    np.testing.assert_array_equal(t[:, 0], pos[:, 0])
+    assert not w[:, 0].any()
+    np.testing.assert_allclose(t[:, 1, 1], 60.0)
+    assert (w[:, 1] == 1.0).all()
+
+
 def test_a_foot_lock_correction_that_turns_the_other_way_is_spread_over_frames():
     """Newcomer report: the lock's correction of a foot went from -18 deg to +21.5 deg about
     one axis between two frames, a 40 deg snap that a cap on its size alone let through."""

@@ -1760,9 +1760,20 @@ def _onto_floor(ex: Motion, pos, flags, gap, targets, weights, up: str, floor: n
     return targets, weights
 
 
+SWING_SPEED_FRACTION = 0.6
+"""A foot joint moving slower than this many character heights per second is not swinging
+(:func:`_swing_clearance`): the speed test of :func:`mocapkit.features.foot_contacts`, which
+tells a planted foot from a swinging one. A swinging foot moves at 2-4 m/s mid-swing; a slow
+foot off the floor stands on something the floor is not, or hovers (newcomer report: CMU
+03_01, uneven ground, a foot standing still 42 cm up on a box, not planted for the contact
+detector, which assumes a flat floor, was raised towards the library segments' clearance and
+slid 11 cm over a 0.1 s gap, 0.5 cm left alone; now 0.5 cm)."""
+
+
 def _swing_clearance(ex: Motion, pos, planted, targets, weights, up: str, clearance, known):
-    """``targets`` and ``weights`` of :func:`_lock_feet` with each filled frame's free foot joint
-    (``planted`` False, ``known`` True) that the lock aims lower (its target as far as its
+    """``targets`` and ``weights`` of :func:`_lock_feet` with each filled frame's swinging foot
+    joint (``planted`` False, ``known`` True, moving at :data:`SWING_SPEED_FRACTION` or faster)
+    that the lock aims lower (its target as far as its
     weight pulls: the floor raise of :func:`_onto_floor` included) than ``clearance`` (F, n),
     the height its library segments had there above their own floor put on the clip's, aimed
     at that height instead, fully, where the difference is over :data:`FLOOR_TOLERANCE_M`. A
@@ -1781,12 +1792,16 @@ def _swing_clearance(ex: Motion, pos, planted, targets, weights, up: str, cleara
     29.9 / 28.8. Only the segments whose foot is free at the frame counting: 28.5 / 33.6 /
     32.7 / 32.7, left out. The floors are the clips' whole takes' (a segment's own planted
     frames gave within 0.3 cm/s)."""
-    from mocapkit.features import ground_frame, metres_per_unit
+    from mocapkit.features import character_height, ground_frame, metres_per_unit
 
     _, u, _ = ground_frame(up)
     tol = FLOOR_TOLERANCE_M / metres_per_unit(ex, None)
     aim = pos + weights[..., None] * (targets - pos)  # where the lock (and floor) put the foot
-    rise = np.where(known & ~planted, clearance - aim @ u, 0.0)
+    # a foot the fill holds slow is not swinging, wherever it is: it stands on something the
+    # floor is not (a step, a box) or hovers (the contact detector's speed test)
+    speed = np.linalg.norm(np.gradient(pos, ex.frame_time, axis=0), axis=-1)
+    swinging = speed >= SWING_SPEED_FRACTION * character_height(ex, up)
+    rise = np.where(known & ~planted & swinging, clearance - aim @ u, 0.0)
     low = rise > tol
     if not low.any():
         return targets, weights
