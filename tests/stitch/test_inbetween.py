@@ -1902,6 +1902,7 @@ def test_a_fill_already_raised_onto_the_floor_is_not_raised_again_for_its_swings
     up = np.array([0.0, 1.0, 0.0])
     pos = np.zeros((4, 1, 3))
     pos[:, 0, 1] = [0.02, 0.02, 0.02, 0.02]  # a free toe 2 cm up
+    pos[:, 0, 0] = np.arange(4) * 0.1  # swinging forward at 3 m/s
     floor_rise = 0.01  # the floor raise: every frame aimed 1 cm higher, fully
     targets, weights = pos + floor_rise * up, np.ones((4, 1))
     weights[3] = 0.5  # half-way there on the last frame: aimed 0.5 cm higher
