@@ -1090,10 +1090,34 @@ def test_cli_goes_past_bad_library_files(files, tmp_path):
                        "--out", tmp_path / "q.bvh")  # fmt: skip
     assert code == 2 and (tmp_path / "q.bvh").exists() and "filled frames 60:75" in so
     assert "07_01.amc: cannot find its ASF" in se and "no usable library file" not in se
-    (lib / "good.bvh").unlink()
+    (lib / "good.bvh").unlink()  # none usable, and the clip's own frames not searched here
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library", lib,
                       "--out", tmp_path / "p.bvh")  # fmt: skip
     assert code == 2 and "no library motion with" in se and not (tmp_path / "p.bvh").exists()
+
+
+@pytest.mark.own_frames
+def test_cli_fills_from_the_clips_own_frames_when_no_library_file_is_usable(files, tmp_path):
+    """Every --library file unusable: the clip's own frames beside the gap fill it, as with
+    no --library (newcomer report: refused, though the library is optional), every file left
+    out is named and the exit status is 2; where the clip has no second beside the gap either,
+    one line says both."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "broken.bvh").write_text("HIERARCHY\nROOT\n")
+    write_motion(datasets.procedural_motion("walk", 2.0, seed=0).motion, lib / "other.bvh")
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library", lib,
+                       "--out", tmp_path / "p.bvh")  # fmt: skip
+    assert code == 2 and (tmp_path / "p.bvh").exists() and "(the clip's own frames)" in so
+    assert sum(x.startswith("mocapkit: error: left out") for x in se.splitlines()) == 2
+    short = tmp_path / "short.bvh"
+    write_motion(with_ground_root(datasets.procedural_motion("walk", 2.0, seed=3).motion), short)
+    code, _, se = run("inbetween", short, "--gap", "20:35", "--library", lib,
+                      "--out", tmp_path / "s.bvh")  # fmt: skip
+    last = se.strip().splitlines()[-1]
+    assert code == 2 and not (tmp_path / "s.bvh").exists() and "Traceback" not in se
+    assert "no library motion with" in last and "2 file(s) left out above" in last, last
+    assert "1 s of the clip" in last, last
 
 
 def test_gap_longer_than_library(humanoid, tmp_path):

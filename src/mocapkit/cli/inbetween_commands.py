@@ -185,21 +185,24 @@ def inbetween_cmd(
             kept.append((p, m))
         except ValueError as e:
             skipped.append(one_line(e))
+    # none kept: the clip's own frames beside the gap may still fill it, as with no --library
     none_kept = bool(skipped) and not kept and method != "kalman"
-    for why in skipped[1:] if none_kept else skipped:
+    for why in skipped:
         click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
-    if none_kept:
-        why = f" ({skipped[0]}{f'; {len(skipped) - 1} more above' if len(skipped) > 1 else ''})"
-        raise CLIError(
-            f"--library: no library motion with {clip}'s skeleton could be read"
-            f"{why if skipped else ''}"
-        )
     lib_paths, lib = [p for p, _ in kept], [m for _, m in kept]
     with naming(clip, *lib_paths):
-        res = inbetween(
-            q, (a, b), lib, library_names=[str(p) for p in lib_paths], method=method, up=up,
-            clip_name=clip, output=out_path,
-        )  # fmt: skip
+        try:
+            res = inbetween(
+                q, (a, b), lib, library_names=[str(p) for p in lib_paths], method=method, up=up,
+                clip_name=clip, output=out_path,
+            )  # fmt: skip
+        except ValueError as e:
+            if not none_kept:
+                raise
+            raise CLIError(
+                f"--library: no library motion with {clip}'s skeleton could be read ("
+                f"{len(skipped)} file(s) left out above), and {one_line(e)}"
+            ) from None
     c = res.candidate
     if c is not None and res.source_frames is not None:
         s0, s1 = res.source_frames
