@@ -116,7 +116,11 @@ def view_cmd(
         page = view_files(
             kept, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units, motions
         )
-    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
+    # say which sidecars the page read (newcomer: nothing said that the filled frames are marked)
+    read = [x.name for x in map(existing_sidecar, kept) if x is not None]
+    verb = "names" if len(read) == 1 else "name"
+    marks = f"; the frames and sources that {', '.join(read)} {verb} are marked" if read else ""
+    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB{marks})")
     if open_page:
         webbrowser.open(page.resolve().as_uri())
     if bad:
