@@ -1687,6 +1687,42 @@ def test_the_foot_lock_leaves_a_fill_that_is_the_capture_itself(humanoid, shared
         assert res.difference_to(clip) < 1e-6
 
 
+@pytest.mark.own_frames
+def test_a_cmu_fill_keeps_a_foot_standing_on_a_box_and_its_json_says_the_unit_is_lost(
+    shared_path, tmp_path
+):
+    """CMU 03_01 (uneven ground, 120 fps), 1.0 s to 1.1 s filled from 03_02-04 (newcomer
+    report): the right foot stands still on a box 42 cm up, which the contact detector (a flat
+    floor) does not call planted; the swing clearance raised it as a swinging foot and it slid
+    11 cm over the gap (the take's own 0.8). And the BVH written cannot state the ASF's unit:
+    standard error said so, the ``--json`` result did not."""
+    from mocapkit.core.kinematics import forward_kinematics
+
+    folder = shared_path("cmu-asfamc/03")
+    clip = folder / "03_01.amc"
+    out = tmp_path / "filled.bvh"
+    lib = [str(folder / f"03_0{i}.amc") for i in (2, 3, 4)]
+    args = ["inbetween", clip, "--gap", "1.0s:1.1s", "--out", out, "--json", "-"]
+    code, so, se = run(*args, *[x for p in lib for x in ("--library", p)])
+    assert code == 0, se
+    js = json.loads(so)
+    assert any("cannot be stated in a BVH file" in w for w in js["warnings"]), js["warnings"]
+    take = read_motion(clip)
+    cm = take.skeleton.metres_per_unit * 100
+    a, b = js["gap"]
+    P = forward_kinematics(take)[0] * cm
+    Q = forward_kinematics(read_motion(out))[0] * cm  # the same numbers, in the ASF's unit
+    feet = [take.skeleton.index(n) for n in ("rfoot", "rtoes", "lfoot", "ltoes")]
+    t = np.arange(a, b + 1)
+    still = np.linalg.norm(P[t][:, feet] - P[t - 1][:, feet], axis=-1) * take.fps < 15
+
+    def step(X):  # each foot joint's ground step into frames a..b (cm)
+        return np.linalg.norm(X[t][:, feet][..., [0, 2]] - X[t - 1][:, feet][..., [0, 2]], axis=-1)
+
+    assert still.sum() >= 10  # the foot on the box, through the gap
+    assert step(P)[still].sum() < 1.0 and step(Q)[still].sum() < 2.0
+
+
 def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humanoid):
     """A library person whose pelvis sits lower (knees bent more, feet on the same ground):
     the fill's pelvis stays at the clip's level through the middle of the gap, and the feet

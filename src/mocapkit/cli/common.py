@@ -10,6 +10,7 @@ import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
@@ -72,6 +73,21 @@ def _warning_lines(caught: Sequence[warnings.WarningMessage]) -> list[str]:
     return lines
 
 
+_CAUGHT: ContextVar[list[warnings.WarningMessage] | None] = ContextVar(
+    "mocapkit_cli_warnings", default=None
+)
+"""The warnings the running command (:func:`friendly_errors`) has caught so far."""
+
+
+def warnings_so_far() -> list[str]:
+    """The warnings the running command has raised so far, as its end prints them, less the
+    ``mocapkit:`` prefix (``warning: ...``, ``repaired: ...``): for a ``--json`` result to say
+    what standard error says (newcomer report: a CMU take written as BVH, whose unit a BVH file
+    cannot state, was warned about on standard error only). Empty outside a command."""
+    caught = _CAUGHT.get()
+    return [] if caught is None else [x.removeprefix("mocapkit: ") for x in _warning_lines(caught)]
+
+
 def one_line(message: object) -> str:
     """``message`` on one line (newlines and runs of blanks become one space)."""
     return " ".join(str(message).split())
@@ -112,6 +128,7 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
     def run(*args: Any, **kwargs: Any) -> Any:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
+            token = _CAUGHT.set(caught)
             try:
                 result = fn(*args, **kwargs)
             except click.exceptions.Exit:
@@ -135,6 +152,8 @@ def friendly_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             except (ValueError, KeyError, ImportError) as e:
                 _flush_warnings(caught, repairs_only=True)
                 raise CLIError(one_line(exception_text(e))) from None
+            finally:
+                _CAUGHT.reset(token)
             _flush_warnings(caught)
             return result
 

@@ -24,6 +24,7 @@ from mocapkit.cli.common import (
     report_lines,
     up_option,
     warn_if_up_disagrees,
+    warnings_so_far,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
@@ -281,7 +282,8 @@ def inbetween_cmd(
         side = _traced(res.provenance(out_path, {"gap_spec": gap}), clip, q.num_frames)
         side = side.write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
-        result = {**res.to_json(), "skipped": [*unnamed, *skipped]}
+        # what standard error will say too (the writer's: a unit BVH cannot state)
+        result = {**res.to_json(), "skipped": [*unnamed, *skipped], "warnings": warnings_so_far()}
         if json_path and json_path != "-":
             write_json(json_path, result)
             wrote.append(f"wrote {json_path}")
