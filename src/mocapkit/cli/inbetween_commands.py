@@ -121,10 +121,12 @@ def inbetween_cmd(
     the gap by more than 12 cm RMS per joint: the library then holds nothing like the motion
     around the gap. OUT gets a provenance sidecar naming the library files and frames used
     (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
-    before), the earlier fills are traced into it. --json writes the same with the scores. A
-    library file that cannot be read, or has another skeleton, gets one error line and is left
-    out; the gap is still filled from the others, and the exit status is then 2. CLIP and
-    library files may be .bvh, .npz or CMU .amc (with its subject's .asf beside it).
+    before), the earlier fills are traced into it. --json writes the same with the scores and
+    the warnings printed (``warnings``: a CMU take written as BVH, whose unit BVH cannot state,
+    among them). A library file that cannot be read, or has another skeleton, gets one error
+    line and is left out; the gap is still filled from the others (the clip's own frames, if
+    none is left), and the exit status is then 2. CLIP and library files may be .bvh, .npz or
+    CMU .amc (with its subject's .asf beside it).
 
     \b
     Examples:
