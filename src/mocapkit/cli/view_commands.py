@@ -116,11 +116,7 @@ def view_cmd(
         page = view_files(
             kept, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units, motions
         )
-    # say which sidecars the page read (newcomer: nothing said that the filled frames are marked)
-    read = [x.name for x in map(existing_sidecar, kept) if x is not None]
-    verb = "names" if len(read) == 1 else "name"
-    marks = f"; the frames and sources that {', '.join(read)} {verb} are marked" if read else ""
-    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB{marks})")
+    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
     if open_page:
         webbrowser.open(page.resolve().as_uri())
     if bad:
