@@ -1116,7 +1116,13 @@ def test_cli_fills_from_the_clips_own_frames_when_no_library_file_is_usable(file
                       "--out", tmp_path / "s.bvh")  # fmt: skip
     last = se.strip().splitlines()[-1]
     assert code == 2 and not (tmp_path / "s.bvh").exists() and "Traceback" not in se
-    assert "no library motion with" in last and "2 file(s) left out above" in last, last
+    assert "no library motion with" in last and "1 more above" in last, last
+    assert sum(x.startswith("mocapkit: error: left out") for x in se.splitlines()) == 1
+    # a --library item that names nothing (reviewer: still refused) is left out the same way
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--library",
+                       tmp_path / "nope.bvh", "--out", tmp_path / "n.bvh")  # fmt: skip
+    assert code == 2 and (tmp_path / "n.bvh").exists() and "(the clip's own frames)" in so
+    assert se.count("nope.bvh: cannot read file") == 1
     assert "1 s of the clip" in last, last
 
 
@@ -1286,7 +1292,7 @@ def test_cli_reports_the_fit_in_metres_and_warns(files, humanoid):
 def test_cli_says_when_no_library_file_could_be_used(files, tmp_path):
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
                       tmp_path / "nope.bvh", "--out", tmp_path / "o.bvh")  # fmt: skip
-    assert code == 2 and "no usable library file" in se and "besides the clip" not in se
+    assert code == 2 and "no library motion with" in se and "besides the clip" not in se
     assert se.count("nope.bvh: cannot read file") == 1  # said once (newcomer report: twice)
     # the JSON error names why (newcomer report: only "see the errors above", on stderr)
     code, so, _ = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",

@@ -122,11 +122,12 @@ def inbetween_cmd(
     around the gap. OUT gets a provenance sidecar naming the library files and frames used
     (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
     before), the earlier fills are traced into it. --json writes the same with the scores and
-    the warnings printed (``warnings``: a CMU take written as BVH, whose unit BVH cannot state,
-    among them). A library file that cannot be read, or has another skeleton, gets one error
-    line and is left out; the gap is still filled from the others (the clip's own frames, if
-    none is left), and the exit status is then 2. CLIP and library files may be .bvh, .npz or
-    CMU .amc (with its subject's .asf beside it).
+    the warnings of reading and writing the files (``warnings``: a CMU take written as BVH,
+    whose unit BVH cannot state, among them; the fit's is ``warning``). A library file that
+    cannot be read, or has another skeleton, gets one error line and is left out; the gap is
+    still filled from the others (the clip's own frames, if none is left), and the exit status
+    is then 2. CLIP and library files may be .bvh, .npz or CMU .amc (with its subject's .asf
+    beside it).
 
     \b
     Examples:
@@ -149,11 +150,9 @@ def inbetween_cmd(
     others = [p for p in lib_paths if not same_file(p, clip)]
     # library items given, none of them usable (the clip itself alone is not a failure: its
     # own frames beside the gap are searched anyway)
-    fails = bool(unnamed) and not others and method != "kalman"
-    # a library job goes on past a bad --library item, one line each; where none is left, the
-    # error line names the first (not said twice)
-    for why in unnamed[1:] if fails else unnamed:
-        click.echo(f"mocapkit: error: --library: {why}", err=True)
+    # a library job goes on past a bad --library item, one line each (below, with the files
+    # left out: where nothing fills the gap the error line names the first, not said twice)
+    left_out = [f"--library: {why}" for why in unnamed]
     if len(others) < len(lib_paths):
         click.echo(
             f"mocapkit: note: {clip} is the clip: not searched as a library file (its frames "
@@ -161,9 +160,6 @@ def inbetween_cmd(
             err=True,
         )
         lib_paths = others
-    if fails:
-        more = f"; {len(unnamed) - 1} more above" if len(unnamed) > 1 else ""
-        raise CLIError(f"--library: no usable library file ({unnamed[0]}{more})")
     check_outputs(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
         [clip, *lib_paths],
@@ -189,9 +185,15 @@ def inbetween_cmd(
         except ValueError as e:
             skipped.append(one_line(e))
     # none kept: the clip's own frames beside the gap may still fill it, as with no --library
-    none_kept = bool(skipped) and not kept and method != "kalman"
-    for why in skipped:
-        click.echo(f"mocapkit: error: left out of the library: {why}", err=True)
+    left_out += [f"left out of the library: {why}" for why in skipped]
+    none_kept = bool(left_out) and not kept and method != "kalman"
+
+    def say_left_out(lines: list[str]) -> None:
+        for line in lines:
+            click.echo(f"mocapkit: error: {line}", err=True)
+
+    if not none_kept:
+        say_left_out(left_out)
     lib_paths, lib = [p for p, _ in kept], [m for _, m in kept]
     with naming(clip, *lib_paths):
         try:
@@ -202,10 +204,14 @@ def inbetween_cmd(
         except ValueError as e:
             if not none_kept:
                 raise
+            say_left_out(left_out[1:])
+            more = f"; {len(left_out) - 1} more above" if len(left_out) > 1 else ""
             raise CLIError(
-                f"--library: no library motion with {clip}'s skeleton could be read ("
-                f"{len(skipped)} file(s) left out above), and {one_line(e)}"
+                f"--library: no library motion with {clip}'s skeleton could be read "
+                f"({left_out[0].removeprefix('--library: ')}{more}), and {one_line(e)}"
             ) from None
+    if none_kept:
+        say_left_out(left_out)
     c = res.candidate
     if c is not None and res.source_frames is not None:
         s0, s1 = res.source_frames
