@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from click.testing import CliRunner
 
@@ -33,6 +35,13 @@ def test_cmu_to_bvh_without_units_warns_that_the_unit_is_lost(shared_path, tmp_p
     # every command that writes the take as BVH says so (the writer warns), not convert alone
     r = CliRunner().invoke(main, ["edit", str(amc), str(tmp_path / "e.bvh"), "--trim", "0:20"])
     assert r.exit_code == 0 and "cannot be stated in a BVH file" in r.output, r.output
+    # and a --json result says so too (newcomer report: on standard error only)
+    r = CliRunner().invoke(
+        main, ["edit", str(amc), str(tmp_path / "j.bvh"), "--trim", "0:20", "--json"]
+    )
+    assert r.exit_code == 0
+    said = json.loads(r.stdout)["warnings"]
+    assert any("cannot be stated in a BVH file" in w for w in said), said
     r = CliRunner().invoke(main, ["edit", str(amc), str(tmp_path / "e.npz"), "--trim", "0:20"])
     assert r.exit_code == 0 and "cannot be stated" not in r.output, r.output
     r = CliRunner().invoke(main, ["convert", str(amc), str(tmp_path / "cm.bvh"), "--units", "cm"])

@@ -15,6 +15,7 @@ from mocapkit.cli.common import (
     naming,
     up_option,
     warn_if_up_disagrees,
+    warnings_so_far,
 )
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.summary import nominal_fps
@@ -176,7 +177,7 @@ def edit_cmd(
         side = plan.write(out)
     if as_json:
         echo_json({"input": str(src), "output": str(out), "provenance": str(side),
-                   **res.to_json()})  # fmt: skip
+                   **res.to_json(), "warnings": warnings_so_far()})  # fmt: skip
         return
     done = ", ".join(s["edit"] for s in res.steps) or "no edit (a copy)"
     click.echo(

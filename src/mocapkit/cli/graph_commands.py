@@ -22,6 +22,7 @@ from mocapkit.cli.common import (
     main,
     naming,
     plot_output,
+    warnings_so_far,
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.graph.distance import DEFAULT_WINDOW
@@ -331,7 +332,9 @@ def synth(graph_file, seconds, path_csv, out, seed, blend, as_json):
     m = res.motion
     err = res.path_error
     if as_json:
-        echo_json({**res.to_json(), "out": str(out), "plan": str(side)})
+        echo_json(
+            {**res.to_json(), "out": str(out), "plan": str(side), "warnings": warnings_so_far()}
+        )
     else:
         click.echo(
             f"wrote {out} ({m.num_frames} frames, {m.duration:.1f} s, {res.transitions} "

@@ -24,6 +24,7 @@ from mocapkit.cli.common import (
     report_lines,
     up_option,
     warn_if_up_disagrees,
+    warnings_so_far,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
@@ -239,8 +240,10 @@ def stitch_cmd(
             params = {"takeoff": takeoff, "takeoff_frames": [a, b], "window": window}
             side = res.provenance(out_path, params).write(out_path)
             wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames, {method}) and {side}")
+        # with the warnings so far (the writer's: a unit BVH cannot state)
+        result = {**res.to_json(), "warnings": warnings_so_far()}
         if json_path and json_path != "-":
-            write_json(json_path, res.to_json())
+            write_json(json_path, result)
             wrote.append(f"wrote {json_path}")
         if plot_path:
             from mocapkit.viz.figures.stitch import plot_stitch
@@ -248,7 +251,7 @@ def stitch_cmd(
             plot_stitch(res, plot_path)
             wrote.append(f"wrote {plot_path}")
     if json_path == "-":  # printed once the files are in place: a failure prints only its error
-        echo_json(res.to_json())
+        echo_json(result)
         wrote.append("printed the JSON result")
     for line in wrote:
         say(line)
