@@ -1180,6 +1180,14 @@ def test_view_marks_filled_frames(files):
     # the filled frames' two-sided L-score, from the sidecar's two junction costs
     costs = [t.cost for t in vm.provenance.transitions]
     assert len(costs) == 2 and st["lscore"] == pytest.approx(sum(costs))
+    # the command says which sidecars the page drew (newcomer: it said only "wrote PAGE"), and
+    # only those: an edit's sidecar is not drawn, nor a second filled take's (reviewer)
+    code, so, se = run("view", out, "--out", files / "filled_page.html")
+    assert code == 0 and "it marks what filled.bvh.provenance.json names" in so, so + se
+    trimmed = files / "trimmed.bvh"
+    assert run("edit", files / "walk.bvh", trimmed, "--trim", "0:40")[0] == 0
+    code, so, _ = run("view", trimmed, out, out, "--out", files / "mixed_page.html")
+    assert code == 0 and so.count("provenance.json") == 1 and "trimmed.bvh.prov" not in so
 
 
 def test_cli_fills_a_gap_at_the_clips_start_and_the_viewer_marks_one_junction(files):

@@ -21,7 +21,7 @@ from mocapkit.cli.common import (
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.io.atomic import all_or_nothing, check_outputs
-from mocapkit.viz.viewer import view_files
+from mocapkit.viz.viewer import read_page_data, sidecars_drawn, view_files
 
 
 @main.command("view")
@@ -116,7 +116,12 @@ def view_cmd(
         page = view_files(
             kept, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units, motions
         )
-    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB)")
+    # which sidecars the page drew (newcomer: nothing said that the filled frames are marked)
+    drawn = [existing_sidecar(kept[i]) for i in sidecars_drawn(read_page_data(page))]
+    names = [x.name for x in drawn if x is not None]
+    verb = "names" if len(names) == 1 else "name"
+    marks = f"; it marks what {', '.join(names)} {verb}" if names else ""
+    click.echo(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB{marks})")
     if open_page:
         webbrowser.open(page.resolve().as_uri())
     if bad:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -314,6 +315,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
     after = b if b < plan.frames else None
     return {
         "motion": idx,
+        "sidecar": True,  # drawn from the motion's provenance sidecar
         "kind": "inbetween",
         "takeoff": before,
         "generated": [a, b],
@@ -373,6 +375,7 @@ def sidecar_stitch_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | No
     b = tail[0].output_start if tail else a
     return {
         "motion": idx,
+        "sidecar": True,
         "takeoff": a - 1,
         "generated": [a, b],
         "landing": b,
@@ -423,6 +426,7 @@ def graph_overlay(
     total = len(graph.get("transitions") or []) if graph else None
     return {
         "motion": idx,
+        "sidecar": True,
         "clips": names,
         "missingClips": [],
         "numTransitions": total if total is not None else len(plan.transitions),
@@ -544,6 +548,23 @@ def build_page(data: dict[str, Any]) -> str:
 
 def _html_escape(s: str) -> str:
     return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
+
+
+def read_page_data(path: str | Path) -> dict[str, Any]:
+    """The data of a page :func:`write_page` wrote (the inverse of :func:`build_page`)."""
+    html = Path(path).read_text(encoding="utf-8")
+    m = re.search(r'<script type="application/json" id="mocapkit-data">(.*?)</script>', html, re.S)
+    if m is None:
+        raise ValueError(f"{path}: not a mocapkit viewer page")
+    return json.loads(m.group(1))
+
+
+def sidecars_drawn(data: dict[str, Any]) -> list[int]:
+    """The motions (indices into ``data["motions"]``) whose provenance sidecars the page
+    draws: the first one ``inbetween`` or ``stitch`` wrote (none under a stitch result given),
+    the first one ``graph synth`` wrote."""
+    slots = (data.get("stitch"), data.get("graph"))
+    return sorted({int(o["motion"]) for o in slots if o and o.get("sidecar")})
 
 
 def write_page(path: str | Path, motions: Sequence[ViewMotion], **kwargs: Any) -> Path:
