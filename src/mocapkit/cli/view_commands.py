@@ -21,7 +21,7 @@ from mocapkit.cli.common import (
 )
 from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.io.atomic import all_or_nothing, check_outputs
-from mocapkit.viz.viewer import read_page_data, sidecars_drawn, view_files
+from mocapkit.viz.viewer import sidecars_drawn, view_data, view_files, write_page_data
 
 
 @main.command("view")
@@ -113,11 +113,12 @@ def view_cmd(
     for p, m in zip(kept, motions, strict=True):
         warn_if_up_disagrees(m, up, p)
     with naming(*kept), all_or_nothing():
-        page = view_files(
-            kept, out, clean_report, mdm, stitch_json, graph_json, lenient, up, units, motions
+        data = view_data(
+            kept, clean_report, mdm, stitch_json, graph_json, lenient, up, units, motions
         )
+        page = write_page_data(out, data)
     # which sidecars the page drew (newcomer: nothing said that the filled frames are marked)
-    drawn = [existing_sidecar(kept[i]) for i in sidecars_drawn(read_page_data(page))]
+    drawn = [existing_sidecar(kept[i]) for i in sidecars_drawn(data)]
     names = [x.name for x in drawn if x is not None]
     verb = "names" if len(names) == 1 else "name"
     marks = f"; it marks what {', '.join(names)} {verb}" if names else ""

@@ -15,7 +15,6 @@ from __future__ import annotations
 import base64
 import json
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -34,9 +33,12 @@ __all__ = [
     "build_page",
     "graph_overlay",
     "page_data",
+    "sidecars_drawn",
     "to_y_up",
+    "view_data",
     "view_files",
     "write_page",
+    "write_page_data",
 ]
 
 PALETTE = ("#4fc3f7", "#ff8a65", "#81c784", "#ba68c8", "#ffd54f", "#e57373")
@@ -550,15 +552,6 @@ def _html_escape(s: str) -> str:
     return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
 
 
-def read_page_data(path: str | Path) -> dict[str, Any]:
-    """The data of a page :func:`write_page` wrote (the inverse of :func:`build_page`)."""
-    html = Path(path).read_text(encoding="utf-8")
-    m = re.search(r'<script type="application/json" id="mocapkit-data">(.*?)</script>', html, re.S)
-    if m is None:
-        raise ValueError(f"{path}: not a mocapkit viewer page")
-    return json.loads(m.group(1))
-
-
 def sidecars_drawn(data: dict[str, Any]) -> list[int]:
     """The motions (indices into ``data["motions"]``) whose provenance sidecars the page
     draws: the first one ``inbetween`` or ``stitch`` wrote (none under a stitch result given),
@@ -569,10 +562,15 @@ def sidecars_drawn(data: dict[str, Any]) -> list[int]:
 
 def write_page(path: str | Path, motions: Sequence[ViewMotion], **kwargs: Any) -> Path:
     """Write the viewer page for ``motions`` (keyword arguments: see :func:`page_data`)."""
+    return write_page_data(path, page_data(motions, **kwargs))
+
+
+def write_page_data(path: str | Path, data: dict[str, Any]) -> Path:
+    """Write the viewer page of :func:`page_data`'s result ``data`` (atomically)."""
     from mocapkit.io.atomic import atomic_write_text
 
     p = Path(path)
-    atomic_write_text(p, build_page(page_data(motions, **kwargs)))
+    atomic_write_text(p, build_page(data))
     return p
 
 
@@ -617,9 +615,15 @@ def read_mdm(path: str | Path) -> np.ndarray:
         raise ValueError(f"cannot read the MDM {path}: {e}") from None
 
 
-def view_files(
+def view_files(files: Sequence[str | Path], out: str | Path, *args: Any, **kwargs: Any) -> Path:
+    """Read the motion files and the overlay files (arguments after ``out``: see
+    :func:`view_data`) and write the viewer page (what ``mocapkit view`` does); returns its
+    path."""
+    return write_page_data(out, view_data(files, *args, **kwargs))
+
+
+def view_data(
     files: Sequence[str | Path],
-    out: str | Path,
     clean_report: str | Path | None = None,
     mdm: str | Path | None = None,
     stitch: str | Path | None = None,
@@ -628,9 +632,10 @@ def view_files(
     up: str | None = None,
     units: str | None = None,
     motions: Sequence[Motion] | None = None,
-) -> Path:
-    """Read the motion files (unless ``motions`` holds them, already read) and the overlay
-    files and write the viewer page (what ``mocapkit view`` does); returns its path."""
+) -> dict[str, Any]:
+    """The viewer page's data (:func:`page_data`) for the motion files (read unless
+    ``motions`` holds them, already read), each with its provenance sidecar, and the overlay
+    files."""
     from mocapkit.io import read_motion
     from mocapkit.provenance import find_provenance
 
@@ -640,8 +645,7 @@ def view_files(
         ViewMotion(m, str(f), provenance=find_provenance(f))
         for f, m in zip(files, motions, strict=True)
     ]
-    return write_page(
-        out,
+    return page_data(
         shown,
         up=up,
         units=units,
