@@ -1780,6 +1780,32 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
             InbetweenConfig(level_seconds=bad)
 
 
+def test_a_level_measured_over_part_of_its_span_is_held_by_that_share(humanoid):
+    """The clip's pelvis ``d`` above the segment's (the same walk, raised): measured over the
+    whole of ``level_seconds`` before the gap the level offset is ``d``; where the gap starts
+    10 frames into the clip (or the segment 10 frames into its clip), 10 of 15 frames at 30 fps
+    are measured and two thirds of ``d`` is held; under half of them, none."""
+    from mocapkit.features import pelvis_index
+    from mocapkit.stitch.inbetween import Candidate, _level_offset
+
+    walk, _ = humanoid
+    assert walk.fps == 30
+    d = 3.0
+    high = walk.copy()
+    tr = high.local_translations()
+    tr[:, pelvis_index(walk.skeleton), 1] += d
+    high.translations = tr
+
+    def level(a: int, skip: int = 0) -> float | None:  # the segment on the clip's frames
+        cand = Candidate(0, a - 1.0 - skip, 1.0, 0.0, 0.0, 0.0, 0.0)
+        return _level_offset(high, a, walk[skip:], cand, "Y", 0.5)
+
+    assert level(40) == pytest.approx(d, abs=1e-9)
+    assert level(10) == pytest.approx(d * 10 / 15, abs=1e-9)
+    assert level(40, skip=30) == pytest.approx(d * 10 / 15, abs=1e-9)
+    assert level(7) is None  # 7 frames: under half of 15
+
+
 def test_a_rise_the_legs_cannot_follow_is_capped_and_does_not_pop_the_legs(humanoid):
     """The clip's pelvis higher than a library walk whose legs straighten (the feet of the clip
     float): the rise is capped where a leg could not reach its foot, so the feet stay where
