@@ -133,6 +133,22 @@ def test_clean_json_prints_the_report_and_errors_as_json(files, tmp_path) -> Non
     assert code == 0 and json.loads(out.read_text())["flagged_cells"] > 0
 
 
+def test_clean_report_carries_what_standard_error_warns(files, tmp_path) -> None:
+    """A row repaired on reading (--lenient) is said in the JSON report as on standard error:
+    a script that reads only the report learns the take was not read as written."""
+    lines = Path(files["clean"]).read_text().splitlines(keepends=True)
+    at = lines.index("MOTION\n") + 10
+    blank = tmp_path / "blank.bvh"
+    blank.write_text("".join([*lines[:at], "\n", *lines[at:]]))
+    code, stdout, stderr = run("clean", str(blank), "--lenient", "--json", "-")
+    assert code == 0, stderr
+    said = json.loads(stdout)["warnings"]
+    assert said == [f"repaired: {blank}:{at + 1}: skipped blank line(s) inside the motion data"]
+    assert f"mocapkit: {said[0]}" in stderr
+    code, stdout, _ = run("clean", str(files["clean"]), "--json", "-")
+    assert code == 0 and json.loads(stdout)["warnings"] == []
+
+
 def test_clean_baseline_and_errors(files, tmp_path) -> None:
     rep = tmp_path / "b.json"
     code, _, stderr = run(

@@ -299,3 +299,42 @@ def test_a_rig_that_never_stands_upright_is_warned_about():
     assert len(src) == 1 and src[0].startswith("the source never stands upright")
     tgt = retarget(walk, level).figures["warnings"]
     assert len(tgt) == 1 and tgt[0].startswith("the target never stands upright")
+
+
+def test_cli_retarget_json_carries_what_standard_error_warns(tmp_path):
+    """The command's --json holds the warnings standard error prints (each once), as the
+    other commands' do: a script that reads only the JSON learns the rig is wrong."""
+    import json
+
+    from mocapkit import datasets
+    from mocapkit.core import rotations as rot
+    from mocapkit.core.motion import Motion
+    from mocapkit.io import write_motion
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion
+    sk = walk.skeleton
+    trunk = [sk.names.index("Spine")]
+    for j in range(sk.num_joints):
+        if sk.parents[j] in trunk:
+            trunk.append(j)
+    pitch = rot.rotvec_to_quat(np.array([np.pi / 2, 0.0, 0.0]))
+    offsets = sk.offsets.copy()
+    offsets[trunk] = rot.quat_apply(pitch, offsets[trunk])
+    from dataclasses import replace
+
+    level = Motion(replace(sk, offsets=offsets), walk.rotations, walk.root_positions,
+                   walk.frame_time)  # fmt: skip
+    write_motion(level, tmp_path / "level.bvh")
+    write_motion(walk, tmp_path / "walk.bvh")
+    args = ["retarget", str(tmp_path / "level.bvh"), "--to", str(tmp_path / "walk.bvh")]
+    r = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "o.bvh"), "--json"])
+    assert r.exit_code == 0, r.output
+    said = json.loads(r.stdout)["warnings"]
+    assert any(w.startswith("warning: the source never stands upright") for w in said), said
+    assert r.stderr.count("the source never stands upright") == 1, r.stderr
+    r = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "p.bvh")])
+    assert r.exit_code == 0 and r.stderr.count("never stands upright") == 1, r.output
+    r = CliRunner().invoke(main, ["retarget", str(tmp_path / "walk.bvh"), "--to",
+                                  str(tmp_path / "walk.bvh"), "--out", str(tmp_path / "q.bvh"),
+                                  "--json"])  # fmt: skip
+    assert r.exit_code == 0 and json.loads(r.stdout)["warnings"] == [], r.output

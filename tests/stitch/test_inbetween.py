@@ -1366,8 +1366,16 @@ def test_kalman_needs_no_library(files, tmp_path, humanoid):
     code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
                        "--out", tmp_path / "k2.bvh")  # fmt: skip
     assert code == 2 and "fills gaps of up to 9 frames (0.3 s at 30 fps)" in se
-    assert "fill it from a library (none was given)" in se
+    assert "fill it from a library (no usable one was given)" in se
     assert not (tmp_path / "k2.bvh").exists()
+    # a library given whose every file is left out is not "none given"
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n")
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:75", "--method", "kalman",
+                       "--library", bad, "--out", tmp_path / "k3.bvh")  # fmt: skip
+    assert code == 2 and "left out of the library: " in se and "bad.bvh" in se, se
+    assert "fill it from a library (no usable one was given)" in se
+    assert not (tmp_path / "k3.bvh").exists()
     code, _, se = run(
         "inbetween", files / "walk.bvh", "--gap", "60:75", "--out", tmp_path / "x.bvh"
     )

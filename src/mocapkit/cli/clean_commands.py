@@ -29,6 +29,7 @@ from mocapkit.cli.common import (
     plot_output,
     progress_callback,
     report_lines,
+    warnings_so_far,
     write_json,
 )
 from mocapkit.cli.demo import DEMO_STEPS
@@ -363,8 +364,8 @@ def clean_command(
             from mocapkit.viz.figures.clean import plot_clean_report
 
             plot_clean_report(report, plot_path)
-        if json_path:
-            write_json(json_path, report.to_json())
+        if json_path:  # what standard error warns of too (a unit lost, a repaired row)
+            write_json(json_path, {**report.to_json(), "warnings": warnings_so_far()})
     say = report_lines(json_path)
     if quiet:
         for e in report.explanations:

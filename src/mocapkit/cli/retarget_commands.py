@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import click
@@ -14,6 +15,7 @@ from mocapkit.cli.common import (
     friendly_errors,
     main,
     naming,
+    warnings_so_far,
 )
 from mocapkit.io.atomic import all_or_nothing, check_outputs
 
@@ -116,10 +118,14 @@ def retarget(
             segments=[Segment(0, m.num_frames, "generated", str(source), 0, src.num_frames)],
         )
         side = plan.write(out)
+    # warned through the command's warnings: printed at its end with any others (a unit the
+    # output cannot state), and the same lines in --json
     for line in res.figures["warnings"]:
-        click.echo(f"mocapkit: warning: {line}", err=True)
+        warnings.warn(line, UserWarning, stacklevel=1)
+    if not res.figures["foot_lock"] and not no_foot_lock:
+        warnings.warn("no foot contacts map onto the target; feet not locked", stacklevel=1)
     if as_json:
-        echo_json({"output": str(out), **res.to_json()})
+        echo_json({"output": str(out), **res.to_json(), "warnings": warnings_so_far()})
         return
     fs = res.figures["foot_slide_cm"]
 
@@ -139,7 +145,3 @@ def retarget(
         + "; joint limits "
         + ("kept" if lim["all_kept"] else "NOT kept (see --json)")
     )
-    if not res.figures["foot_lock"] and not no_foot_lock:
-        click.echo(
-            "mocapkit: warning: no foot contacts map onto the target; feet not locked", err=True
-        )

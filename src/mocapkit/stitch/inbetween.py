@@ -2677,7 +2677,9 @@ def _kalman_too_long(
     clip: Motion, a: int, b: int, config: InbetweenConfig, library: bool = True
 ) -> str:
     g, k = b - a, kalman_max_frames(clip, config)
-    remedy = "a library with clips long enough" if library else "a library (none was given)"
+    remedy = (
+        "a library with clips long enough" if library else "a library (no usable one was given)"
+    )
     return (
         f"the Kalman transition fills gaps of up to {k} frames ({config.kalman_max_seconds:g} s "
         f"at {clip.fps:.6g} fps), the gap {a}:{b} is {g} frames ({g * clip.frame_time:.3g} s): "
