@@ -937,6 +937,25 @@ def test_prepare_library_rejects_other_skeleton(humanoid):
         prepare_library([plain], walk, ["odd clip"])
 
 
+def test_a_library_prepared_for_another_persons_proportions_is_refused(humanoid):
+    """A library prepared for one clip has its root motion scaled to that person's legs: used
+    for a clip whose person's legs are longer, every fill's pelvis would sit too low. The same
+    skeleton with other bone lengths is refused, naming both lengths; the same proportions
+    are used as prepared."""
+    from dataclasses import replace as dc_replace
+
+    walk, lib = humanoid
+    prepared = prepare_library(lib[:2], walk, up="Y")
+    assert inbetween(walk, (60, 75), prepared, up="Y").motion.num_frames == walk.num_frames
+    tall = walk.copy()
+    tall.skeleton = dc_replace(walk.skeleton, offsets=walk.skeleton.offsets * 1.1)
+    if tall.translations is not None:
+        tall.translations = tall.translations * 1.1
+    with pytest.raises(ValueError, match=r"prepared for a person whose legs are .* long, the "
+                       r"clip's are .*: prepare it with this clip"):  # fmt: skip
+        inbetween(tall, (60, 75), prepared, up="Y")
+
+
 def run(*args):
     res = CliRunner().invoke(main, [str(a) for a in args])
     return res.exit_code, res.stdout, res.stderr

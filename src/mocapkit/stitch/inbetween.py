@@ -2449,6 +2449,13 @@ def _as_library(library, clip: Motion, names, up: str, config: InbetweenConfig) 
         lib_sk = library.motions[0].skeleton
         if list(lib_sk.names) != list(clip.skeleton.names):
             raise ValueError("the library was prepared for another skeleton")
+        # prepared for another person's proportions: its root motion was scaled to their legs
+        lib_leg, leg = _leg_length(library.motions[0]), _leg_length(clip)
+        if lib_leg and leg and not math.isclose(lib_leg, leg, rel_tol=1e-4):
+            raise ValueError(
+                f"the library was prepared for a person whose legs are {lib_leg:.6g} units "
+                f"long, the clip's are {leg:.6g}: prepare it with this clip as the reference"
+            )
         if tuple(w.rate for w in library.warped) != tuple(float(r) for r in config.warps):
             raise ValueError("the library was prepared with other warps than the config's")
         if any(library.backwards) != config.backwards:
