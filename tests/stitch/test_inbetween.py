@@ -954,6 +954,16 @@ def test_a_library_prepared_for_another_persons_proportions_is_refused(humanoid)
     with pytest.raises(ValueError, match=r"prepared for a person whose legs are .* long, the "
                        r"clip's are .*: prepare it with this clip"):  # fmt: skip
         inbetween(tall, (60, 75), prepared, up="Y")
+    # a capture whose bones stretch a little over the take (0.05%) is the same person: a gap
+    # at its start (filled on the reversed clip, whose first frame is the last) and elsewhere
+    # (reviewer: the first version refused the library it had just prepared from the clip)
+    stretch = walk.copy()
+    tr = stretch.local_translations()
+    tr[:, 1:] *= (1 + 5e-4 * np.linspace(0, 1, walk.num_frames))[:, None, None]
+    stretch.translations = tr
+    for gap in ((0, 20), (60, 80)):
+        for library in (lib[:2], prepare_library(lib[:2], stretch, up="Y")):
+            assert inbetween(stretch, gap, library, up="Y").gap == gap
 
 
 def run(*args):
