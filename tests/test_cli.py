@@ -157,6 +157,10 @@ def test_every_subcommand_has_an_example() -> None:
         code, out, _ = run(cmd, "--help")
         assert code == 0
         assert "Example" in out and f"mocapkit {cmd}" in out, cmd
+        # sentences start upper case and names keep theirs (str.capitalize lowered "Dask")
+        text = " ".join(out.split())
+        assert ". the " not in text, cmd
+        assert "local dask" not in text and "running dask" not in text, cmd
 
 
 def test_demo_runs_and_writes_outputs(tmp_path: Path) -> None:

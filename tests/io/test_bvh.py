@@ -230,6 +230,17 @@ def test_lenient_repairs_and_says_so() -> None:
     with pytest.warns(RepairWarning, match="filled from neighbouring frames"):
         m = parse_bvh(holes, lenient=True)
     assert np.all(np.isfinite(m.rotations))
+    # the repair names the line the strict reading names, not the first row's (newcomer
+    # report), blank lines before it counted
+    with pytest.raises(BVHError) as strict:
+        parse_bvh(holes)
+    with pytest.warns(RepairWarning, match=rf":{strict.value.line}: 1 NaN/inf value in 1 row "):
+        parse_bvh(holes, lenient=True)
+    lines = holes.split("\n")
+    at = next(i for i, x in enumerate(lines) if "nan" in x)
+    blank = "\n".join([*lines[:at], "", *lines[at:]])
+    with pytest.warns(RepairWarning, match=rf":{strict.value.line + 1}: 1 NaN/inf value in 1 "):
+        parse_bvh(blank, lenient=True)
     # a non-number is never "safe" to repair
     with pytest.raises(BVHError):
         parse_bvh(SMALL.replace("0 0 45 90", "0 0 4x5 90"), lenient=True)

@@ -29,8 +29,15 @@ def runner_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         default=None,
         metavar="N",
         help="Run the job on a local Dask cluster of N worker processes (started and stopped "
-        "here). " + RUNNER_HELP.split(";", 1)[1].strip().capitalize(),
+        "here). " + _sentence(RUNNER_HELP.split(";", 1)[1]),
     )(fn)
+
+
+def _sentence(text: str) -> str:
+    """``text`` stripped, its first letter upper case (str.capitalize lowers the rest: it wrote
+    "dask scheduler" and "this process. the results", newcomer report)."""
+    text = text.strip()
+    return text[:1].upper() + text[1:]
 
 
 @contextmanager

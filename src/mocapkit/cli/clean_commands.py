@@ -237,7 +237,7 @@ def clean_command(
     lenient: bool,
     quiet: bool,
 ) -> None:
-    """Find which joints are wrong when in a take, and repair them (self-similarity analysis).
+    """Find which joints of a take are wrong, and when, and repair them (self-similarity analysis).
     IN is a take (.bvh, .npz, or a CMU .amc with its subject's .asf beside it: NN.asf for
     NN_MM.amc, or the folder's only .asf), or a folder of takes (folder mode: every take
     cleaned against its related takes, in this process or on a Dask cluster; see "Running on

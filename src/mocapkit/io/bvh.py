@@ -592,18 +592,37 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
             raise BVHError(
                 source, fl, msg + " (lenient reading, --lenient, reads the rows present)"
             )
-        warnings.warn(f"{source}:{fl}: {msg}; read {rows} frames", RepairWarning, stacklevel=2)
+        warnings.warn(
+            f"{source}:{fl}: {msg}; read {rows} frame{'s' * (rows != 1)}",
+            RepairWarning,
+            stacklevel=2,
+        )
     motion = channels_to_motion(sk, values, frame_time)
     if lenient and not np.all(np.isfinite(values)):
         bad_rows = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
         motion, joints = fill_missing(motion)
+        line = first_data_line + _row_line(block, int(bad_rows[0]))
+        n_bad = int(np.sum(~np.isfinite(values)))
         warnings.warn(
-            f"{source}:{first_data_line}: {int(np.sum(~np.isfinite(values)))} NaN/inf values in "
-            f"{len(bad_rows)} rows (joints {', '.join(joints)}) filled from neighbouring frames",
+            f"{source}:{line}: {n_bad} NaN/inf value{'s' * (n_bad != 1)} in {len(bad_rows)} "
+            f"row{'s' * (len(bad_rows) != 1)} from here (joints {', '.join(joints)}) filled from "
+            "neighbouring frames",
             RepairWarning,
             stacklevel=2,
         )
     return motion
+
+
+def _row_line(block: memoryview, row: int) -> int:
+    """The line (0-based, from the start of ``block``) of the motion data's row ``row``: the
+    parser skips blank lines, so rows and lines differ by the blank lines before it."""
+    seen = -1
+    for i, text in enumerate(bytes(block).split(b"\n")):
+        if text.strip():
+            seen += 1
+            if seen == row:
+                return i
+    return 0
 
 
 def read_bvh(path: str | Path, lenient: bool = False) -> Motion:

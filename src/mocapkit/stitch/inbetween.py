@@ -2552,7 +2552,7 @@ def inbetween(
     note = ""
     try:
         if lib is None:  # the Kalman transition alone, asked for without a library
-            raise NoLibraryFitError("no library given")
+            raise NoLibraryFitError("no library to search")
         cands, count = search_inbetween_top(
             ctx, b - a, lib, averaged(clip, b - a, config, one_sided), w=w, config=config,
             model=model, metres_per_unit=mpu,
