@@ -31,9 +31,7 @@ _POSITIVE = click.FloatRange(min=0, min_open=True)
     metavar="TARGET",
     help="The rig to play IN on: any motion file mocapkit reads, or an ASF skeleton.",
 )
-@click.option(
-    "--out", "out", required=True, help="Output motion (.bvh, .npz, .glb or .gltf)."
-)
+@click.option("--out", "out", required=True, help="Output motion (.bvh, .npz, .glb or .gltf).")
 @click.option(
     "--map",
     "map_",
