@@ -273,10 +273,9 @@ def test_a_rig_without_legs_is_named_as_source_or_target(tmp_path):
     assert not (tmp_path / "o.bvh").exists()
 
 
-def test_a_rig_that_never_stands_upright_is_warned_about():
-    """A four-legged rig named like a biped (the corpus' Bip01 elephant) was retargeted onto a
-    person without a word. A rig whose trunk lies level over its legs, in its rest pose and
-    in every frame, is warned about as source or as target; a person walking is not."""
+def _walk_and_a_level_rig():
+    """A procedural walk, and the same walk on a rig whose trunk lies level over its legs (its
+    Spine and everything above pitched forward by 90 degrees): a rig that never stands."""
     from dataclasses import replace
 
     from mocapkit import datasets
@@ -294,6 +293,14 @@ def test_a_rig_that_never_stands_upright_is_warned_about():
     offsets[trunk] = rot.quat_apply(pitch, offsets[trunk])
     level = Motion(replace(sk, offsets=offsets), walk.rotations, walk.root_positions,
                    walk.frame_time)  # fmt: skip
+    return walk, level
+
+
+def test_a_rig_that_never_stands_upright_is_warned_about():
+    """A four-legged rig named like a biped (the corpus' Bip01 elephant) was retargeted onto a
+    person without a word. A rig whose trunk lies level over its legs, in its rest pose and
+    in every frame, is warned about as source or as target; a person walking is not."""
+    walk, level = _walk_and_a_level_rig()
     assert retarget(walk, walk).figures["warnings"] == []
     src = retarget(level, walk).figures["warnings"]
     assert len(src) == 1 and src[0].startswith("the source never stands upright")
@@ -306,24 +313,9 @@ def test_cli_retarget_json_carries_what_standard_error_warns(tmp_path):
     other commands' do: a script that reads only the JSON learns the rig is wrong."""
     import json
 
-    from mocapkit import datasets
-    from mocapkit.core import rotations as rot
-    from mocapkit.core.motion import Motion
     from mocapkit.io import write_motion
 
-    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion
-    sk = walk.skeleton
-    trunk = [sk.names.index("Spine")]
-    for j in range(sk.num_joints):
-        if sk.parents[j] in trunk:
-            trunk.append(j)
-    pitch = rot.rotvec_to_quat(np.array([np.pi / 2, 0.0, 0.0]))
-    offsets = sk.offsets.copy()
-    offsets[trunk] = rot.quat_apply(pitch, offsets[trunk])
-    from dataclasses import replace
-
-    level = Motion(replace(sk, offsets=offsets), walk.rotations, walk.root_positions,
-                   walk.frame_time)  # fmt: skip
+    walk, level = _walk_and_a_level_rig()
     write_motion(level, tmp_path / "level.bvh")
     write_motion(walk, tmp_path / "walk.bvh")
     args = ["retarget", str(tmp_path / "level.bvh"), "--to", str(tmp_path / "walk.bvh")]
