@@ -20,6 +20,7 @@ from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
 from mocapkit.io import MocapFileError, RepairWarning, files_under, read_motion
 from mocapkit.io.atomic import OutputPathError, atomic_write_text
+from mocapkit.io.errors import warning_lines
 from mocapkit.jsonio import to_json_text
 
 
@@ -53,24 +54,8 @@ def os_error_line(e: OSError) -> str:
     return f"{where}: {reason}"
 
 
-_NUMPY_NOISE = ("overflow encountered", "invalid value encountered", "divide by zero")
-"""numpy RuntimeWarnings about intermediate values: not shown (what they cause is reported
-where it matters, e.g. non-finite JSON values become null with a warning)."""
-
-
 def _warning_lines(caught: Sequence[warnings.WarningMessage]) -> list[str]:
-    lines: list[str] = []
-    for w in caught:
-        text = " ".join(str(w.message).split())
-        if issubclass(w.category, RuntimeWarning) and text.startswith(_NUMPY_NOISE):
-            continue
-        if issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning)):
-            continue
-        kind = "repaired" if issubclass(w.category, RepairWarning) else "warning"
-        line = f"mocapkit: {kind}: {text}"
-        if line not in lines:
-            lines.append(line)
-    return lines
+    return [f"mocapkit: {line}" for line in warning_lines(caught)]
 
 
 _CAUGHT: ContextVar[list[warnings.WarningMessage] | None] = ContextVar(
@@ -85,7 +70,7 @@ def warnings_so_far() -> list[str]:
     what standard error says (newcomer report: a CMU take written as BVH, whose unit a BVH file
     cannot state, was warned about on standard error only). Empty outside a command."""
     caught = _CAUGHT.get()
-    return [] if caught is None else [x.removeprefix("mocapkit: ") for x in _warning_lines(caught)]
+    return [] if caught is None else warning_lines(caught)
 
 
 def one_line(message: object) -> str:

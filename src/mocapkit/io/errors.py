@@ -69,3 +69,27 @@ class ASFAMCError(MocapFileError):
 
 class RepairWarning(UserWarning):
     """A lenient reader repaired something in the input; the message says what."""
+
+
+NUMPY_NOISE = ("overflow encountered", "invalid value encountered", "divide by zero")
+"""numpy RuntimeWarnings about intermediate values: not shown (what they cause is reported
+where it matters, e.g. non-finite JSON values become null with a warning)."""
+
+
+def warning_lines(caught) -> list[str]:
+    """The warnings ``caught`` (``warnings.catch_warnings(record=True)``) as a user reads them,
+    each once, in order: ``repaired: ...`` (:class:`RepairWarning`) or ``warning: ...``, on one
+    line; numpy's intermediate-value noise and deprecations left out. What the CLI prints
+    (after ``mocapkit: ``) and what a JSON result or report carries as ``warnings``."""
+    lines: list[str] = []
+    for w in caught:
+        text = " ".join(str(w.message).split())
+        if issubclass(w.category, RuntimeWarning) and text.startswith(NUMPY_NOISE):
+            continue
+        if issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning)):
+            continue
+        kind = "repaired" if issubclass(w.category, RepairWarning) else "warning"
+        line = f"{kind}: {text}"
+        if line not in lines:
+            lines.append(line)
+    return lines
