@@ -222,8 +222,10 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         out = _clean_take(task, caught)
-    for w in caught:  # on to the command (printed at its end, as a single take's are)
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for w in caught:  # on to the command (printed at its end), naming the take where they do not
+        msg = str(w.message)
+        msg = msg if task.name in msg else f"{task.name}: {msg}"
+        warnings.warn_explicit(msg, w.category, w.filename, w.lineno)
     return out
 
 
