@@ -74,3 +74,22 @@ def test_bvh_in_cmu_units_is_guessed_back_at_its_height(shared_path, tmp_path) -
         assert name == "cmu", path
         assert 1.4 <= body_of(m).height_m <= 2.0, path
     assert body_of(read_motion(out)).height_m == pytest.approx(src, rel=1e-6)
+
+
+@pytest.mark.shared
+def test_folder_conversion_names_the_take_each_warning_is_about(shared_path, tmp_path) -> None:
+    """Four CMU takes converted to BVH in folder mode: each take's lost unit is warned on its
+    own line naming it (newcomer report: one line naming none of them), in-process and the
+    same on a Dask cluster of one worker."""
+    folder = shared_path("cmu-asfamc/03")
+    takes = sorted(p.name for p in folder.glob("*.amc"))
+    assert len(takes) == 4
+    for extra in ([], ["--workers", "1"]):
+        out = tmp_path / f"out{len(extra)}"
+        r = CliRunner().invoke(main, ["convert", str(folder), "--out-dir", str(out), "--to",
+                                      "bvh", *extra])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        lines = [x for x in r.stderr.splitlines() if "cannot be stated in a BVH file" in x]
+        assert len(lines) == 4, r.stderr
+        for take, line in zip(takes, sorted(lines), strict=True):
+            assert line.startswith(f"mocapkit: warning: {folder / take}: the take's unit")

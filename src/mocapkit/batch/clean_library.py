@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import html
 import json
-import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -219,17 +218,13 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
     in ``context_skipped``. Its report carries ``warnings``: what was warned reading,
     cleaning and writing it, as a single take's report does; they are warned on to the
     command too."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        out = _clean_take(task, caught)
-    for w in caught:  # on to the command (printed at its end), naming the take where they do not
-        msg = str(w.message)
-        msg = msg if task.name in msg else f"{task.name}: {msg}"
-        warnings.warn_explicit(msg, w.category, w.filename, w.lineno)
-    return out
+    from mocapkit.io.errors import warnings_naming
+
+    with warnings_naming(task.name) as caught:
+        return _clean_take(task, caught)
 
 
-def _clean_take(task: TakeTask, caught: list[warnings.WarningMessage]) -> dict[str, Any]:
+def _clean_take(task: TakeTask, caught: list) -> dict[str, Any]:
     from mocapkit import clean
     from mocapkit.io import MocapFileError, read_motion, write_motion
     from mocapkit.io.atomic import atomic_write_text
