@@ -191,12 +191,10 @@ def convert_one(task: tuple[str | Path, str | Path, dict[str, Any]]) -> ItemResu
     """One input of :func:`convert_many`, ``(source, output, options)``: :func:`convert_file`,
     or the error line naming the input (on whichever process runs it)."""
     from mocapkit.io import MocapFileError
-    from mocapkit.io.errors import warnings_naming
 
     src, out, options = Path(task[0]), Path(task[1]), task[2]
     try:
-        with warnings_naming(str(src)):
-            res = convert_file(src, out, **options)
+        res = convert_file(src, out, **options)
     except (MocapFileError, ValueError, KeyError, OSError) as e:
         return ItemResult(src, None, error=_error_line(src, e))
     return ItemResult(src, res.output, res.motion.num_frames, nominal_fps(res.motion.frame_time))

@@ -461,29 +461,3 @@ def test_an_unchanged_small_angle_is_written_as_the_file_had_it() -> None:
     rows = format_bvh(m).split("Frame Time:")[1].splitlines()[1:]
     assert [float(v) for v in rows[1].split()[6:9]] == [-5.69484e-05, -9.11063e-06, 123.456]
 
-
-def test_warnings_naming_names_an_items_warnings_and_passes_them_on() -> None:
-    """A batch item's warnings are passed on with its name in front where they do not name it,
-    also when the item fails; the item sees them as raised."""
-    import warnings
-
-    from mocapkit.io.errors import warnings_naming
-
-    with warnings.catch_warnings(record=True) as outer:
-        warnings.simplefilter("always")
-        with warnings_naming("take.bvh") as caught:
-            warnings.warn("the unit is lost", stacklevel=1)
-            warnings.warn("take.bvh:3: a row repaired", RepairWarning, stacklevel=1)
-        assert [str(w.message) for w in caught] == [
-            "the unit is lost",
-            "take.bvh:3: a row repaired",
-        ]
-        with pytest.raises(ValueError), warnings_naming("other.bvh"):
-            warnings.warn("said before failing", stacklevel=1)
-            raise ValueError("bad")
-    assert [str(w.message) for w in outer] == [
-        "take.bvh: the unit is lost",
-        "take.bvh:3: a row repaired",
-        "other.bvh: said before failing",
-    ]
-    assert outer[1].category is RepairWarning

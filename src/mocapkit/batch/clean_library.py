@@ -215,20 +215,10 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
     :func:`mocapkit.clean.run`, write the repaired take and its report atomically, then its
     manifest entry. Returns its summary record, or ``{"take", "error"}`` (one line) when the
     take cannot be read or cleaned. A context take that cannot be read is left out and named
-    in ``context_skipped``. Its report carries ``warnings``: what was warned reading,
-    cleaning and writing it, as a single take's report does; they are warned on to the
-    command too."""
-    from mocapkit.io.errors import warnings_naming
-
-    with warnings_naming(task.name) as caught:
-        return _clean_take(task, caught)
-
-
-def _clean_take(task: TakeTask, caught: list) -> dict[str, Any]:
+    in ``context_skipped``."""
     from mocapkit import clean
     from mocapkit.io import MocapFileError, read_motion, write_motion
     from mocapkit.io.atomic import atomic_write_text
-    from mocapkit.io.errors import warning_lines
     from mocapkit.jsonio import to_json_text
 
     cfg = task.config
@@ -259,7 +249,6 @@ def _clean_take(task: TakeTask, caught: list) -> dict[str, Any]:
         js = {k: v for k, v in report.to_json().items() if k not in VOLATILE_REPORT_KEYS}
         if task.output:  # no out_dir: the reports alone
             write_motion(report.motion, task.output)
-        js["warnings"] = warning_lines(caught)  # a repaired row, a unit BVH cannot state
         atomic_write_text(task.report, to_json_text(js) + "\n")
         record = _record(report, task)
         record["context"] = names

@@ -601,7 +601,7 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
     if lenient and not np.all(np.isfinite(values)):
         bad_rows = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
         motion, joints = fill_missing(motion)
-        line = first_data_line + _row_line(block, int(bad_rows[0]))
+        line = first_data_line + _row_line(data, min(lx.pos, len(data)), int(bad_rows[0]))
         n_bad = int(np.sum(~np.isfinite(values)))
         warnings.warn(
             f"{source}:{line}: {n_bad} NaN/inf value{'s' * (n_bad != 1)} in {len(bad_rows)} "
@@ -613,15 +613,19 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
     return motion
 
 
-def _row_line(block: memoryview, row: int) -> int:
-    """The line (0-based, from the start of ``block``) of the motion data's row ``row``: the
-    parser skips blank lines, so rows and lines differ by the blank lines before it."""
-    seen = -1
-    for i, text in enumerate(bytes(block).split(b"\n")):
-        if text.strip():
+def _row_line(data: bytes, start: int, row: int) -> int:
+    """The line (0-based, counted from offset ``start`` of ``data``, the motion data's first
+    line) of its row ``row``: the parser skips blank lines, so rows and lines differ by the
+    blank lines before it. Reads only up to that row, without copying the data."""
+    seen, line, pos = -1, 0, start
+    while pos <= len(data):
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end
+        if data[pos:end].strip():
             seen += 1
             if seen == row:
-                return i
+                return line
+        line, pos = line + 1, end + 1
     return 0
 
 
@@ -793,8 +797,8 @@ def write_bvh(motion: Motion, path: str | Path, order: str | None = None, digits
     mpu = motion.skeleton.metres_per_unit
     # within 1e-6: a --scale typed with seven digits (5.644444) does reach centimetres
     if mpu is not None and not any(abs(mpu / u - 1) < 1e-6 for u in BVH_UNITS_M):
-        warnings.warn(
-            f"the take's unit ({mpu:g} m, from its source) cannot be stated in a BVH file, "
+        warnings.warn(  # naming the file: a folder job writes many, warned at its end
+            f"{path}: the take's unit ({mpu:g} m, from its source) cannot be stated in a BVH file, "
             "which other tools will read as inch or cm (mocapkit guesses it back from the "
             "height); `mocapkit convert --units cm` (or m, inch) rescales it",
             UserWarning,

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 #: Offending text is quoted up to this many characters in messages (a 50 MB line or 16 KB of NUL
@@ -95,23 +93,3 @@ def warning_lines(caught) -> list[str]:
         if line not in lines:
             lines.append(line)
     return lines
-
-
-@contextmanager
-def warnings_naming(name: str) -> Iterator[list[warnings.WarningMessage]]:
-    """Catch the warnings raised inside and pass them on after it (to the command, which
-    prints them at its end), ``name: `` in front of those that do not name it: a batch item's
-    warnings are printed among other items' (newcomer report: four CMU takes converted to BVH
-    warned one line that named none of them). Yields the list they are caught in, as raised
-    (for the item's own report)."""
-    caught: list[warnings.WarningMessage] = []
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            yield caught
-    finally:  # also when the item failed: what it warned before is still said
-        for w in caught:
-            msg = str(w.message)
-            warnings.warn_explicit(
-                msg if name in msg else f"{name}: {msg}", w.category, w.filename, w.lineno
-            )
