@@ -417,7 +417,10 @@ def test_the_clips_own_take_in_the_library_fills_the_gap_alone(humanoid):
     assert res.blended_from[0]["score"] < 0.01 and weights[0] > 0.99
     assert abs(sum(weights) - 1.0) < 1e-3
     assert res.difference_to(walk) < 1e-6  # the take's own frames
+    # both junctions scored as the frames replaced are: the same frames, the same score
+    assert res.replaced_lscore == pytest.approx(res.library_lscore, rel=1e-6)
     alike = inbetween(walk, (a, b), lib, up="Y", method="library", config=config)
+    assert alike.replaced_lscore == pytest.approx(res.replaced_lscore)  # the clip's, not the fill's
     for x in alike.blended_from:  # walks alike share the weight; far worse ones count for nothing
         near = x["score"] < 2.0 * alike.blended_from[0]["score"] + 1.0
         assert 0.05 < x["weight"] < 0.5 if near else abs(x["weight"]) < 0.005, x
@@ -847,6 +850,9 @@ def test_a_gap_at_the_start_is_the_reversed_clips_end_filled(humanoid):
         # steps (newcomer report: the half second beside the gap raised a foot 1 cm)
         locked = inbetween(walk, (a, b), [lib[3], walk.copy()], up="Y")
         assert locked.difference_to(walk) < 1e-6
+        # the frames replaced are scored as the fill is: the same frames, the same score
+        assert locked.replaced_lscore == pytest.approx(locked.library_lscore, rel=1e-6)
+        assert locked.to_json()["replaced_lscore"] == pytest.approx(locked.replaced_lscore)
     # the report is the clip's own way round: the best candidate is on the library motion
     # played as it fills the gap, its frames those the report names
     prepared = prepare_library(lib, walk, up="Y")

@@ -116,10 +116,12 @@ def inbetween_cmd(
     alone, continuing the clip's motion and free at the other end. With --method auto the Kalman
     transition of stitching fills a gap of up to 0.3 s instead, and says so, when the library
     fill's two-sided L-score (smoothness at both junctions, lower is better) is more than 4x the
-    Kalman transition's own. A warning says when the best segment's path over the ground misses
-    the clip's by more than 0.5 m (0.35 m per second of a gap over 1.4 s), or its poses beside
-    the gap by more than 12 cm RMS per joint: the library then holds nothing like the motion
-    around the gap. OUT gets a provenance sidecar naming the library files and frames used
+    Kalman transition's own. The frames replaced are scored too: a fill scoring about as they
+    did is as smooth at its junctions as the capture was. A warning says when the best
+    segment's path over the ground misses the clip's by more than 0.5 m (0.35 m per second of
+    a gap over 1.4 s), or its poses beside the gap by more than 12 cm RMS per joint: the
+    library then holds nothing like the motion around the gap. OUT gets a provenance sidecar
+    naming the library files and frames used
     (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
     before), the earlier fills are traced into it. --json writes the same with the scores and
     the warnings of reading and writing the files (``warnings``: a CMU take written as BVH,
@@ -250,9 +252,11 @@ def inbetween_cmd(
         )
         click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
+    # the frames replaced, scored alike: the scale an L-score reads on (lower is smoother)
+    was = f", the frames replaced {res.replaced_lscore:.6g}"
     scores = (
         f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "
-        f"{res.kalman_lscore:.6g} from the Kalman transition"
+        f"{res.kalman_lscore:.6g} from the Kalman transition{was}"
     )
     if res.method == "kalman":
         if method == "kalman":
@@ -266,7 +270,7 @@ def inbetween_cmd(
         at = b if a == 0 else a
         say(
             f"filled frames {a}:{b} from {res.source} (L-score of its junction with the clip at "
-            f"frame {at}: {res.library_lscore:.6g}; a gap at the clip's "
+            f"frame {at}: {res.library_lscore:.6g}{was}; a gap at the clip's "
             f"{'start' if a == 0 else 'end'} is filled from its one side by the best segment, "
             f"free at the {'first' if a == 0 else 'last'} frame)"
         )
@@ -275,7 +279,7 @@ def inbetween_cmd(
         what = res.source if n == 1 else f"{n} segments of {len(takes)} take(s)"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
-            scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}"
+            scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}{was}"
             if method == "auto":
                 within = (
                     f"; a gap over {DEFAULT_CONFIG.kalman_max_seconds:g} s is not given to the "

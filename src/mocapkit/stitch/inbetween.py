@@ -2336,6 +2336,11 @@ class Inbetween:
     library_lscore_ends: tuple[float, float] = (math.nan, math.nan)
     """The library fill's L-scores at its two junctions (their sum is :attr:`library_lscore`),
     the costs of the sidecar's two transitions."""
+    replaced_lscore: float = math.nan
+    """The two-sided L-score of the clip's own frames the fill replaced, scored the same way:
+    the scale the other L-scores read on (an L-score has no unit a user knows; a fill scoring
+    about what the capture scored there is as smooth at its junctions as the capture was; a
+    glitch in the frames replaced scores higher)."""
 
     @property
     def fell_back(self) -> bool:
@@ -2425,6 +2430,7 @@ class Inbetween:
             "warning": self.warning or None,
             "note": self.note or None,
             "kalman_lscore": _finite_or_none(self.kalman_lscore),
+            "replaced_lscore": _finite_or_none(self.replaced_lscore),
             "candidates": self.candidates,
             "search_seconds": round(self.search_seconds, 4),
             "output": self.output,
@@ -2594,6 +2600,9 @@ def inbetween(
             lfill = _to_level(onpath, a, b, lfill, shift, up, config)
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
     lib_score = sum(x for x in lib_ends if not (one_sided and math.isnan(x)))  # one junction
+    replaced = sum(
+        x for x in _two_sided(onpath, onpath[a:b], a, b, ctx, w, up, model) if not math.isnan(x)
+    )
     use_kalman = (
         method == "kalman"
         or lfill is None
@@ -2631,6 +2640,7 @@ def inbetween(
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
         () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
+        replaced,
     )  # fmt: skip
 
 
