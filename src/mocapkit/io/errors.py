@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable
 from pathlib import Path
 
 #: Offending text is quoted up to this many characters in messages (a 50 MB line or 16 KB of NUL
@@ -76,7 +77,7 @@ NUMPY_NOISE = ("overflow encountered", "invalid value encountered", "divide by z
 where it matters, e.g. non-finite JSON values become null with a warning)."""
 
 
-def warning_lines(caught) -> list[str]:
+def warning_lines(caught: Iterable[warnings.WarningMessage]) -> list[str]:
     """The warnings ``caught`` (``warnings.catch_warnings(record=True)``) as a user reads them,
     each once, in order: ``repaired: ...`` (:class:`RepairWarning`) or ``warning: ...``, on one
     line; numpy's intermediate-value noise and deprecations left out. What the CLI prints
