@@ -15,7 +15,10 @@ mirror them across one plane; Bandai's bones run along +X on the left and -X on 
 each joint gets its own mirror ``B[j]``, an improper orthogonal matrix (det -1) that takes its
 twin's rest offsets to its own: ``B[j] o[s(c)] ~ o[c]`` for its children and End Sites ``c``,
 solved by orthogonal Procrustes, leaning on the parent's ``B`` where the offsets leave a twist
-open (a chain with one child) and on ``M_w`` at the root; ``B[s(j)] = B[j]^T`` and
+open (a chain with one child) and on ``M_w`` at the root; where that leaves each limb's
+local rotations half a turn from the rig's own encoding (Bandai), the limb is turned half
+round its bones (:func:`_nearest_encoding`: the FK is the same, and blending the mirrored
+take with unmirrored ones no longer swings its limbs round); ``B[s(j)] = B[j]^T`` and
 ``B[j]^2 = I`` for a centre joint, so mirroring a symmetric rig twice gives the take back
 exactly (on an asymmetric one the FK comes back exactly and the rotations within ~1e-3 degrees,
 since the second fit sees the traded bone lengths). With global rotations
@@ -29,6 +32,7 @@ subjects) the bone lengths trade sides (:attr:`Mirrored.offset_change` says by h
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 
@@ -186,15 +190,28 @@ def _improper_fit(h: np.ndarray, prior: np.ndarray, symmetric: bool) -> np.ndarr
     b0 = np.eye(3) - 2.0 * np.outer(w, w)
     k = b0.T @ prior
     along = np.outer(src, src)
-    phi = np.arctan2(np.trace(_skew(src).T @ k), np.trace(k) - src @ k @ src)
+    sin_part, cos_part = np.trace(_skew(src).T @ k), np.trace(k) - src @ k @ src
+    if math.hypot(sin_part, cos_part) < 1e-3:
+        # the prior is a half turn across the bone from every candidate: it prefers no twist,
+        # and following it would let rounding in the offsets pick one (takes of one Bandai rig
+        # got leg mirrors 150 deg apart); the plain reflection is the same for every take
+        return b0
+    phi = np.arctan2(sin_part, cos_part)
     twist = along + np.cos(phi) * (np.eye(3) - along) + np.sin(phi) * _skew(src)
     return b0 @ twist
 
 
-def joint_mirrors(sk: Skeleton, twin: np.ndarray, world: np.ndarray) -> np.ndarray:
-    """(J, 3, 3) the per-joint mirrors ``B`` (see the module notes), ``world`` = ``M_w``."""
+def joint_mirrors(
+    sk: Skeleton, twin: np.ndarray, world: np.ndarray, poses: np.ndarray | None = None
+) -> np.ndarray:
+    """(J, 3, 3) the per-joint mirrors ``B`` (see the module notes), ``world`` = ``M_w``.
+
+    ``poses``: (J, 3, 3) the take's mean local rotations (:func:`_mean_poses`); with them, a
+    joint with one bone below it is turned half round that bone where that brings the
+    mirrored take's mean poses nearer the take's own (:func:`_nearest_encoding`)."""
     J = sk.num_joints
     B = np.zeros((J, 3, 3))
+    one_bone: dict[int, np.ndarray] = {}  # joint -> its one bone's direction, twin's frame
     es_of = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
     for j in range(J):
         t = int(twin[j])
@@ -217,9 +234,93 @@ def joint_mirrors(sk: Skeleton, twin: np.ndarray, world: np.ndarray) -> np.ndarr
             for e, f in zip(mine, theirs, strict=True):
                 h = h + np.outer(sk.end_site_offsets[e], sk.end_site_offsets[f])
         B[j] = _improper_fit(h, prior, symmetric=t == j)
+        _, sv, vt = np.linalg.svd(h)
+        if p >= 0 and sv[0] > 1e-300 and sv[1] <= 1e-9 * sv[0]:
+            one_bone[j] = vt[0]
         if t != j:
             B[t] = B[j].T
+    if poses is not None and one_bone:
+        B = _nearest_encoding(sk, twin, world, B, one_bone, poses)
     return B
+
+
+def _nearest_encoding(
+    sk: Skeleton,
+    twin: np.ndarray,
+    world: np.ndarray,
+    B: np.ndarray,
+    one_bone: dict[int, np.ndarray],
+    poses: np.ndarray,
+) -> np.ndarray:
+    """``B`` with each chain of one-bone joints (a limb from the joint it hangs from down to
+    a joint with two bones or none) kept, or turned half round each of its bones, whichever
+    brings the mirrored take's mean local rotations nearer the take's own; a joint with
+    nothing below it (no bone, no End Site offset) follows its parent's mirror.
+
+    Why: FK fixes a one-bone joint's mirror only up to a twist about the bone, and the twist
+    decides which local rotations encode the mirrored poses. On a rig whose left bones run
+    along +X and right ones along -X (Bandai), the parent's mirror does not decide the twist
+    (it is half a turn across the bone from every candidate) or decides it half a turn from
+    where the rig keeps its poses: the FK is exact, but the spine, arms and legs of the
+    mirrored take are encoded with each elbow and knee bent the other way round, undone by
+    the next joint, and whatever blends local rotations with unmirrored takes (a stitch's
+    transition, an in-between, an average) swings them round (a Bandai walk stitched to its
+    own mirror: the chest turned up to 150 deg a frame). Relies on a limb's mean pose in the
+    mirrored take being far nearer its mean in the take than half a turn, which the hinge
+    joints decide (an elbow or knee bends the same way on both sides, whatever the take
+    does). A rig's left/right conventions differ by sign flips, so only half turns are
+    offered, and per limb rather than per joint (a quarter turn, or a joint alone, would
+    chase a take's asymmetry, such as one hand waving, rather than the rig's convention).
+
+    A chain hangs from a joint whose mirror the offsets fix, so chains are chosen
+    independently; the twins' chains turn with them (``B[s(j)] = B[j]^T``). The cost is the
+    sum over joints ``k`` of the squared angle between the mirrored mean pose
+    ``B[p(s(k))]^T P[s(k)] B[s(k)]`` and the take's ``P[k]``. Each candidate maps to itself
+    under mirroring the mirrored take, so that makes the same choice: twice is still the
+    identity."""
+    J = sk.num_joints
+    parents = sk.parents
+
+    def bare(j: int) -> bool:  # nothing below it to fit
+        return not sk.children(j) and not np.any(sk.end_site_offsets[sk.end_site_parents == j])
+
+    def follows(j: int) -> bool:  # its mirror (and its twin's) is its parent's
+        return parents[j] >= 0 and bare(j) and bare(int(twin[j]))
+
+    def head(j: int) -> int:
+        while int(parents[j]) in one_bone:
+            j = int(parents[j])
+        return j
+
+    chains: dict[int, list[int]] = {}
+    for j in one_bone:
+        chains.setdefault(head(j), []).append(j)
+
+    def with_turns(turned: set[int]) -> np.ndarray:
+        out = B.copy()
+        for j in turned:
+            u = one_bone[j]
+            out[j] = B[j] @ (2.0 * np.outer(u, u) - np.eye(3))
+            if twin[j] != j:
+                out[int(twin[j])] = out[j].T
+        for j in range(J):  # parents first: a follower takes its parent's final mirror
+            if follows(j):
+                out[j] = out[int(parents[j])]
+        return out
+
+    def cost(b: np.ndarray) -> float:
+        total = 0.0
+        for k in range(1, J):
+            s_k, ps = int(twin[k]), int(parents[twin[k]])
+            r = poses[k].T @ b[ps].T @ poses[s_k] @ b[s_k]
+            total += float(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))) ** 2
+        return total
+
+    turned: set[int] = set()
+    for members in chains.values():  # independent: each hangs from a joint the offsets fix
+        if cost(with_turns(turned | set(members))) < cost(with_turns(turned)):
+            turned |= set(members)
+    return with_turns(turned)
 
 
 @dataclass(frozen=True, eq=False)
@@ -249,6 +350,14 @@ class Mirrored:
         }
 
 
+def _mean_poses(q: np.ndarray) -> np.ndarray:
+    """(J, 3, 3) each joint's mean local rotation over the frames (the principal eigenvector
+    of the summed quaternion outer products, which ignores the quaternions' signs)."""
+    acc = np.einsum("fji,fjk->jik", q, q)
+    _, vecs = np.linalg.eigh(acc)
+    return rot.quat_to_matrix(vecs[..., -1])
+
+
 def mirror(motion: Motion, up: str | None = None) -> Mirrored:
     """The take mirrored left/right (see the module notes for the plane and the formulas).
 
@@ -261,7 +370,7 @@ def mirror(motion: Motion, up: str | None = None) -> Mirrored:
     side, _, fwd = ground_frame(up)
     n_w = np.abs(side)  # the sign of a normal does not matter
     M_w = np.eye(3) - 2.0 * np.outer(n_w, n_w)
-    B = joint_mirrors(sk, twin, M_w)
+    B = joint_mirrors(sk, twin, M_w, _mean_poses(motion.rotations) if motion.num_frames else None)
     # -B is a proper rotation (det(-B) = -det B = 1 in 3-D), and B^T R B' = (-B)^T R (-B').
     qb = rot.matrix_to_quat(-B)
     parents = sk.parents
