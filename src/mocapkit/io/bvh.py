@@ -587,7 +587,8 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         )
     rows = values.shape[0]
     if rows != declared:
-        msg = f"{quote('Frames: ' + str(declared))} but {rows} rows of motion data follow"
+        rows_follow = f"{rows} row{'s' * (rows != 1)} of motion data follow{'s' * (rows == 1)}"
+        msg = f"{quote('Frames: ' + str(declared))} but {rows_follow}"
         if not lenient:
             raise BVHError(
                 source, fl, msg + " (lenient reading, --lenient, reads the rows present)"
