@@ -488,3 +488,53 @@ def test_tasks_run_in_the_clients_folder_one_folder_at_a_time(tmp_path, monkeypa
     t4.join(5)
     assert not t3.is_alive() and not t4.is_alive() and seen["c"] == str(home)
     os.chdir(home)
+
+
+def _warns_three(i: int) -> int:
+    """A task that warns three messages of its own, pausing between them so that a worker's
+    threads interleave."""
+    import time
+    import warnings
+
+    for k in range(3):
+        time.sleep(0.01 * ((7 * i + k) % 5))
+        warnings.warn(f"task {i} warning {k}", UserWarning, stacklevel=1)
+    return i
+
+
+def test_each_tasks_warnings_reach_the_client_and_its_own_report_on_a_threaded_worker(
+    tmp_path,
+):
+    """A worker with several threads runs several tasks at once. The per-task capture was
+    ``warnings.catch_warnings``, which is process-wide: tasks restored each other's, so some
+    warnings went to the worker's standard error and never to the client (40 tasks of three
+    warnings on 4 threads: 14 of 120 lost), and one take's could land in another's report.
+    Now each thread's are collected apart: every warning comes back once, and each take's
+    report holds its own repair and no other take's."""
+    import warnings
+
+    from mocapkit import datasets
+
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    lines = write_motion(datasets.procedural_motion("walk", 3.0, seed=1).motion,
+                         tmp_path / "w.bvh").read_text().splitlines(keepends=True)  # fmt: skip
+    at = lines.index("MOTION\n") + 3
+    for n in range(8):  # a blank row at a line of its own in each take: one repair each
+        row = at + 5 * n
+        (lib / f"take_{n}.bvh").write_text("".join([*lines[:row], "\n", *lines[row:]]))
+    cfg = LibraryCleanConfig(context_max=0, lenient=True)
+    with (
+        Runner(workers=1, threads_per_worker=4) as runner,
+        warnings.catch_warnings(record=True) as caught,
+    ):
+        warnings.simplefilter("always")
+        runner.map(_warns_three, list(range(40)))
+        clean_library(lib, None, tmp_path / "rep", cfg, runner=runner)
+    said = [str(w.message) for w in caught]
+    tasks = [m for m in said if m.startswith("task ")]
+    assert sorted(tasks) == sorted(f"task {i} warning {k}" for i in range(40) for k in range(3))
+    for n in range(8):
+        own = json.loads((tmp_path / "rep" / "takes" / f"take_{n}.json").read_text())["warnings"]
+        assert len(own) == 1 and f"take_{n}.bvh:{at + 5 * n + 1}: " in own[0], own
+        assert sum(f"take_{n}.bvh:" in m for m in said) == 1

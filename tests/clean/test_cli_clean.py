@@ -149,6 +149,25 @@ def test_clean_report_carries_what_standard_error_warns(files, tmp_path) -> None
     assert code == 0 and json.loads(stdout)["warnings"] == []
 
 
+def test_folder_mode_reports_carry_their_takes_warnings(files, tmp_path) -> None:
+    """Folder mode: each take's report carries what was warned reading it, as a single take's
+    report does (a blank row skipped with --lenient), and standard error still says it."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    lines = Path(files["clean"]).read_text().splitlines(keepends=True)
+    at = lines.index("MOTION\n") + 10
+    (lib / "a_blank.bvh").write_text("".join([*lines[:at], "\n", *lines[at:]]))
+    (lib / "b_plain.bvh").write_text("".join(lines))
+    code, _, stderr = run("clean", str(lib), "--report-dir", str(tmp_path / "rep"), "--lenient")
+    assert code == 0, stderr
+    said = json.loads((tmp_path / "rep" / "takes" / "a_blank.json").read_text())["warnings"]
+    assert len(said) == 1 and said[0].startswith("repaired: ") and f":{at + 1}: " in said[0]
+    assert said[0] in stderr and stderr.count(said[0]) == 1
+    # the other take's report says only what reading its context (the first take) repaired
+    other = json.loads((tmp_path / "rep" / "takes" / "b_plain.json").read_text())["warnings"]
+    assert other == said and "b_plain.bvh" not in str(other)
+
+
 def test_clean_baseline_and_errors(files, tmp_path) -> None:
     rep = tmp_path / "b.json"
     code, _, stderr = run(

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import html
 import json
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -215,10 +216,22 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
     :func:`mocapkit.clean.run`, write the repaired take and its report atomically, then its
     manifest entry. Returns its summary record, or ``{"take", "error"}`` (one line) when the
     take cannot be read or cleaned. A context take that cannot be read is left out and named
-    in ``context_skipped``."""
+    in ``context_skipped``. Its report carries ``warnings``: what reading, cleaning and
+    writing it warned (a repaired row, a unit a BVH file cannot state), as a single take's
+    report does; they go on to the command too. Collected per thread
+    (:func:`mocapkit.core.thread_warnings.collected_warnings`): a worker may clean several
+    takes at once."""
+    from mocapkit.core.thread_warnings import collected_warnings
+
+    with collected_warnings() as caught:
+        return _clean_take(task, caught)
+
+
+def _clean_take(task: TakeTask, caught: list[warnings.WarningMessage]) -> dict[str, Any]:
     from mocapkit import clean
     from mocapkit.io import MocapFileError, read_motion, write_motion
     from mocapkit.io.atomic import atomic_write_text
+    from mocapkit.io.errors import warning_lines
     from mocapkit.jsonio import to_json_text
 
     cfg = task.config
@@ -249,6 +262,7 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
         js = {k: v for k, v in report.to_json().items() if k not in VOLATILE_REPORT_KEYS}
         if task.output:  # no out_dir: the reports alone
             write_motion(report.motion, task.output)
+        js["warnings"] = warning_lines(caught)
         atomic_write_text(task.report, to_json_text(js) + "\n")
         record = _record(report, task)
         record["context"] = names

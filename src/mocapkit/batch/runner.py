@@ -18,6 +18,7 @@ import contextlib
 import os
 import resource
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -126,6 +127,20 @@ class _ClientFolder:
 _CLIENT_FOLDER = _ClientFolder()
 
 
+_ALWAYS = threading.Lock()
+_always_set = False
+
+
+def _every_warning_shown() -> None:
+    """Show this worker process's every warning, every time: each task's go back to the client
+    (a warning the process showed once would be missing from every later task's)."""
+    global _always_set
+    with _ALWAYS:
+        if not _always_set:
+            warnings.simplefilter("always")
+            _always_set = True
+
+
 def _call(
     fn: Callable[..., Any],
     item: Any,
@@ -136,10 +151,13 @@ def _call(
     """Run ``fn`` on a worker, in the client's ``folder`` (:class:`_ClientFolder`): its
     result, the warnings it raised (re-raised on the client), this worker's pid and peak
     memory, and the seconds it took."""
+    from mocapkit.core.thread_warnings import collected_warnings
+
     keep_freed_memory()
+    _every_warning_shown()
     t0 = time.perf_counter()
-    with _CLIENT_FOLDER.inside(folder), warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    # per thread: a worker may run several tasks at once (catch_warnings is process-wide)
+    with _CLIENT_FOLDER.inside(folder), collected_warnings(forward=False) as caught:
         out = fn(shared, item) if has_shared else fn(item)
     ws = [(w.category, str(w.message)) for w in caught]
     return out, ws, os.getpid(), _peak_rss_bytes(), time.perf_counter() - t0
