@@ -25,8 +25,14 @@ def test_inject_gives_exactly_k_frames(clips, method, k) -> None:
     res = stitch(walk, "40:60", [run], method=method, inject=k)
     assert res.transition.k == k
     assert res.k == k
-    assert res.generated.stop - res.generated.start == k
     a, b = res.transition.takeoff, res.transition.landing
+    assert res.generated.start == a + 1
+    if k == 0 and method == "kalman":  # no frame generated: the cut's landing frames eased
+        eased = res.generated.stop - res.generated.start  # (and a foot held while planted)
+        assert eased >= walk.seconds_to_frames(0.25)
+        assert res.landing_index == a + 1 + eased and res.landing_played == b + eased
+    else:
+        assert res.generated.stop - res.generated.start == k
     assert res.motion.num_frames == (a + 1) + k + (run.num_frames - b)
     # the forced k's L-score, on the whole curve up to the usual 1 s: the optimum stays visible
     L = res.transition.lscore_by_k
@@ -89,6 +95,14 @@ def test_cli_inject(clips, tmp_path) -> None:
     assert plan.segments[-1].output_stop == m.num_frames
     bad = CliRunner().invoke(main, ["stitch", str(q), str(d), "--takeoff", "40", "--inject", "-1"])
     assert bad.exit_code == 2
+    # newcomer report: --inject 500 was taken, and put the hips 5 m up; more than --max-inject
+    # (1 s by default) is refused in one line, which says how to force it
+    args = ["stitch", str(q), str(d), "--takeoff", "40", "--landing", "10", "--out", str(out)]
+    long = CliRunner().invoke(main, [*args, "--inject", "500"])
+    assert long.exit_code == 2 and "--max-inject" in long.output
+    assert len(long.output.strip().splitlines()) == 1
+    forced = CliRunner().invoke(main, [*args, "--inject", "40", "--max-inject", "40"])
+    assert forced.exit_code == 0, forced.output
 
 
 def test_error_quotes_close(clips, tmp_path) -> None:

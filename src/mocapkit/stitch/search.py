@@ -333,6 +333,15 @@ def check_search(k_max, inject, w, score):
         if int(inject) != inject or inject < 0:
             raise ValueError(f"inject must be an integer >= 0, got {inject}")
         inject = int(inject)
+        if inject > k_show:
+            # the Kalman model carries the end frames' accelerations across the unobserved
+            # frames, so its error grows with the square of their number: --inject 60 on a
+            # Bandai walk put a joint 2.2 m off, --inject 500 the hips 5 m up (newcomer report)
+            raise ValueError(
+                f"--inject {inject} is more frames than the longest transition searched "
+                f"(--max-inject, {k_show} frames): past it the Kalman transition strays ever "
+                "further from the two clips; raise --max-inject to force it"
+            )
         k_max, k_show = inject, max(k_show, inject)
     return int(k_max), k_show, inject, check_w(w), _check_score(score)
 
