@@ -186,3 +186,36 @@ def test_a_rig_whose_right_bones_run_along_minus_x_mirrors_into_its_own_conventi
     worst = int(np.argmax(misses))
     assert misses.max() < 20.0, f"{names[worst]}: {misses.max():.0f} deg"
     assert mirror(res.motion).motion.allclose(m, 1e-6, 1e-6)
+
+
+def test_a_joint_that_cannot_rotate_and_a_hand_whose_twin_has_no_end_site_follow_their_limb():
+    """Reviewer: with a limb turned half round its bones (the Bandai-like rig above), a joint
+    without rotation channels kept its old mirror and came out turned 180 deg (a BVH written
+    from it gained rotation channels), and a hand with an End Site its twin lacks stayed half
+    a turn off. Both follow their parent's mirror, as they did before limbs were turned."""
+    walk = datasets.procedural_motion("walk", 2.0, seed=0).motion
+    names = walk.skeleton.names
+    right = [j for j, n in enumerate(names) if n.startswith("Right")]
+    m = _reframed(walk, right, np.array([0.0, 1.0, 0.0, 0.0]))  # its limbs are turned
+    sk = m.skeleton
+    fore = [names.index("LeftForeArm"), names.index("RightForeArm")]
+    channels = [tuple(c for c in ch if j not in fore or "position" in c)
+                for j, ch in enumerate(sk.channels)]  # fmt: skip
+    hand_l, hand_r = names.index("LeftHand"), names.index("RightHand")
+    keep = [e for e, p in enumerate(sk.end_site_parents) if p != hand_r]
+    ends = sk.end_site_offsets[keep]
+    if hand_l not in sk.end_site_parents[keep]:
+        pytest.skip("the procedural rig's left hand has no End Site")
+    sk2 = Skeleton(sk.names, sk.parents, sk.offsets, tuple(channels),
+                   sk.end_site_parents[keep], ends)  # fmt: skip
+    q = m.rotations.copy()
+    q[:, fore] = [1.0, 0.0, 0.0, 0.0]
+    m2 = Motion(sk2, q, m.root_positions, m.frame_time)
+    res = mirror(m2)
+    M = world_mirror(res.world_normal)  # the joints' FK (the End Sites no longer pair)
+    pos, pos2 = forward_kinematics(m2)[0], forward_kinematics(res.motion)[0]
+    np.testing.assert_allclose(pos2[:, res.twins], pos @ M.T, atol=1e-9)
+    assert rot.quat_angle(res.motion.rotations[:, fore], np.array([1.0, 0, 0, 0])).max() < 1e-9
+    misses = _mean_pose_misses_deg(m2, res.motion)
+    assert misses[[hand_l, hand_r]].max() < 20.0, misses[[hand_l, hand_r]]
+    assert mirror(res.motion).motion.allclose(m2, 1e-6, 1e-6)

@@ -182,9 +182,10 @@ def _improper_fit(h: np.ndarray, prior: np.ndarray, symmetric: bool) -> np.ndarr
         return np.eye(3) - 2.0 * np.outer(w, w)
     # A reflection taking src to tgt, then the twist about src that best matches the prior.
     diff = src - tgt
-    if np.linalg.norm(diff) > 1e-12:
+    if np.linalg.norm(diff) > 1e-3:
         w = diff / np.linalg.norm(diff)
-    else:
+    else:  # the same direction to rounding (under 0.06 deg): a reflection through it, one
+        # chosen by the direction alone, not by the rounding (whose direction is arbitrary)
         w = np.cross(src, np.eye(3)[int(np.argmin(np.abs(src)))])
         w /= np.linalg.norm(w)
     b0 = np.eye(3) - 2.0 * np.outer(w, w)
@@ -212,6 +213,7 @@ def joint_mirrors(
     J = sk.num_joints
     B = np.zeros((J, 3, 3))
     one_bone: dict[int, np.ndarray] = {}  # joint -> its one bone's direction, twin's frame
+    follows: set[int] = set()  # joints whose mirror is their parent's (nothing else fits it)
     es_of = [np.flatnonzero(sk.end_site_parents == j) for j in range(J)]
     for j in range(J):
         t = int(twin[j])
@@ -225,6 +227,8 @@ def joint_mirrors(
             B[j] = prior if p >= 0 else world
             if t != j:
                 B[t] = B[j].T
+            if p >= 0:
+                follows.update((j, t))
             continue
         h = np.zeros((3, 3))
         for c in sk.children(j):
@@ -237,25 +241,28 @@ def joint_mirrors(
         _, sv, vt = np.linalg.svd(h)
         if p >= 0 and sv[0] > 1e-300 and sv[1] <= 1e-9 * sv[0]:
             one_bone[j] = vt[0]
+        elif p >= 0 and sv[0] <= 1e-300:  # no offset below it to fit: the prior, its parent's
+            follows.update((j, t))
         if t != j:
             B[t] = B[j].T
     if poses is not None and one_bone:
-        B = _nearest_encoding(sk, twin, world, B, one_bone, poses)
+        B = _nearest_encoding(sk, twin, B, one_bone, follows, poses)
     return B
 
 
 def _nearest_encoding(
     sk: Skeleton,
     twin: np.ndarray,
-    world: np.ndarray,
     B: np.ndarray,
     one_bone: dict[int, np.ndarray],
+    follows: set[int],
     poses: np.ndarray,
 ) -> np.ndarray:
     """``B`` with each chain of one-bone joints (a limb from the joint it hangs from down to
     a joint with two bones or none) kept, or turned half round each of its bones, whichever
-    brings the mirrored take's mean local rotations nearer the take's own; a joint with
-    nothing below it (no bone, no End Site offset) follows its parent's mirror.
+    brings the mirrored take's mean local rotations nearer the take's own; a joint whose
+    mirror is its parent's (``follows``: nothing below it to fit, or it cannot rotate) still
+    is once the parent's has turned.
 
     Why: FK fixes a one-bone joint's mirror only up to a twist about the bone, and the twist
     decides which local rotations encode the mirrored poses. On a rig whose left bones run
@@ -281,12 +288,6 @@ def _nearest_encoding(
     J = sk.num_joints
     parents = sk.parents
 
-    def bare(j: int) -> bool:  # nothing below it to fit
-        return not sk.children(j) and not np.any(sk.end_site_offsets[sk.end_site_parents == j])
-
-    def follows(j: int) -> bool:  # its mirror (and its twin's) is its parent's
-        return parents[j] >= 0 and bare(j) and bare(int(twin[j]))
-
     def head(j: int) -> int:
         while int(parents[j]) in one_bone:
             j = int(parents[j])
@@ -304,7 +305,7 @@ def _nearest_encoding(
             if twin[j] != j:
                 out[int(twin[j])] = out[j].T
         for j in range(J):  # parents first: a follower takes its parent's final mirror
-            if follows(j):
+            if j in follows:
                 out[j] = out[int(parents[j])]
         return out
 
