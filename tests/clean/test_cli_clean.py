@@ -151,7 +151,9 @@ def test_clean_report_carries_what_standard_error_warns(files, tmp_path) -> None
 
 def test_folder_mode_reports_carry_their_takes_warnings(files, tmp_path) -> None:
     """Folder mode: each take's report carries what was warned reading it, as a single take's
-    report does (a blank row skipped with --lenient), and standard error still says it."""
+    report does (a blank row skipped with --lenient), and standard error still says it once;
+    what reading a context take warned is that take's, and a context take that could not be
+    read is named in the report."""
     lib = tmp_path / "lib"
     lib.mkdir()
     lines = Path(files["clean"]).read_text().splitlines(keepends=True)
@@ -163,9 +165,16 @@ def test_folder_mode_reports_carry_their_takes_warnings(files, tmp_path) -> None
     said = json.loads((tmp_path / "rep" / "takes" / "a_blank.json").read_text())["warnings"]
     assert len(said) == 1 and said[0].startswith("repaired: ") and f":{at + 1}: " in said[0]
     assert said[0] in stderr and stderr.count(said[0]) == 1
-    # the other take's report says only what reading its context (the first take) repaired
-    other = json.loads((tmp_path / "rep" / "takes" / "b_plain.json").read_text())["warnings"]
-    assert other == said and "b_plain.bvh" not in str(other)
+    # newcomer: the other take's report listed what reading its context (the first take)
+    # repaired, unlabelled; that is the first take's, and its own report has it
+    other = json.loads((tmp_path / "rep" / "takes" / "b_plain.json").read_text())
+    assert other["warnings"] == [] and other["context"] == ["a_blank.bvh"]
+    # read strictly, the blank row fails the first take; the other's report says its context
+    # lost it (newcomer: it shrank with no word)
+    code, _, stderr = run("clean", str(lib), "--report-dir", str(tmp_path / "strict"))
+    assert code == 2 and "a_blank.bvh" in stderr
+    other = json.loads((tmp_path / "strict" / "takes" / "b_plain.json").read_text())
+    assert other["context"] == [] and "a_blank.bvh" in other["context_skipped"][0]
 
 
 def test_clean_baseline_and_errors(files, tmp_path) -> None:

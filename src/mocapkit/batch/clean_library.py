@@ -216,9 +216,10 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
     :func:`mocapkit.clean.run`, write the repaired take and its report atomically, then its
     manifest entry. Returns its summary record, or ``{"take", "error"}`` (one line) when the
     take cannot be read or cleaned. A context take that cannot be read is left out and named
-    in ``context_skipped``. Its report carries ``warnings``: what reading, cleaning and
-    writing it warned (a repaired row, a unit a BVH file cannot state), as a single take's
-    report does; they go on to the command too. Collected per thread
+    in ``context_skipped`` (in its record and its report). Its report carries ``warnings``:
+    what reading, cleaning and writing it warned (a repaired row, a unit a BVH file cannot
+    state), as a single take's report does, not what reading its context warned (the context
+    takes' own reports carry that); all of them go on to the command. Collected per thread
     (:func:`mocapkit.core.thread_warnings.collected_warnings`): a worker may clean several
     takes at once."""
     from mocapkit.core.thread_warnings import collected_warnings
@@ -229,6 +230,7 @@ def clean_take(task: TakeTask) -> dict[str, Any]:
 
 def _clean_take(task: TakeTask, caught: list[warnings.WarningMessage]) -> dict[str, Any]:
     from mocapkit import clean
+    from mocapkit.core.thread_warnings import collected_warnings
     from mocapkit.io import MocapFileError, read_motion, write_motion
     from mocapkit.io.atomic import atomic_write_text
     from mocapkit.io.errors import warning_lines
@@ -239,15 +241,20 @@ def _clean_take(task: TakeTask, caught: list[warnings.WarningMessage]) -> dict[s
     try:
         motion = read_motion(task.source, lenient=cfg["lenient"])
         context, names, skipped = [], [], []
-        for name, path in zip(task.context, task.context_paths, strict=True):
-            try:
-                m = read_motion(path, lenient=cfg["lenient"])
-                if m.skeleton.names != motion.skeleton.names:
-                    raise ValueError(f"{name}: a different skeleton from {task.name}")
-                context.append(m)
-                names.append(name)
-            except errors as e:
-                skipped.append(_error_line(name, e))
+        # what reading the context takes warns is theirs (their own reports carry it): passed
+        # on to the command, left out of this take's report
+        with collected_warnings() as theirs:
+            for name, path in zip(task.context, task.context_paths, strict=True):
+                try:
+                    m = read_motion(path, lenient=cfg["lenient"])
+                    if m.skeleton.names != motion.skeleton.names:
+                        raise ValueError(f"{name}: a different skeleton from {task.name}")
+                    context.append(m)
+                    names.append(name)
+                except errors as e:
+                    skipped.append(_error_line(name, e))
+        ids = {id(w) for w in theirs}
+        caught[:] = [w for w in caught if id(w) not in ids]
         kwargs: dict[str, Any] = {"two_stage": cfg["two_stage"]}
         if cfg.get("threshold") is not None:
             kwargs["threshold"] = cfg["threshold"]
@@ -263,6 +270,8 @@ def _clean_take(task: TakeTask, caught: list[warnings.WarningMessage]) -> dict[s
         if task.output:  # no out_dir: the reports alone
             write_motion(report.motion, task.output)
         js["warnings"] = warning_lines(caught)
+        if skipped:  # a context take it could not use: the result is not what it would be
+            js["context_skipped"] = skipped
         atomic_write_text(task.report, to_json_text(js) + "\n")
         record = _record(report, task)
         record["context"] = names

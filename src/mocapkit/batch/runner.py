@@ -18,7 +18,6 @@ import contextlib
 import os
 import resource
 import sys
-import threading
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -127,20 +126,6 @@ class _ClientFolder:
 _CLIENT_FOLDER = _ClientFolder()
 
 
-_ALWAYS = threading.Lock()
-_always_set = False
-
-
-def _every_warning_shown() -> None:
-    """Show this worker process's every warning, every time: each task's go back to the client
-    (a warning the process showed once would be missing from every later task's)."""
-    global _always_set
-    with _ALWAYS:
-        if not _always_set:
-            warnings.simplefilter("always")
-            _always_set = True
-
-
 def _call(
     fn: Callable[..., Any],
     item: Any,
@@ -151,13 +136,17 @@ def _call(
     """Run ``fn`` on a worker, in the client's ``folder`` (:class:`_ClientFolder`): its
     result, the warnings it raised (re-raised on the client), this worker's pid and peak
     memory, and the seconds it took."""
-    from mocapkit.core.thread_warnings import collected_warnings
+    from mocapkit.core.thread_warnings import collected_warnings, every_warning_shown
 
     keep_freed_memory()
-    _every_warning_shown()
     t0 = time.perf_counter()
-    # per thread: a worker may run several tasks at once (catch_warnings is process-wide)
-    with _CLIENT_FOLDER.inside(folder), collected_warnings(forward=False) as caught:
+    # per thread: a worker may run several tasks at once (catch_warnings is process-wide);
+    # every warning, each time: each task's go back to the client with it
+    with (
+        _CLIENT_FOLDER.inside(folder),
+        every_warning_shown(),
+        collected_warnings(forward=False) as caught,
+    ):
         out = fn(shared, item) if has_shared else fn(item)
     ws = [(w.category, str(w.message)) for w in caught]
     return out, ws, os.getpid(), _peak_rss_bytes(), time.perf_counter() - t0
@@ -336,17 +325,21 @@ class Runner:
         has_shared = shared is not None
         if progress is not None:
             progress(0, total)
-        if self.client is None and self.mode == "in-process" and self.threads_per_worker > 1:
-            yield from self._imap_threads(fn, items, shared, has_shared, progress)
-            return
         if self.client is None and self.mode == "in-process":
-            for n, item in enumerate(items):
-                t0 = time.perf_counter()
-                out = fn(shared, item) if has_shared else fn(item)
-                self.stats.note(os.getpid(), _peak_rss_bytes(), time.perf_counter() - t0)
-                if progress is not None:
-                    progress(n + 1, total)
-                yield out
+            # every warning every time, as on a worker: a task's report is the same either way
+            from mocapkit.core.thread_warnings import every_warning_shown
+
+            with every_warning_shown():
+                if self.threads_per_worker > 1:
+                    yield from self._imap_threads(fn, items, shared, has_shared, progress)
+                    return
+                for n, item in enumerate(items):
+                    t0 = time.perf_counter()
+                    out = fn(shared, item) if has_shared else fn(item)
+                    self.stats.note(os.getpid(), _peak_rss_bytes(), time.perf_counter() - t0)
+                    if progress is not None:
+                        progress(n + 1, total)
+                    yield out
             return
         if self.client is None:
             self.start()

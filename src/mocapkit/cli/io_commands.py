@@ -109,10 +109,11 @@ def _info_one(path: Path, up: str | None, units: str | None, lenient: bool) -> d
     """``summarize_file(path).to_json()`` as strict JSON values (non-finite -> None, with a
     warning naming the file), with ``warnings`` (the lines warned while reading, e.g. what
     --lenient repaired) when there are any, or a one-line CLIError naming the file."""
+    from mocapkit.core.thread_warnings import collected_warnings
     from mocapkit.jsonio import to_jsonable
 
-    with naming(path), warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    # this thread's only (a worker may read several files at once), kept and warned on below
+    with naming(path), collected_warnings(forward=False) as caught:
         out = to_jsonable(summarize_file(path, up=up, units=units, lenient=lenient).to_json())
     notes = []
     for w in caught:  # to the command's own catcher, naming the file where they do not

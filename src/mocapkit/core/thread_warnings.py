@@ -20,24 +20,34 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["collected_warnings"]
+__all__ = ["collected_warnings", "every_warning_shown"]
 
 _local = threading.local()  # .stack: this thread's open collections, innermost last
 _lock = threading.Lock()
 _previous: Any = None  # the showwarning that _show replaced
+_shown_by = 0  # how many every_warning_shown() are open
+_saved_filters: list[Any] = []
 
 
 def _show(
     message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None
 ) -> None:
     stack = getattr(_local, "stack", None) or []
+    msg = warnings.WarningMessage(message, category, filename, lineno, file, line)
     for caught, forward in reversed(stack):
-        caught.append(warnings.WarningMessage(message, category, filename, lineno, file, line))
+        caught.append(msg)  # the same object in each: a collection can tell an inner one's
         if not forward:
             return
     previous = _previous
-    if previous is not None and previous is not _show:
+    if getattr(_local, "passing_on", False) or previous is None or previous is _show:
+        # a showwarning installed over this one that calls it back: write it plainly
+        warnings._showwarning_orig(message, category, filename, lineno, file, line)  # type: ignore[attr-defined]
+        return
+    _local.passing_on = True
+    try:
         previous(message, category, filename, lineno, file, line)
+    finally:
+        _local.passing_on = False
 
 
 def _install() -> None:
@@ -66,3 +76,26 @@ def collected_warnings(forward: bool = True) -> Iterator[list[warnings.WarningMe
         yield caught
     finally:
         stack.pop()
+
+
+@contextmanager
+def every_warning_shown() -> Iterator[None]:
+    """Show every warning every time while inside (the ``"always"`` filter, which a collection
+    needs: under the default filters a warning already shown from the same line is not shown
+    again, so a later task's report would lack it). Process-wide, as filters are; counted, so
+    that tasks running side by side on threads share it, and the filters the process had are
+    put back when the last one leaves."""
+    global _shown_by, _saved_filters
+    with _lock:
+        if _shown_by == 0:
+            _saved_filters = list(warnings.filters)
+            warnings.simplefilter("always")
+        _shown_by += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _shown_by -= 1
+            if _shown_by == 0:
+                warnings.filters[:] = _saved_filters
+                warnings._filters_mutated()  # type: ignore[attr-defined]  # as catch_warnings does
