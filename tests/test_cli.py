@@ -541,3 +541,23 @@ def test_stitch_prints_its_json_result_only_once_its_files_are_written(
     assert code == 2, stderr
     assert set(json.loads(stdout)) == {"error"} and "no space" in stdout.lower()
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("stitch", "{walk}", "{walk}", "--takeoff", "40", "--json", "--out", "{out}"),
+        ("inbetween", "{walk}", "--gap", "30:40", "--json", "--out", "{out}"),
+        ("clean", "{walk}", "--json", "--out", "{out}"),
+    ],
+)
+def test_json_that_takes_a_file_refuses_an_option_as_its_value(walk_bvh, tmp_path, args):
+    """Newcomer: `stitch walk.bvh lib/ --takeoff 60 --json --out j.bvh` (--json written as the
+    flag it is in info, edit, graph and retarget) took '--out' as the JSON's file and read
+    j.bvh as a library file. Now one line says how to print it (--json -), and nothing is
+    written."""
+    out = tmp_path / "j.bvh"
+    code, _, err = run(*(a.format(walk=walk_bvh, out=out) for a in args))
+    assert code == 2 and "--json -" in err and "'--out'" in err
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists() and not (tmp_path / "--out").exists()

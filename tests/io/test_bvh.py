@@ -226,6 +226,8 @@ def test_lenient_repairs_and_says_so() -> None:
     with pytest.warns(RepairWarning, match="incomplete last row"):
         m = parse_bvh(truncated, lenient=True)
     assert m.num_frames == 2
+    with pytest.raises(BVHError, match=r"--lenient, drops an incomplete last row"):
+        parse_bvh(truncated)  # the strict error says what would repair it (newcomer)
     holes = SMALL.replace("-10 5e-1", "nan 5e-1")
     with pytest.warns(RepairWarning, match="filled from neighbouring frames"):
         m = parse_bvh(holes, lenient=True)

@@ -16,6 +16,7 @@ from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
     CLIError,
+    JsonFile,
     check_input_file,
     data_output,
     expand_inputs,
@@ -142,7 +143,7 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     "--json",
     "--report",
     "json_path",
-    type=click.Path(dir_okay=False, allow_dash=True),
+    type=JsonFile(),
     help="Write the JSON report (-: print it, and the summary lines go to standard error; a "
     'failure, a mistyped option too, prints {"error": LINE} there), as stitch and inbetween '
     "do; --report is the same option.",

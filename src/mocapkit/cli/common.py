@@ -247,6 +247,26 @@ LENIENT = click.option(
 )
 
 
+class JsonFile(click.Path):
+    """A ``--json FILE|-`` value: a file to write, or ``-`` to print. A value that is another
+    option (``--json --out x.bvh``, written as if ``--json`` were a flag, as it is in info,
+    edit, graph and retarget) is refused, rather than read as the file's name (newcomer: the
+    JSON went to a file named ``--out`` and ``x.bvh`` was read as an input)."""
+
+    def __init__(self) -> None:
+        super().__init__(dir_okay=False, allow_dash=True)
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None):
+        if isinstance(value, str) and value.startswith("-") and value != "-":
+            self.fail(
+                f"takes a file to write, or - to print the JSON; got {value!r}, an option "
+                "(here --json is not a flag: write --json - to print it)",
+                param,
+                ctx,
+            )
+        return super().convert(value, param, ctx)
+
+
 class OneLineUsageError(click.UsageError):
     """A usage error (unknown option, missing argument, bad value) as one line on stderr:
     ``mocapkit: error: MESSAGE (see 'mocapkit CMD --help')``."""

@@ -11,6 +11,7 @@ from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
     CLIError,
+    JsonFile,
     check_input_file,
     data_output,
     echo_json,
@@ -73,7 +74,7 @@ from mocapkit.stitch.search import check_same_skeleton
 @click.option(
     "--json",
     "json_path",
-    type=click.Path(dir_okay=False, allow_dash=True),
+    type=JsonFile(),
     help="Write the result (-: print it, and the other lines go to standard error; a failure, "
     'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
 )

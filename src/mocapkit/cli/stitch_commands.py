@@ -11,6 +11,7 @@ from mocapkit.cli.common import (
     LENIENT,
     MOTION_SUFFIXES,
     CLIError,
+    JsonFile,
     check_input_file,
     data_output,
     echo_json,
@@ -98,7 +99,7 @@ from mocapkit.stitch.transition import DEFAULT_BLEND_SECONDS, METHODS
 @click.option(
     "--json",
     "json_path",
-    type=click.Path(dir_okay=False, allow_dash=True),
+    type=JsonFile(),
     help="Write the result (-: print it, and the other lines go to standard error; a failure, "
     'a mistyped option too, prints {"error": LINE} there; a failed run writes no file).',
 )

@@ -542,12 +542,15 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         elif res.status == _numparse.BAD_COUNT:
             # lenient reading drops only an incomplete last row: inside the data, which of the
             # channels is missing cannot be told, so every later value would be misread
-            why = (
-                " (lenient reading repairs only an incomplete last row: in a row inside the data "
-                "the missing channel cannot be told)"
-                if lenient
-                else ""
-            )
+            if lenient:
+                why = (
+                    " (lenient reading repairs only an incomplete last row: in a row inside the "
+                    "data the missing channel cannot be told)"
+                )
+            elif truncated_tail:  # newcomer: the hint the blank-line error gives, here too
+                why = " (lenient reading, --lenient, drops an incomplete last row)"
+            else:
+                why = ""
             raise BVHError(
                 source,
                 line,
