@@ -90,7 +90,9 @@ def find_takes(library: str | Path) -> list[str]:
         raise ValueError(f"{root}: not a folder (library clean takes a folder of takes)")
     out = [p.relative_to(root).as_posix() for p in files_under(root, TAKE_SUFFIXES)]
     if not out:
-        raise ValueError(f"{root}: no {'/'.join(TAKE_SUFFIXES)} files in this folder")
+        raise ValueError(
+            f"{root}: no {'/'.join(TAKE_SUFFIXES)} files in this folder or its sub-folders"
+        )
     return sorted(out)
 
 

@@ -118,9 +118,9 @@ def parse_explain(spec: str, motion: Motion) -> tuple[int, int]:
     "contexts",
     multiple=True,
     metavar="FILE_OR_DIR",
-    help="Related clean takes (same skeleton) to search: a file, a folder (its .bvh, .npz and "
-    ".amc files) or a quoted glob pattern. Repeatable. Without it the take is compared with "
-    "itself (local context).",
+    help="Related clean takes (same skeleton) to search: a file, a folder (its .bvh, .npz, "
+    ".amc, .glb and .gltf files, sub-folders included) or a quoted glob pattern. Repeatable. "
+    "Without it the take is compared with itself (local context).",
 )
 @click.option(
     "--two-stage",
@@ -239,8 +239,8 @@ def clean_command(
     quiet: bool,
 ) -> None:
     """Find which joints of a take are wrong, and when, and repair them (self-similarity analysis).
-    IN is a take (.bvh, .npz, or a CMU .amc with its subject's .asf beside it: NN.asf for
-    NN_MM.amc, or the folder's only .asf), or a folder of takes (folder mode: every take
+    IN is a take (.bvh, .npz, .glb/.gltf, or a CMU .amc with its subject's .asf beside it:
+    NN.asf for NN_MM.amc, or the folder's only .asf), or a folder of takes (folder mode: every take
     cleaned against its related takes, in this process or on a Dask cluster; see "Running on
     a cluster" in the README).
 

@@ -180,7 +180,8 @@ def info(
 ) -> None:
     """Summarise motion files: joints, channels, frames, fps, units, bounding box, contacts.
 
-    Takes files, folders (their .bvh, .npz and .amc files) and quoted glob patterns; an .amc
+    Takes files, folders (their .bvh, .npz, .amc, .glb and .gltf files, sub-folders included)
+    and quoted glob patterns; an .amc
     needs its subject's .asf beside it. Every file that can be read is reported; each one that
     cannot is one error line on stderr, and the exit status is then 2. With --json: one object
     for exactly one FILE argument, else a list (also for one folder or pattern); a file that
