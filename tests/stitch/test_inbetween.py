@@ -992,8 +992,8 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
     """Newcomer reports: "from 3 library segments averaged" then five "averaged with" lines,
     three of them "weight 0.00"; later twelve weighted lines an animator could not use, the
     best-scoring segment often not the heaviest. The report now sums the weights by take,
-    largest first, says how many segments count negatively, and names the best-scoring
-    segment first whatever its share (here almost none)."""
+    largest first, says how many segments are subtracted (negative weights), and names the
+    best-scoring segment first whatever its share (here almost none)."""
     import dataclasses
     import re
     from collections import defaultdict
@@ -1027,7 +1027,7 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
     assert f"combines {len(bf)} segments of {len(by_take)} take(s), by take: {first} " in line
     assert f"{by_take[first]:.0%}" in line
     negative = sum(x["weight"] < -0.0005 for x in bf)
-    assert negative >= 1 and f"{negative} count negatively" in line
+    assert negative >= 1 and f"{negative} of them subtracted" in line
     assert f"from {len(bf)} segments of {len(by_take)} take(s)" in so
 
 

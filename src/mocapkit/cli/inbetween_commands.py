@@ -241,7 +241,7 @@ def inbetween_cmd(
             f"the fill combines {len(res.blended_from)} segments of {len(takes)} take(s), by "
             f"take: {shown}{more} (the weights follow how well each segment matches, corrected "
             "for what the segments share in missing the clip beside the gap"
-            f"{f': {negative} count negatively' if negative else ''}; each segment's frames, "
+            f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
             "speed and weight: --json or the sidecar)"
         )
     if res.warning:
