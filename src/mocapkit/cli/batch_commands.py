@@ -157,9 +157,9 @@ def clean_folder(
     n = len(res.records)
     rate = res.cleaned / dt if dt > 0 else 0.0
     if not quiet:
-        done = "cleaned" if out_dir is not None else "analysed (reports only: no --out-dir)"
+        done = "cleaned" if out_dir is not None else "analysed, no repair written (no --out-dir)"
         click.echo(
-            f"{n} takes: {res.cleaned} {done} ({where}, {dt:.1f} s, {rate:.1f} takes/s), "
+            f"{n} takes: {res.cleaned} {done}; {where}, {dt:.1f} s, {rate:.1f} takes/s; "
             f"{res.resumed} already complete, {len(res.failed)} failed"
         )
         click.echo(mem)
