@@ -71,3 +71,59 @@ def test_a_bandai_walk_stitched_to_its_mirror_at_a_cut(shared_path) -> None:
             assert steps.max() < 1.5, (walk.skeleton.names[j], steps)
             held += 1
     assert held
+
+
+def test_a_take_stitched_to_its_own_next_frame_is_left_as_it_is() -> None:
+    """Reviewer: the easing pinned the landing to the query's last step carried on, so even a
+    seamless join (a take stitched to its own next frame) moved joints up to 8.5 cm, and the
+    hold took out the planted foot's own roll. The offset is now read against the data's own
+    frame before its landing, and the hold moves as the data's foot moves: nothing changes."""
+    from mocapkit.stitch.transition import stitch_motions
+
+    walk = datasets.procedural_motion("walk", seconds=4.0, seed=1).motion
+    for a in (40, 55, 70):
+        res = stitch_motions(walk, a, walk, a + 1, 0, align=False)
+        np.testing.assert_allclose(
+            forward_kinematics(res.motion)[0], forward_kinematics(walk)[0], atol=1e-9
+        )
+        assert res.generated.stop == res.generated.start == a + 1
+
+
+@pytest.mark.parametrize("method", ["slerp", "linear"])
+def test_only_the_kalman_transition_is_limited_to_max_inject(method) -> None:
+    """Reviewer: the limit on --inject refused interpolations too, which do not stray."""
+    walk = datasets.procedural_motion("walk", seconds=4.0, seed=1).motion
+    run = datasets.procedural_motion("run", seconds=4.0, seed=2).motion
+    res = stitch(walk, 50, [run], landing=10, method=method, inject=45)
+    assert res.k == 45
+    with pytest.raises(ValueError, match="--max-inject"):
+        stitch(walk, 50, [run], landing=10, inject=45)
+
+
+def test_a_foot_that_stays_down_is_let_go_of_slowly_and_a_straight_knee_does_not_snap(
+    shared_path,
+) -> None:
+    """Reviewer: (1) a foot planted for seconds (a standing wave) was held only over a fixed
+    window and popped back 4.8 cm at its end; it is now held, then let go of over a second.
+    (2) On CMU at 120 fps the IK could not bend a straight knee to the held foot, which then
+    snapped 11 cm in a frame; the correction's speed is now limited as the in-between's lock
+    limits it."""
+    b2 = shared_path("bandai2/data")
+    q = read_motion(b2 / "dataset-2_raise-up-left-hand_elderly_021.bvh")
+    d = read_motion(b2 / "dataset-2_raise-up-both-hands_elderly_025.bvh")
+    res = stitch(q, 10, [d], landing=5, inject=0)
+    pos, _ = forward_kinematics(res.motion)
+    names = q.skeleton.names
+    feet = [names.index(n) for n in ("Foot_L", "Foot_R", "Toes_L", "Toes_R")]
+    steps = np.linalg.norm(np.diff(pos[10:, feet], axis=0), axis=-1)
+    assert steps.max() < 0.5, steps.max()  # cm a frame (the hard cut: 4.8 at once)
+    cmu = shared_path("cmu-asfamc/01")
+    q, d = read_motion(cmu / "01_01.amc"), read_motion(cmu / "01_02.amc")
+    res = stitch(q, 319, [d], landing=74, inject=0)
+    j = q.skeleton.names.index("rtibia")
+    own = max(
+        np.linalg.norm(np.diff(forward_kinematics(m)[0][:, j], axis=0), axis=-1).max()
+        for m in (q, d)
+    )
+    out = np.linalg.norm(np.diff(forward_kinematics(res.motion)[0][319:, j], axis=0), axis=-1)
+    assert out.max() < 1.2 * own, (out.max(), own)

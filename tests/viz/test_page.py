@@ -136,7 +136,9 @@ def test_view_marks_a_stitch_from_its_sidecar(tmp_path):
     st = d["stitch"]
     assert st["generated"] == [res.generated.start, res.generated.stop]
     assert st["landing"] == res.landing_index and st["takeoff"] == res.takeoff
-    assert st["landingData"] == res.to_json()["landing"] and st["k"] == res.k
+    # the data frame playing as it is at the landing (past a cut's eased frames, k = 0)
+    assert st["landingData"] == res.to_json()["data_frame_at_landing_output"]
+    assert st["k"] == res.k
 
 
 def test_view_cli_writes_a_page_and_reports_bad_input(tmp_path):

@@ -206,7 +206,7 @@ def stitch_library(
     if not max_inject_seconds >= 0:
         raise ValueError(f"max_inject_seconds must be >= 0, got {max_inject_seconds}")
     kmax, k_show, inject, w, score = check_search(
-        query.seconds_to_frames(max_inject_seconds), inject, window, score
+        query.seconds_to_frames(max_inject_seconds), inject, window, score, method
     )
     up = up or detect_up_axis(query)
     names = tuple(query.skeleton.names[j] for j in feature_joint_indices(query.skeleton, joints))

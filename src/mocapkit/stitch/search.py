@@ -323,9 +323,10 @@ def transition_at(Q, a, clip, ci, b, w, model, k_show, inject, score, candidates
     return Transition(ci, a, b, k, float(scores[k]), scores, eu, w, score, candidates)
 
 
-def check_search(k_max, inject, w, score):
+def check_search(k_max, inject, w, score, method: str | None = None):
     """Validated ``(k_max, k_show, inject, w, score)`` of a search: with ``inject`` candidates
-    are ranked at that k and L_k is shown up to ``max(k_max, inject)``."""
+    are ranked at that k and L_k is shown up to ``max(k_max, inject)``. For a Kalman transition
+    (``method`` "kalman") ``inject`` may not exceed ``k_max`` (:func:`check_inject`)."""
     if int(k_max) != k_max or k_max < 0:
         raise ValueError(f"k_max must be an integer >= 0, got {k_max}")
     k_show = int(k_max)
@@ -333,17 +334,24 @@ def check_search(k_max, inject, w, score):
         if int(inject) != inject or inject < 0:
             raise ValueError(f"inject must be an integer >= 0, got {inject}")
         inject = int(inject)
-        if inject > k_show:
-            # the Kalman model carries the end frames' accelerations across the unobserved
-            # frames, so its error grows with the square of their number: --inject 60 on a
-            # Bandai walk put a joint 2.2 m off, --inject 500 the hips 5 m up (newcomer report)
-            raise ValueError(
-                f"--inject {inject} is more frames than the longest transition searched "
-                f"(--max-inject, {k_show} frames): past it the Kalman transition strays ever "
-                "further from the two clips; raise --max-inject to force it"
-            )
+        if method == "kalman":
+            check_inject(inject, k_show)
         k_max, k_show = inject, max(k_show, inject)
     return int(k_max), k_show, inject, check_w(w), _check_score(score)
+
+
+def check_inject(inject: int, k_max: int) -> None:
+    """Refuse a Kalman transition forced (``inject``) longer than the longest one searched
+    (``k_max``, --max-inject): the constant-acceleration model carries the end frames'
+    accelerations across the unobserved frames, so its error grows with the square of their
+    number (--inject 60 on a Bandai walk put a joint 2.2 m off, --inject 500 the hips 5 m up;
+    newcomer report). Interpolations (slerp, linear) do not stray, and are not limited."""
+    if inject > k_max:
+        raise ValueError(
+            f"inject (--inject) {inject} is more frames than the longest Kalman transition "
+            f"searched (--max-inject, {k_max} frames): past it the transition strays ever "
+            "further from the two clips; raise --max-inject to force it, or use --method slerp"
+        )
 
 
 def check_takeoffs(takeoffs, n_query: int, w: int) -> list[int]:

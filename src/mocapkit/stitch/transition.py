@@ -208,9 +208,12 @@ class Stitched:
             frames=self.motion.num_frames,
             generated_frames=[self.generated.start, self.generated.stop],
             landing_output_frame=self.landing_index,
+            # none where the made frames run to the end: no data frame plays as it is
             data_frame_at_landing_output=self.data_frame(
                 self.landing if self.landing_played is None else self.landing_played
-            ),
+            )
+            if self.landing_index < self.motion.num_frames
+            else None,
             fk_error_mean=float(self.fk_error_mean),
             fk_error_max=float(self.fk_error_max),
         )
@@ -350,8 +353,9 @@ def stitch_motions(
     motion = _join(query[: a + 1], gen, data[b:])
     settled = 0
     if k == 0:  # a cut: the landing eased in from where the query was heading
-        motion, settled = _eased_cut(motion, a + 1, query.seconds_to_frames(DEFAULT_BLEND_SECONDS))
-        motion, held_to = _planted_through(motion, a + 1, a + 1 + settled, up)
+        blend = max(query.seconds_to_frames(DEFAULT_BLEND_SECONDS), 1)
+        motion, settled = _eased_cut(motion, a + 1, blend, query, a, data, b)
+        motion, held_to = _planted_through(motion, a + 1, a + 1 + settled, up, data, b)
         settled = max(settled, held_to - (a + 1))  # every frame changed is reported as made
 
     idx = feature_joint_indices(query.skeleton, joints)
@@ -384,26 +388,47 @@ def stitch_motions(
     )
 
 
-def _planted_through(motion: Motion, cut: int, end: int, up: str) -> tuple[Motion, int]:
+HOLD_SECONDS = 2.0
+"""How long past the eased frames a foot planted across a cut is held where the query put it at
+most (:func:`_planted_through`): a step's stance at any gait; a foot still down then (standing,
+waving, bowing) is let go of over :data:`RELEASE_SECONDS`."""
+
+RELEASE_SECONDS = 1.0
+"""How long a foot still planted after :data:`HOLD_SECONDS` takes to be let go of: the cut's
+offset slides back at its size per second (a few centimetres a second, not in a frame)."""
+
+
+def _planted_through(
+    motion: Motion, cut: int, end: int, up: str, data: Motion, b: int
+) -> tuple[Motion, int]:
     """``motion``, and the frame after the last it changed, with each foot planted across the
     cut before frame ``cut`` (a contact run, :func:`mocapkit.features.foot_contacts`, holding
-    ``cut - 1`` and ``cut``) held where the frames before ``cut`` plant it until its run ends
-    (ground plane only, the hold faded out as :func:`mocapkit.ik.lock_feet` fades it), by IK
-    on the legs of frames from ``cut`` on; frames before ``cut`` are unchanged. ``end``: the
-    first frame after the eased ones. Why: easing a cut moves the planted foot from where the
-    query put it to where the data clip puts it (4.9 cm on a Bandai walk stitched to its own
-    mirror), a slide a planted foot must not make. Relies on a contact run meaning a foot that
-    does not move."""
+    ``cut - 1`` and ``cut``) held where the frames before ``cut`` plant it (ground plane only),
+    moving as the data clip's own planted foot moves (``data``, aligned, playing from ``b`` at
+    ``cut``: a foot's roll and settling are the capture's; only the cut's offset is taken out),
+    until it lifts, or for :data:`HOLD_SECONDS` after the eased frames (``end``) and then let go
+    of over :data:`RELEASE_SECONDS` (a foot that stays down for seconds, as in a wave or a bow,
+    slides the cut's offset back slowly rather than at once; reviewer: held for a fixed window,
+    it popped back 4.8 cm at the window's end); by IK on the legs of frames from ``cut`` on,
+    the correction's speed limited and smoothed as the in-between's foot lock limits it (a
+    straight knee the IK cannot bend to a held foot would snap otherwise: 11 cm in a frame on a
+    CMU take, reviewer). Frames before ``cut`` are unchanged, and nothing is done where the foot
+    does not move across the cut. Why: a cut's offset, eased out over the data's first frames,
+    still slides a planted foot (4.9 cm on a Bandai walk stitched to its own mirror). Relies on
+    a contact run meaning a foot that does not move."""
     from mocapkit import ik
     from mocapkit.body import body_of
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.core.runs import true_runs
     from mocapkit.features import foot_contacts, ground_frame
+    from mocapkit.stitch.inbetween import DEFAULT_CONFIG, _rate_limited, _smoothed_correction
 
     cfg = ik.FootLockConfig()
     blend = max(motion.seconds_to_frames(cfg.blend), 1)
-    lo = max(0, cut - 4 * blend)
-    hi = min(motion.num_frames, end + motion.seconds_to_frames(2.0))
+    hold = max(motion.seconds_to_frames(HOLD_SECONDS), 1)
+    release = max(motion.seconds_to_frames(RELEASE_SECONDS), 1)
+    F = motion.num_frames
+    lo, hi = max(0, cut - 4 * blend), min(F, end + hold + release + blend + 2)
     ex = motion[lo:hi]
     body = body_of(ex)
     try:
@@ -411,7 +436,7 @@ def _planted_through(motion: Motion, cut: int, end: int, up: str) -> tuple[Motio
     except ValueError:  # no legs to hold
         return motion, cut
     effs = tuple(e for c in chains for e in c.effectors)
-    if not effs or ex.num_frames < 3:
+    if not effs or ex.num_frames < 3 or cut - lo < 1:
         return motion, cut
     contacts = foot_contacts(ex, up=up)
     flags = np.zeros((ex.num_frames, len(effs)), bool)
@@ -426,59 +451,111 @@ def _planted_through(motion: Motion, cut: int, end: int, up: str) -> tuple[Motio
     if not held.any():
         return motion, cut
     pos, _ = forward_kinematics(ex)
+    feet = pos[:, list(effs)]
+    # how each foot is meant to move into each frame: the query's own steps before the cut,
+    # the data's own from its landing on (into b: the data's step from b - 1, none at b = 0)
+    drift = np.zeros_like(feet)
+    drift[1:] = np.diff(feet, axis=0)
+    drift[cut - lo :] = 0.0
+    src = forward_kinematics(data[max(b - 1, 0) : b + hi - cut])[0][:, list(effs)]
+    steps = np.diff(src, axis=0)  # into b (when b > 0), b + 1, ...
+    first = cut - lo + (0 if b > 0 else 1)
+    n = min(len(steps), hi - lo - first)
+    drift[first : first + n] = steps[:n]
     pins = np.repeat((np.arange(ex.num_frames) + lo < cut)[:, None], len(effs), 1)
     targets, weights = ik.lock_targets(
-        pos[:, list(effs)], held, blend, "first", ground_frame(up)[1], "offset", pins
+        feet, held, blend, "first", ground_frame(up)[1], "offset", pins, drift
     )
+    i = np.arange(lo, hi)
+    x = np.clip((i - (end + hold)) / release, 0.0, 1.0)
+    weights = weights * (1.0 - x * x * (3 - 2 * x))[:, None]  # let go of a foot still down
     weights[: cut - lo] = 0.0  # the query's frames stay as they are
+    miss = np.linalg.norm(targets - feet, axis=-1) * weights
+    if miss.max(initial=0.0) < 1e-4 * body.size:  # the foot does not move across the cut
+        return motion, cut
     res = ik.solve(ex, chains, targets, weights, cfg.ik, body)
+    stop = lo + int(np.flatnonzero(weights.max(axis=1) > 0)[-1]) + 1  # first frame let go
+    stop = min(stop, hi - 1)
+    legs = sorted({j for c in chains for j in c.joints})
+    span = slice(cut - 1 - lo, stop + 1 - lo)  # ends uncorrected: frame cut - 1, frame stop
+    step = math.radians(DEFAULT_CONFIG.lock_max_speed_deg) * motion.frame_time
+    locked = _rate_limited(ex.rotations[span][:, legs], res.motion.rotations[span][:, legs], step)
+    sigma = DEFAULT_CONFIG.lock_smooth_seconds * motion.fps
+    locked = _smoothed_correction(ex.rotations[span][:, legs], locked, sigma)
     out = motion.copy()
-    out.rotations[cut:hi] = res.motion.rotations[cut - lo :]
-    moved = np.flatnonzero(weights.max(axis=1) > 0)
-    return out, int(lo + moved[-1] + 1) if len(moved) else cut
+    rows = out.rotations[cut:stop]
+    rows[:, legs] = locked[1 : 1 + stop - cut]
+    out.rotations[cut:stop] = rows
+    return out, stop
 
 
-def _eased_cut(motion: Motion, cut: int, blend: int) -> tuple[Motion, int]:
-    """``motion`` with a hard cut before frame ``cut`` (the query's take-off frame, then the
-    data clip's landing frame: a stitch with k = 0) eased, and how many frames from ``cut``
-    changed: the pose and velocity the query was heading for (its last step carried on) are
-    blended into the data clip's over ``blend`` frames (inertialization,
-    :func:`mocapkit.stitch.inbetween._offset_blend` with one end).
+def _eased_cut(
+    motion: Motion, cut: int, blend: int, query: Motion, a: int, data: Motion, b: int
+) -> tuple[Motion, int]:
+    """``motion`` (query frames ``..a``, then data frames ``b..`` from output frame ``cut`` =
+    a + 1: a stitch with k = 0) with the cut eased, and how many frames from ``cut`` changed:
+    inertialization. The query's pose and velocity at its last frame ``a`` are compared with
+    the data clip's at the frame before its landing (``b - 1``, the same moment: ``b`` plays one
+    frame after ``a``), and that offset, in each joint's local rotation and translation, is
+    added to the data's frames and brought to nothing over ``blend`` frames (a cubic Hermite
+    fade: the offset and its rate at the start, none of either at the end). Where the data runs
+    on from the query as it was (a take stitched to its own next frame) the offset is none and
+    nothing changes.
 
     Why: the elastic L-score reads body-local joint positions, so the best landing with no
     injected frame can still leave a joint a few centimetres from where it was heading; played
     as a cut, a Bandai walk stitched to its own mirror moved the swinging foot 11.4, then 2.2,
     then 12.0 cm a frame and jolted the planted one 4.9 cm (newcomer report). Relies on a
-    joint's pose and velocity being continuous: the offset from the query's continuation is
-    carried and decays, so the data clip is reached at its own pace."""
-    from mocapkit.stitch.inbetween import DEFAULT_CONFIG, _offset_blend
-
+    joint's pose and velocity being continuous through a cut a viewer should not see."""
     F = motion.num_frames
-    n = min(blend + 1, F - cut)
-    if cut < 2 or n < 2 or blend < 1:
+    n = min(blend, F - cut)
+    if n < 1 or a < 1 or data.num_frames < 2:
         return motion, 0
-    q = motion.rotations
-    t = motion.local_translations()
-    turn = rot.quat_mul(q[cut - 1], rot.quat_inv(q[cut - 2]))  # the query's last step
-    r0 = rot.quat_normalize(rot.quat_mul(turn, q[cut - 1]))
-    t0 = 2.0 * t[cut - 1] - t[cut - 2]
-    seg_turn = rot.quat_mul(q[cut + 1], rot.quat_inv(q[cut]))
+    qd, td = data.rotations, data.local_translations()
+    qq, tq = query.rotations, query.local_translations()
+
+    def before(x: np.ndarray, i: int, step) -> np.ndarray:  # frame i of x, or carried back
+        return x[i] if i >= 0 else step(x[0], x[min(1, len(x) - 1)], -i)
+
+    def rot_back(q0: np.ndarray, q1: np.ndarray, k: int) -> np.ndarray:
+        back = rot.quat_mul(q0, rot.quat_inv(q1))  # one step back, k times
+        out = q0
+        for _ in range(k):
+            out = rot.quat_mul(back, out)
+        return rot.quat_normalize(out)
+
+    def lin_back(t0: np.ndarray, t1: np.ndarray, k: int) -> np.ndarray:
+        return t0 + k * (t0 - t1)
 
     def rotvec(d: np.ndarray) -> np.ndarray:
         return rot.quat_to_rotvec(np.where(d[..., :1] < 0, -d, d))
 
-    v0 = rotvec(turn) - rotvec(seg_turn)
-    u0 = (t[cut - 1] - t[cut - 2]) - (t[cut + 1] - t[cut])
-    max_step = math.radians(DEFAULT_CONFIG.blend_max_speed_deg) * motion.frame_time
-    rots, trans = _offset_blend(
-        q[cut : cut + n], t[cut : cut + n], r0, None, t0, None, n - 1, max_step, v0=v0, u0=u0,
-    )  # fmt: skip
+    d1 = before(qd, b - 1, rot_back)  # the data's frames at a and a - 1
+    d2 = before(qd, b - 2, rot_back)
+    x0 = rotvec(rot.quat_mul(qq[a], rot.quat_inv(d1)))  # (J, 3) radians, left offsets
+    v0 = rotvec(rot.quat_mul(qq[a], rot.quat_inv(qq[a - 1]))) - rotvec(
+        rot.quat_mul(d1, rot.quat_inv(d2))
+    )
+    e1, e2 = before(td, b - 1, lin_back), before(td, b - 2, lin_back)
+    y0 = tq[a] - e1
+    w0 = (tq[a] - tq[a - 1]) - (e1 - e2)
+    if max(np.abs(x0).max(), np.abs(v0).max()) < 1e-12 and max(
+        np.abs(y0).max(), np.abs(w0).max()
+    ) <= 1e-12 * max(1.0, float(np.abs(tq[a]).max())):
+        return motion, 0  # the data runs on from the query as it was: no cut to ease
+    s = (np.arange(1, n + 1) / blend)[:, None, None]  # frames a+1.. : 1/blend .. 1
+    h00 = 2 * s**3 - 3 * s**2 + 1  # Hermite: value 1 -> 0, slope 0 at both ends
+    h10 = (s**3 - 2 * s**2 + s) * blend  # slope 1 -> 0 (per frame), value 0 at both ends
     out = motion.copy()
-    out.rotations[cut : cut + n] = rots
-    out.root_positions[cut : cut + n] = trans[:, 0]
+    turn = x0[None] * h00 + v0[None] * h10
+    out.rotations[cut : cut + n] = rot.quat_normalize(
+        rot.quat_mul(rot.rotvec_to_quat(turn), motion.rotations[cut : cut + n])
+    )
+    t = motion.local_translations()[cut : cut + n] + y0[None] * h00 + w0[None] * h10
+    out.root_positions[cut : cut + n] = t[:, 0]
     if out.translations is not None:
-        out.translations[cut : cut + n] = trans
-    return out, n - 1
+        out.translations[cut : cut + n] = t
+    return out, n
 
 
 def _roots_on_path(query: Motion, data: Motion, up: str) -> tuple[Motion, Motion]:
@@ -575,6 +652,10 @@ def stitch(
         if int(k_max) != k_max or k_max < 0:
             raise ValueError(f"k_max (--max-inject) must be an integer >= 0, got {k_max}")
         max_inject_seconds = int(k_max) * query.frame_time
+    if method == "kalman" and inject is not None and int(inject) == inject and inject >= 0:
+        from mocapkit.stitch.search import check_inject
+
+        check_inject(int(inject), query.seconds_to_frames(max_inject_seconds))
     for clip, name in zip(clips, names, strict=True):  # skeleton checks naming the clip's file
         conform(replace(clip[:1], frame_time=query.frame_time), query[:1], name)
     up = up or detect_up_axis(query)
