@@ -55,7 +55,9 @@ def test_single_positions_are_one_frame_ranges() -> None:
         ("-20:", False, "not back from its end"),  # newcomer report: said only "expected"
         ("10:-2s", False, "not back from its end"),
         ("-20", True, "not back from its end"),
-        ("1.5:3", False, "expected A:B"),  # seconds need their s
+        ("1.5:3", False, "'1.5' is no frame number (frames are whole numbers; a time ends "
+         "in s: 1.5s)"),  # seconds need their s
+        ("2.0s:3.0", False, "'3.0' is no frame number"),  # newcomer: the end lacking its s
         ("60", False, "expected A:B"),  # a lone frame is not a range here
         ("20:10", False, "reversed"),
         ("2s:3", False, "different units: 3 is a frame number"),  # meant 2s:3s

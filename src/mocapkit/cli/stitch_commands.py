@@ -236,9 +236,13 @@ def stitch_cmd(
     if method == "kalman" and not tr.k and g1 > g0:
         say(f"k = 0 is a cut: its landing eased in over output frames {g0}:{g1}")
     if method == "kalman" and tr.k:
+        from mocapkit.features import metres_per_unit
+
+        cm = 100.0 * metres_per_unit(q, None)  # the clip's unit, as info reads it
         say(
-            f"generated frames: FK vs Kalman feature trajectory {res.fk_error_mean:.4g} mean, "
-            f"{res.fk_error_max:.4g} max (clip units)"
+            f"generated frames {g0}:{g1}: their joints lie {res.fk_error_mean * cm:.3g} cm on "
+            f"average ({res.fk_error_max * cm:.3g} cm at most) from the path the L-score "
+            "predicted for them"
         )
     wrote = []
     with naming(query, *data_paths), all_or_nothing():  # all outputs or none

@@ -104,6 +104,12 @@ class RangeSpec:
         if (lo_t.strip() and lo is None) or (hi_t.strip() and hi is None):
             if any(t.strip().startswith("-") and _parse_end(t.strip()[1:]) for t in (lo_t, hi_t)):
                 raise RangeError(f"{option}: expected {want}, got {text!r}: {back}")
+            for t in (lo_t.strip(), hi_t.strip()):  # a time without its s (newcomer: 2.0s:3.0)
+                if t and _parse_end(t) is None and _parse_end(t + "s") is not None:
+                    raise RangeError(
+                        f"{option}: expected {want}, got {text!r}: {t!r} is no frame number "
+                        f"(frames are whole numbers; a time ends in s: {t}s)"
+                    )
             raise RangeError(f"{option}: expected {want}, got {text!r}")
         if closed and (lo is None or hi is None):
             raise RangeError(f"{option}: expected {want} with both ends given, got {text!r}")
