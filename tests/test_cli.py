@@ -561,3 +561,11 @@ def test_json_that_takes_a_file_refuses_an_option_as_its_value(walk_bvh, tmp_pat
     assert code == 2 and "--json -" in err and "'--out'" in err
     assert len(err.strip().splitlines()) == 1
     assert not out.exists() and not (tmp_path / "--out").exists()
+
+
+def test_info_json_dash_says_json_is_a_flag_here(walk_bvh: Path) -> None:
+    """Newcomer: `info walk.bvh --json -` (as stitch takes --json -) said "-: cannot read
+    file: no such file or folder"; it now says why: --json is a flag here."""
+    code, out, err = run("info", str(walk_bvh), "--json", "-")
+    assert code == 2 and "standard input is not read" in err and "flag" in err
+    assert json.loads(out)[0]["frames"] > 0  # the file given is still reported

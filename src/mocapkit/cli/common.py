@@ -371,6 +371,11 @@ def expand_item(item: str | Path, suffixes: Sequence[str] = MOTION_SUFFIXES) -> 
     want = tuple(dict.fromkeys(s.lower() for s in suffixes))
     kinds = "/".join(want)
     p = Path(item)
+    if str(item) == "-" and not p.exists():  # newcomer: `info FILE --json -`, as elsewhere
+        raise CLIError(
+            "-: standard input is not read; give motion files (where --json is a flag, as "
+            "here, it prints the JSON with no value)"
+        )
     if p.is_dir():
         try:
             found = files_under(p, want)
