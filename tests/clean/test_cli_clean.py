@@ -169,6 +169,7 @@ def test_folder_mode_reports_carry_their_takes_warnings(files, tmp_path) -> None
     # repaired, unlabelled; that is the first take's, and its own report has it
     other = json.loads((tmp_path / "rep" / "takes" / "b_plain.json").read_text())
     assert other["warnings"] == [] and other["context"] == ["a_blank.bvh"]
+    assert other["context_skipped"] == []
     # read strictly, the blank row fails the first take; the other's report says its context
     # lost it (newcomer: it shrank with no word)
     code, _, stderr = run("clean", str(lib), "--report-dir", str(tmp_path / "strict"))

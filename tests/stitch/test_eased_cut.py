@@ -98,6 +98,9 @@ def test_only_the_kalman_transition_is_limited_to_max_inject(method) -> None:
     assert res.k == 45
     with pytest.raises(ValueError, match="--max-inject"):
         stitch(walk, 50, [run], landing=10, inject=45)
+    # a cross-fade makes no frames: --inject 500 was taken, ranked by, then not used (newcomer)
+    with pytest.raises(ValueError, match="cross-fade makes none"):
+        stitch(walk, 50, [run], landing=10, method="crossfade", inject=12)
 
 
 def test_a_foot_that_stays_down_is_let_go_of_slowly_and_a_straight_knee_does_not_snap(

@@ -272,8 +272,7 @@ def _clean_take(task: TakeTask, caught: list[warnings.WarningMessage]) -> dict[s
         if task.output:  # no out_dir: the reports alone
             write_motion(report.motion, task.output)
         js["warnings"] = warning_lines(caught)
-        if skipped:  # a context take it could not use: the result is not what it would be
-            js["context_skipped"] = skipped
+        js["context_skipped"] = skipped  # context takes it could not use (newcomer: say so)
         atomic_write_text(task.report, to_json_text(js) + "\n")
         record = _record(report, task)
         record["context"] = names

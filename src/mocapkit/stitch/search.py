@@ -334,19 +334,25 @@ def check_search(k_max, inject, w, score, method: str | None = None):
         if int(inject) != inject or inject < 0:
             raise ValueError(f"inject must be an integer >= 0, got {inject}")
         inject = int(inject)
-        if method == "kalman":
-            check_inject(inject, k_show)
+        check_inject(inject, k_show, method)
         k_max, k_show = inject, max(k_show, inject)
     return int(k_max), k_show, inject, check_w(w), _check_score(score)
 
 
-def check_inject(inject: int, k_max: int) -> None:
+def check_inject(inject: int, k_max: int, method: str | None = "kalman") -> None:
     """Refuse a Kalman transition forced (``inject``) longer than the longest one searched
     (``k_max``, --max-inject): the constant-acceleration model carries the end frames'
     accelerations across the unobserved frames, so its error grows with the square of their
     number (--inject 60 on a Bandai walk put a joint 2.2 m off, --inject 500 the hips 5 m up;
-    newcomer report). Interpolations (slerp, linear) do not stray, and are not limited."""
-    if inject > k_max:
+    newcomer report). Interpolations (slerp, linear) do not stray, and are not limited; a
+    cross-fade makes no frames, and refuses ``inject`` (it was taken, ranked by, then not
+    used: newcomer). ``method`` None: no method to judge by (a search alone)."""
+    if method == "crossfade" and inject > 0:
+        raise ValueError(
+            "inject (--inject) sets the frames made between the clips; a cross-fade makes none "
+            "(it overlaps them over --blend-seconds)"
+        )
+    if method == "kalman" and inject > k_max:
         raise ValueError(
             f"inject (--inject) {inject} is more frames than the longest Kalman transition "
             f"searched (--max-inject, {k_max} frames): past it the transition strays ever "

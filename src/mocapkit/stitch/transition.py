@@ -652,10 +652,10 @@ def stitch(
         if int(k_max) != k_max or k_max < 0:
             raise ValueError(f"k_max (--max-inject) must be an integer >= 0, got {k_max}")
         max_inject_seconds = int(k_max) * query.frame_time
-    if method == "kalman" and inject is not None and int(inject) == inject and inject >= 0:
+    if inject is not None and int(inject) == inject and inject >= 0:
         from mocapkit.stitch.search import check_inject
 
-        check_inject(int(inject), query.seconds_to_frames(max_inject_seconds))
+        check_inject(int(inject), query.seconds_to_frames(max_inject_seconds), method)
     for clip, name in zip(clips, names, strict=True):  # skeleton checks naming the clip's file
         conform(replace(clip[:1], frame_time=query.frame_time), query[:1], name)
     up = up or detect_up_axis(query)
