@@ -130,3 +130,22 @@ def test_a_foot_that_stays_down_is_let_go_of_slowly_and_a_straight_knee_does_not
     )
     out = np.linalg.norm(np.diff(forward_kinematics(res.motion)[0][319:, j], axis=0), axis=-1)
     assert out.max() < 1.2 * own, (out.max(), own)
+
+
+def test_a_kalman_transition_that_strays_from_its_predicted_path_is_warned_about() -> None:
+    """Newcomer: a forced 2 s transition flew the body metres up, exit 0 and no warning (the
+    line said only how far it strayed). A stitch straying by 0.3 of the body's size warns; a
+    default one does not (the largest on random bandai2 pairs was 0.18)."""
+    import warnings
+
+    walk = datasets.procedural_motion("walk", seconds=4.0, seed=1).motion
+    run = datasets.procedural_motion("run", seconds=4.0, seed=2).motion
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stitch(walk, 50, [run], landing=10, inject=60, max_inject_seconds=2.0)
+    stray = [w for w in caught if "stray up to" in str(w.message)]
+    assert len(stray) == 1 and "the 60 generated frames" in str(stray[0].message)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stitch(walk, "40:60", [run])
+    assert not [w for w in caught if "stray up to" in str(w.message)]
