@@ -44,3 +44,22 @@ def test_nested_collections_and_one_that_keeps_them() -> None:
     assert [str(w.message) for w in inner] == ["a"]
     assert [str(w.message) for w in kept] == ["a", "b"]
     assert [str(w.message) for w in outer] == ["c"]  # the others were kept, not passed on
+
+
+def test_every_warning_shown_takes_out_only_its_own_filter() -> None:
+    """Reviewer: leaving put back a copy of the filters taken on entry, so a filter added
+    meanwhile (a library's own, at import) was lost for good."""
+    from mocapkit.core.thread_warnings import every_warning_shown
+
+    with warnings.catch_warnings():
+        warnings.resetwarnings()
+        before = list(warnings.filters)
+        with every_warning_shown():
+            assert warnings.filters[0][0] == "always"
+            with every_warning_shown():  # nested (or another thread's task): one entry
+                assert sum(f[0] == "always" for f in warnings.filters) == 1
+            warnings.filterwarnings("ignore", message="added meanwhile")
+        assert warnings.filters[0][:1] == ("ignore",) and "always" not in [
+            f[0] for f in warnings.filters
+        ]
+        assert warnings.filters[1:] == before

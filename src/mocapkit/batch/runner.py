@@ -326,20 +326,24 @@ class Runner:
         if progress is not None:
             progress(0, total)
         if self.client is None and self.mode == "in-process":
-            # every warning every time, as on a worker: a task's report is the same either way
+            # every warning every time, as on a worker: a task's report is the same either way;
+            # per task, not across the yields (the caller's code runs between them)
             from mocapkit.core.thread_warnings import every_warning_shown
 
-            with every_warning_shown():
-                if self.threads_per_worker > 1:
-                    yield from self._imap_threads(fn, items, shared, has_shared, progress)
-                    return
-                for n, item in enumerate(items):
-                    t0 = time.perf_counter()
-                    out = fn(shared, item) if has_shared else fn(item)
-                    self.stats.note(os.getpid(), _peak_rss_bytes(), time.perf_counter() - t0)
-                    if progress is not None:
-                        progress(n + 1, total)
-                    yield out
+            def task(item: Any) -> Any:
+                with every_warning_shown():
+                    return fn(shared, item) if has_shared else fn(item)
+
+            if self.threads_per_worker > 1:
+                yield from self._imap_threads(task, items, None, False, progress)
+                return
+            for n, item in enumerate(items):
+                t0 = time.perf_counter()
+                out = task(item)
+                self.stats.note(os.getpid(), _peak_rss_bytes(), time.perf_counter() - t0)
+                if progress is not None:
+                    progress(n + 1, total)
+                yield out
             return
         if self.client is None:
             self.start()

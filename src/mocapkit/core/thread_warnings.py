@@ -14,6 +14,7 @@ Python before 3.14 has no per-thread warning filters: code that itself enters
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import warnings
 from collections.abc import Iterator
@@ -26,7 +27,6 @@ _local = threading.local()  # .stack: this thread's open collections, innermost 
 _lock = threading.Lock()
 _previous: Any = None  # the showwarning that _show replaced
 _shown_by = 0  # how many every_warning_shown() are open
-_saved_filters: list[Any] = []
 
 
 def _show(
@@ -80,16 +80,18 @@ def collected_warnings(forward: bool = True) -> Iterator[list[warnings.WarningMe
 
 @contextmanager
 def every_warning_shown() -> Iterator[None]:
-    """Show every warning every time while inside (the ``"always"`` filter, which a collection
-    needs: under the default filters a warning already shown from the same line is not shown
-    again, so a later task's report would lack it). Process-wide, as filters are; counted, so
-    that tasks running side by side on threads share it, and the filters the process had are
-    put back when the last one leaves."""
-    global _shown_by, _saved_filters
+    """Show every warning every time while inside (an ``"always"`` filter first in the list,
+    which a collection needs: under the default filters a warning already shown from the same
+    line is not shown again, so a later task's report would lack it). Process-wide, as filters
+    are; counted, so that tasks running side by side on threads share one entry, which the last
+    to leave takes out again: only that entry, so filters added meanwhile (a library's own at
+    import) stay (reviewer: restoring a copy of the list threw them away)."""
+    global _shown_by
+    entry = ("always", None, Warning, None, 0)
     with _lock:
         if _shown_by == 0:
-            _saved_filters = list(warnings.filters)
-            warnings.simplefilter("always")
+            warnings.filters.insert(0, entry)
+            warnings._filters_mutated()  # type: ignore[attr-defined]  # as simplefilter does
         _shown_by += 1
     try:
         yield
@@ -97,5 +99,6 @@ def every_warning_shown() -> Iterator[None]:
         with _lock:
             _shown_by -= 1
             if _shown_by == 0:
-                warnings.filters[:] = _saved_filters
-                warnings._filters_mutated()  # type: ignore[attr-defined]  # as catch_warnings does
+                with contextlib.suppress(ValueError):  # a catch_warnings put the list back
+                    warnings.filters.remove(entry)  # the first: ours, put first
+                warnings._filters_mutated()  # type: ignore[attr-defined]
