@@ -226,6 +226,16 @@ def test_stitch_and_graph_overlays(browser, tmp_path):
     assert b.eval("mocapkitViewer.boneColor(0)") == pytest.approx([1.0, 0xEB / 255, 0x3B / 255])
     b.eval("mocapkitViewer.seek(30)")
     assert b.eval("mocapkitViewer.boneColor(0)") != pytest.approx([1.0, 0xEB / 255, 0x3B / 255])
+    text = b.eval("document.getElementById('info').textContent")
+    assert "injected frames 21\u201325 (k = 5, drawn yellow)" in text
+    _assert_no_errors(b)
+    # a cut (k = 0) has no injected frame: its yellow frames are the landing eased in (they
+    # read "injected frames 134-146 (k = 0)")
+    cut = {**stitch, "k": 0, "generated_frames": [21, 29], "landing_output_frame": 29}
+    page = write_page(tmp_path / "cut.html", [ViewMotion(synth, "synth.bvh")], stitch=cut)
+    _open(b, page)
+    text = b.eval("document.getElementById('info').textContent")
+    assert "eased frames 21\u201328 (a cut, k = 0, drawn yellow)" in text
     _assert_no_errors(b)
 
 

@@ -690,8 +690,12 @@
     }
     if (stitch.warning) info('warning: ' + stitch.warning).style.color = '#ffb74d';
   } else if (stitch) {
-    info('stitch: take-off ' + stitch.takeoff + ', injected frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
-      ' (k = ' + stitch.k + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
+    // a cut (k = 0) has no injected frame: its yellow frames are the landing eased in; a
+    // cross-fade's are the blend
+    var made = stitch.method === 'crossfade' ? 'blended frames ' : (stitch.k === 0 ? 'eased frames ' : 'injected frames ');
+    var what = stitch.method === 'crossfade' ? 'cross-fade' : (stitch.k === 0 ? 'a cut, k = 0' : 'k = ' + stitch.k);
+    info('stitch: take-off ' + stitch.takeoff + ', ' + made + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) +
+      ' (' + what + ', drawn yellow), landing ' + stitch.landing + (stitch.lscore != null ? ', L* = ' + Number(stitch.lscore).toPrecision(4) : ''));
     if (stitch.lscoreByK.length) { $('lk-wrap').hidden = false; drawLk(); }
   }
   if (graph) {
