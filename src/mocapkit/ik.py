@@ -587,6 +587,18 @@ def lock_targets(
     return targets, weights
 
 
+def effector_contacts(contacts: FootContacts, effectors: Sequence[int]) -> np.ndarray:
+    """(F, n) bool: frames where each of ``effectors`` (joint indices, the columns) is in
+    contact, from ``contacts`` (:func:`mocapkit.features.foot_contacts`); a joint it does not
+    cover is never in contact."""
+    flags = np.zeros((contacts.contacts.shape[0], len(effectors)), dtype=bool)
+    effs = list(effectors)
+    for k, j in enumerate(contacts.joints):
+        if j in effs:
+            flags[:, effs.index(j)] |= contacts.contacts[:, k]
+    return flags
+
+
 def lock_feet(
     motion: Motion,
     contacts: FootContacts | None = None,
@@ -614,11 +626,7 @@ def lock_feet(
         )
     chains = list(leg_chains(motion, body) if chains is None else chains)
     effs = tuple(e for c in chains for e in c.effectors)
-    F = motion.num_frames
-    flags = np.zeros((F, len(effs)), dtype=bool)
-    for k, j in enumerate(contacts.joints):
-        if j in effs:
-            flags[:, effs.index(j)] |= contacts.contacts[:, k]
+    flags = effector_contacts(contacts, effs)
     pos, _ = forward_kinematics(motion)
     blend = motion.seconds_to_frames(cfg.blend)
     up = None if cfg.lock_height else ground_frame(body.up)[1]

@@ -1591,10 +1591,7 @@ def _lock_feet(
         return motion
     contacts = foot_contacts(ex, up=up)
     F = ex.num_frames
-    flags = np.zeros((F, len(effs)), bool)
-    for k, j in enumerate(contacts.joints):
-        if j in effs:
-            flags[:, effs.index(j)] |= contacts.contacts[:, k]
+    flags = ik.effector_contacts(contacts, effs)
     pos, _ = forward_kinematics(ex)
     lock = ik.FootLockConfig()
     i = np.arange(F) + lo
@@ -1640,13 +1637,12 @@ def _lock_feet(
     weights = weights * (x * x * (3 - 2 * x))[:, None]
     res = ik.solve(ex, chains, targets, weights, lock.ik, body)
     legs = sorted({j for c in chains for j in c.joints})
-    step = math.radians(config.lock_max_speed_deg) * motion.frame_time
     # frames a-1 .. b: the correction is none at both (context), and ramps within the gap
     # (a-1 .. b-1 at the clip's end, where the last frame keeps its own)
     span = slice(a - 1 - lo, min(b + 1, hi) - lo)
-    locked = _rate_limited(ex.rotations[span, legs], res.motion.rotations[span, legs], step)
-    sigma = config.lock_smooth_seconds * motion.fps
-    locked = _smoothed_correction(ex.rotations[span, legs], locked, sigma)
+    locked = _gentle_correction(
+        ex.rotations[span, legs], res.motion.rotations[span, legs], motion.fps, config
+    )
     out = motion.copy()
     out.rotations[a:b, legs] = locked[1 : 1 + b - a]
     return out
@@ -1884,6 +1880,19 @@ def _rate_limited(before: np.ndarray, after: np.ndarray, max_step: float) -> np.
     out = rot.quat_normalize(rot.quat_mul(rot.rotvec_to_quat(lim), before))
     same = np.all(lim == v, axis=-1)
     return np.where(same[..., None], after, out)
+
+
+def _gentle_correction(
+    before: np.ndarray, after: np.ndarray, fps: float, config: InbetweenConfig = DEFAULT_CONFIG
+) -> np.ndarray:
+    """``after`` (F, J, 4) with each joint's correction from ``before`` turning no faster than
+    :attr:`InbetweenConfig.lock_max_speed_deg` (:func:`_rate_limited`), then smoothed over
+    :attr:`InbetweenConfig.lock_smooth_seconds` (:func:`_smoothed_correction`); the first and
+    last frames keep theirs. What a foot lock's IK correction goes through before it is applied
+    (here, and to a stitch's cut: :func:`mocapkit.stitch.transition._planted_through`)."""
+    step = math.radians(config.lock_max_speed_deg) / fps
+    locked = _rate_limited(before, after, step)
+    return _smoothed_correction(before, locked, config.lock_smooth_seconds * fps)
 
 
 def _smoothed_correction(before: np.ndarray, after: np.ndarray, sigma: float) -> np.ndarray:

@@ -423,7 +423,7 @@ def _planted_through(
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.core.runs import true_runs
     from mocapkit.features import foot_contacts, ground_frame
-    from mocapkit.stitch.inbetween import DEFAULT_CONFIG, _rate_limited, _smoothed_correction
+    from mocapkit.stitch.inbetween import _gentle_correction
 
     cfg = ik.FootLockConfig()
     blend = max(motion.seconds_to_frames(cfg.blend), 1)
@@ -440,11 +440,7 @@ def _planted_through(
     effs = tuple(e for c in chains for e in c.effectors)
     if not effs or ex.num_frames < 3 or cut - lo < 1:
         return motion, cut
-    contacts = foot_contacts(ex, up=up)
-    flags = np.zeros((ex.num_frames, len(effs)), bool)
-    for c, j in enumerate(contacts.joints):
-        if j in effs:
-            flags[:, effs.index(j)] |= contacts.contacts[:, c]
+    flags = ik.effector_contacts(foot_contacts(ex, up=up), effs)
     held = np.zeros_like(flags)
     for c in range(len(effs)):
         for r0, r1 in true_runs(flags[:, c]):  # inclusive: a run across the cut
@@ -480,10 +476,9 @@ def _planted_through(
     stop = min(stop, hi - 1)
     legs = sorted({j for c in chains for j in c.joints})
     span = slice(cut - 1 - lo, stop + 1 - lo)  # ends uncorrected: frame cut - 1, frame stop
-    step = math.radians(DEFAULT_CONFIG.lock_max_speed_deg) * motion.frame_time
-    locked = _rate_limited(ex.rotations[span][:, legs], res.motion.rotations[span][:, legs], step)
-    sigma = DEFAULT_CONFIG.lock_smooth_seconds * motion.fps
-    locked = _smoothed_correction(ex.rotations[span][:, legs], locked, sigma)
+    locked = _gentle_correction(
+        ex.rotations[span][:, legs], res.motion.rotations[span][:, legs], motion.fps
+    )
     out = motion.copy()
     rows = out.rotations[cut:stop]
     rows[:, legs] = locked[1 : 1 + stop - cut]
