@@ -1814,13 +1814,54 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     # the feet stay where the fill without the level puts them (moved with the pelvis, they
     # would be ``drop`` off in the middle); there, on the segment's own frames, on the clip's
     kept = np.abs(out[0.5][a:b][:, effs] - out[0.0][a:b][:, effs]).max(axis=(1, 2))
-    assert kept.max() < 0.5 * drop and kept[12:-12].max() < 0.05 * drop
+    # (within the smoothing of the legs' correction, which spreads each frame's IK over its
+    # neighbours: a few millimetres)
+    assert kept.max() < 0.5 * drop and kept[12:-12].max() < 0.2 * drop
     assert np.abs(out[0.5][a + 12 : b - 12][:, effs] - T[a + 12 : b - 12][:, effs]).max() < (
-        0.05 * drop
+        0.2 * drop
     )
     for bad in (-1.0, float("inf")):
         with pytest.raises(ValueError, match="level_seconds"):
             InbetweenConfig(level_seconds=bad)
+
+
+@pytest.mark.parametrize("limit", [20.0, DEFAULT_CONFIG.lock_max_speed_deg])
+def test_the_levels_leg_correction_turns_no_faster_than_a_foot_locks(humanoid, limit):
+    """A rise of the level that the legs take up (a walk whose knees are bent 2.5% of the
+    body's height low, lifted back): the legs' correction changes by at most
+    lock_max_speed_deg per second from frame to frame, none on the context frames, and the
+    pelvis is raised in the middle of the gap (newcomer report: a knee near straight swung
+    through the capped rise's corner within a frame)."""
+    from mocapkit import ik
+    from mocapkit.body import body_of
+    from mocapkit.features import character_height, pelvis_index
+    from mocapkit.stitch.inbetween import _to_level
+
+    walk, _ = humanoid
+    drop = 0.025 * character_height(walk)
+    low = walk.copy()
+    tr = low.local_translations()
+    pel = pelvis_index(walk.skeleton)
+    tr[:, pel, 1] -= drop
+    low.translations = tr
+    chains = list(ik.leg_chains(low))
+    effs = [e for c in chains for e in c.effectors]
+    low = ik.solve(low, chains, forward_kinematics(walk)[0][:, effs]).motion
+    a, b = 40, 70
+    fill = low[a:b]
+    out = _to_level(low, a, b, fill, drop, "Y", replace(DEFAULT_CONFIG, lock_max_speed_deg=limit))
+    body = body_of(walk)
+    legs = [j for name in ("hip", "knee", "ankle") for j in body.both(name)]
+    d = rot.quat_mul(out.rotations[:, legs], rot.quat_inv(fill.rotations[:, legs]))
+    none = rot.quat_identity((1, len(legs)))  # the context frames around the fill
+    d = np.concatenate([none, d, none])
+    step = rot.quat_mul(d[1:], rot.quat_inv(d[:-1]))
+    turn = np.degrees(2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0)))
+    assert turn.max() <= limit * walk.frame_time + 1e-6
+    if limit < 30:
+        assert turn.max() > 0.9 * limit * walk.frame_time  # it had to be slowed
+    rise = forward_kinematics(out)[0][:, pel, 1] - forward_kinematics(fill)[0][:, pel, 1]
+    assert rise[10:20].min() > 0.5 * drop
 
 
 def test_a_level_measured_over_part_of_its_span_is_held_by_that_share(humanoid):
@@ -1886,7 +1927,8 @@ def test_a_rise_the_legs_cannot_follow_is_capped_and_does_not_pop_the_legs(human
     lifted = P[0.5][a:b, pel, 1] - P[0.0][a:b, pel, 1]
     # it rises where a leg can take it (this walk's legs are straight for much of each step)
     assert lifted.max() > 0.1 * rise and lifted.min() >= -1e-9 and lifted.max() <= rise + 1e-9
-    assert np.abs(P[0.5][a:b][:, effs] - P[0.0][a:b][:, effs]).max() < 0.05 * rise
+    # (within the smoothing of the legs' correction, a few millimetres: see the test above)
+    assert np.abs(P[0.5][a:b][:, effs] - P[0.0][a:b][:, effs]).max() < 0.2 * rise
 
     def turn_accel(m):  # deg/frame^2 of the leg joints over the gap and its two ends
         q = m.rotations[a - 2 : b + 2][:, legs]
@@ -1927,7 +1969,9 @@ def test_feet_the_segments_plant_below_the_clips_floor_are_raised_to_it(humanoid
     planted = con.contacts & mid[:, None]  # the clip's truth: the library is the same walk
     assert planted.sum() > 20
     # without the lock (and its floor) the planted feet stand where the segment put them
-    np.testing.assert_allclose((out[False] - T)[planted], off, atol=0.002)
+    # (within the smoothing of the level's leg correction: a few millimetres on some frames)
+    stood = (out[False] - T)[planted] - off
+    assert abs(np.median(stood)) < 0.001 and np.abs(stood).max() < 0.4 * abs(off)
     # with it: raised onto the clip's floor, or left where the segment put them (the rise is
     # the median of a run's heights, and an ankle rolls: some frames stay a few mm off)
     err = (out[True] - T)[planted] - (0.0 if sign < 0 else off)
