@@ -804,7 +804,9 @@ def write_bvh(motion: Motion, path: str | Path, order: str | None = None, digits
         warnings.warn(  # naming the file: a folder job writes many, warned at its end
             f"{path}: the take's unit ({mpu:g} m, from its source) cannot be stated in a BVH file, "
             "which other tools will read as inch or cm (mocapkit guesses it back from the "
-            "height); `mocapkit convert --units cm` (or m, inch) rescales it",
+            "height); to keep it, write .npz, or convert the source to a unit BVH readers "
+            "know first (`mocapkit convert SOURCE SOURCE_cm.bvh --units cm`; or m, "
+            "inch) and work on that",
             UserWarning,
             stacklevel=2,
         )
