@@ -491,11 +491,13 @@ def print_table(rows, title):
 
 
 def search_timing(lib_files, extra_files, reference, config):
-    """(inbetween search s, stitch search s, frames) on a 100,000-frame library."""
+    """(inbetween search s, stitch search s, frames) on a 100,000-frame library; the
+    in-betweening's time is both of a fill's searches (its ``neighbours`` segments, and as many
+    found weighing heights: ``height_share``), as :func:`inbetween` runs them."""
     from mocapkit.features import ground_root_on_path
     from mocapkit.io import read_motion
     from mocapkit.stitch import search_features
-    from mocapkit.stitch.inbetween import gap_context, prepare_library, search_inbetween
+    from mocapkit.stitch.inbetween import gap_context, prepare_library, search_inbetween_top
 
     motions, total = [], 0
     for f in [*lib_files, *extra_files]:
@@ -522,7 +524,11 @@ def search_timing(lib_files, extra_files, reference, config):
         search_features(qf, a - 1, clips, k_max=30)
         t_stitch = time.perf_counter() - t0
         t0 = time.perf_counter()
-        search_inbetween(ctx, b - a, lib, w=5, config=config)
+        k = config.neighbours
+        search_inbetween_top(ctx, b - a, lib, k, w=5, config=config)
+        if config.height_share > 0 and k > 1:
+            search_inbetween_top(ctx, b - a, lib, k, w=5, config=config,
+                                 heights=config.height_weight)  # fmt: skip
         t_inb = time.perf_counter() - t0
     return t_inb, t_stitch, total
 
