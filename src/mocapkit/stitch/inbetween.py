@@ -104,7 +104,11 @@ local linear regression of the fills on how each candidate's poses beside the ga
 context's, read at no miss, so that what the candidates share in missing it is not carried
 into the fill. The weights sum to 1 and each fill meets the context exactly, so the
 combination does too; where the candidates disagree it is the better estimate of the unknown
-motion.
+motion. A second search, its pose term weighing the bodies' heights
+:attr:`InbetweenConfig.height_weight` times more, finds a second set of segments combined
+alike; :attr:`InbetweenConfig.height_share` of the pelvis' height path over the gap is that
+set's (:func:`_height_path`, taken up by the legs in :func:`_to_level`), the poses staying the
+first set's: two sets chosen on different parts of the pose err partly apart on the height.
 On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the root on the
 body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are written
 back in the clip's own convention (its root interpolated between A-1 and B, the joint below
