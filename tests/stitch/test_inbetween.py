@@ -538,6 +538,26 @@ def test_a_second_search_on_heights_sets_a_share_of_the_pelvis_height_path(human
         InbetweenConfig(height_share=1.5)
 
 
+def test_no_second_search_where_the_height_path_does_not_apply(humanoid):
+    """No second set (height_from empty, share 0) for a gap at the clip's start or end (one
+    side of context: its best segment alone), for the Kalman transition, or with
+    height_share 0; a two-sided library fill has one."""
+    walk, lib = humanoid
+    F = walk.num_frames
+    cases = {
+        "start": dict(gap=(0, 20)),
+        "end": dict(gap=(F - 20, F)),
+        "kalman": dict(gap=(60, 66), method="kalman"),
+        "off": dict(gap=(60, 80), config=replace(DEFAULT_CONFIG, height_share=0.0)),
+    }
+    for name, kw in cases.items():
+        res = inbetween(walk, kw.pop("gap"), lib, up="Y", **kw)
+        assert res.height_from == () and res.height_share == 0.0, name
+        assert res.to_json()["height_from"] == [], name
+    both = inbetween(walk, (60, 80), lib, up="Y")
+    assert both.height_from and both.height_share == DEFAULT_CONFIG.height_share
+
+
 def test_fallback_when_kalman_scores_lower(humanoid):
     """The fallback compares like with like: the two-sided L-score of the library fill and of
     the Kalman fill, both on the final filled frames; it fires when the library's is more than
@@ -1887,23 +1907,25 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     # would be ``drop`` off in the middle); there, on the segment's own frames, on the clip's
     kept = np.abs(out[0.5][a:b][:, effs] - out[0.0][a:b][:, effs]).max(axis=(1, 2))
     # (within the smoothing of the legs' correction, which spreads each frame's IK over its
-    # neighbours: a few millimetres)
-    assert kept.max() < 0.5 * drop and kept[12:-12].max() < 0.2 * drop
+    # neighbours: 4.7 mm here, 0.13 of the drop)
+    assert kept.max() < 0.5 * drop and kept[12:-12].max() < 0.15 * drop
     assert np.abs(out[0.5][a + 12 : b - 12][:, effs] - T[a + 12 : b - 12][:, effs]).max() < (
-        0.2 * drop
+        0.15 * drop
     )
     for bad in (-1.0, float("inf")):
         with pytest.raises(ValueError, match="level_seconds"):
             InbetweenConfig(level_seconds=bad)
 
 
+@pytest.mark.parametrize("at_end", [False, True])
 @pytest.mark.parametrize("limit", [20.0, DEFAULT_CONFIG.lock_max_speed_deg])
-def test_the_levels_leg_correction_turns_no_faster_than_a_foot_locks(humanoid, limit):
+def test_the_levels_leg_correction_turns_no_faster_than_a_foot_locks(humanoid, limit, at_end):
     """A rise of the level that the legs take up (a walk whose knees are bent 2.5% of the
     body's height low, lifted back): the legs' correction changes by at most
     lock_max_speed_deg per second from frame to frame, none on the context frames, and the
     pelvis is raised in the middle of the gap (newcomer report: a knee near straight swung
-    through the capped rise's corner within a frame)."""
+    through the capped rise's corner within a frame). At the clip's end, where the level does
+    not fade, the last frame keeps its correction: its feet stay put (reviewer)."""
     from mocapkit import ik
     from mocapkit.body import body_of
     from mocapkit.features import character_height, pelvis_index
@@ -1919,21 +1941,25 @@ def test_the_levels_leg_correction_turns_no_faster_than_a_foot_locks(humanoid, l
     chains = list(ik.leg_chains(low))
     effs = [e for c in chains for e in c.effectors]
     low = ik.solve(low, chains, forward_kinematics(walk)[0][:, effs]).motion
-    a, b = 40, 70
+    a, b = (40, 70) if not at_end else (low.num_frames - 30, low.num_frames)
     fill = low[a:b]
     out = _to_level(low, a, b, fill, drop, "Y", replace(DEFAULT_CONFIG, lock_max_speed_deg=limit))
     body = body_of(walk)
     legs = [j for name in ("hip", "knee", "ankle") for j in body.both(name)]
     d = rot.quat_mul(out.rotations[:, legs], rot.quat_inv(fill.rotations[:, legs]))
     none = rot.quat_identity((1, len(legs)))  # the context frames around the fill
-    d = np.concatenate([none, d, none])
+    d = np.concatenate([none, d] if at_end else [none, d, none])
     step = rot.quat_mul(d[1:], rot.quat_inv(d[:-1]))
     turn = np.degrees(2 * np.arccos(np.clip(np.abs(step[..., 0]), 0.0, 1.0)))
     assert turn.max() <= limit * walk.frame_time + 1e-6
     if limit < 30:
         assert turn.max() > 0.9 * limit * walk.frame_time  # it had to be slowed
-    rise = forward_kinematics(out)[0][:, pel, 1] - forward_kinematics(fill)[0][:, pel, 1]
+    P_out, P_fill = forward_kinematics(out)[0], forward_kinematics(fill)[0]
+    rise = P_out[:, pel, 1] - P_fill[:, pel, 1]
     assert rise[10:20].min() > 0.5 * drop
+    if at_end and limit > 30:
+        assert rise[-1] > 0.5 * drop
+        assert np.abs(P_out[-1, effs] - P_fill[-1, effs]).max() < 0.15 * drop  # 14 mm unkept
 
 
 def test_a_level_measured_over_part_of_its_span_is_held_by_that_share(humanoid):
@@ -1999,8 +2025,8 @@ def test_a_rise_the_legs_cannot_follow_is_capped_and_does_not_pop_the_legs(human
     lifted = P[0.5][a:b, pel, 1] - P[0.0][a:b, pel, 1]
     # it rises where a leg can take it (this walk's legs are straight for much of each step)
     assert lifted.max() > 0.1 * rise and lifted.min() >= -1e-9 and lifted.max() <= rise + 1e-9
-    # (within the smoothing of the legs' correction, a few millimetres: see the test above)
-    assert np.abs(P[0.5][a:b][:, effs] - P[0.0][a:b][:, effs]).max() < 0.2 * rise
+    # (within the smoothing of the legs' correction: 5.6 mm here, see the test above)
+    assert np.abs(P[0.5][a:b][:, effs] - P[0.0][a:b][:, effs]).max() < 0.17 * rise
 
     def turn_accel(m):  # deg/frame^2 of the leg joints over the gap and its two ends
         q = m.rotations[a - 2 : b + 2][:, legs]

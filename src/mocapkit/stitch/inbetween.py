@@ -2184,6 +2184,19 @@ between takes), so a larger difference is something else (a crouch, a slope) tha
 could not take up."""
 
 
+def _kept_level(shift: float, clip: Motion, up: str) -> float:
+    """The level offset :func:`_to_level` applies: ``shift``, or 0 where it is under 1 mm or
+    over :data:`LEVEL_MAX_HEIGHT_FRACTION` of the character's height (no level that far off
+    is the person's)."""
+    from mocapkit import features
+
+    if abs(shift) * features.metres_per_unit(clip, None) < 1e-3 or abs(shift) > (
+        LEVEL_MAX_HEIGHT_FRACTION * features.character_height(clip, up)
+    ):
+        return 0.0
+    return float(shift)
+
+
 def _to_level(
     clip: Motion,
     a: int,
@@ -2218,10 +2231,7 @@ def _to_level(
     from mocapkit.core.kinematics import forward_kinematics
 
     mpu = features.metres_per_unit(clip, None)
-    if abs(shift) > LEVEL_MAX_HEIGHT_FRACTION * features.character_height(clip, up):
-        shift = 0.0
-    if abs(shift) * mpu < 1e-3:
-        shift = 0.0
+    shift = _kept_level(shift, clip, up)
     if shift == 0.0 and (extra is None or np.abs(extra).max() * mpu < 1e-3):
         return fill
     try:
@@ -2264,12 +2274,24 @@ def _to_level(
     # straight takes up a centimetre of level with a fast swing of the knee, which the capped
     # rise's corner turns into a jolt (newcomer report: a Bandai-1 walk filled at 60:75, the
     # left knee 54 m/s² against the take's own 29 there; 16 with it); the context frames
-    # around the fill (no correction) bound its ramp
-    own = fill.rotations[:, legs]
+    # around the fill (no correction) bound its ramp; a gap at the clip's end keeps its last
+    # frame's correction (its level does not fade there: reviewer)
+    own, fit = fill.rotations[:, legs], solved.rotations[:, legs]
+    last = fit[-1:] if b == clip.num_frames else own[-1:]
     before = np.concatenate([own[:1], own, own[-1:]])
-    after = np.concatenate([own[:1], solved.rotations[:, legs], own[-1:]])
+    after = np.concatenate([own[:1], fit, last])
     lifted.rotations[:, legs] = _gentle_correction(before, after, clip.fps, config)[1:-1]
     return lifted
+
+
+def _has_legs(motion: Motion) -> bool:
+    """True where the rig has legs for IK to turn (:func:`mocapkit.ik.leg_chains`)."""
+    from mocapkit import ik
+
+    try:
+        return any(c.effectors for c in ik.leg_chains(motion))
+    except ValueError:
+        return False
 
 
 def _height_path(
@@ -2283,8 +2305,9 @@ def _height_path(
 ) -> np.ndarray:
     """(B-A,) how far (file units, along ``up``) ``other``'s pelvis runs above ``fill``'s over
     the gap, each with its level offset (``shift``, ``other_shift``: :func:`_level_offset`)
-    faded in as :func:`_to_level` fades it; none at the gap's ends, where both meet the
-    context (:attr:`InbetweenConfig.height_share`)."""
+    faded in as :func:`_to_level` fades it (:attr:`InbetweenConfig.height_share`). Both fills
+    meet the context at A-1 and B with its velocities, so the path starts and ends near
+    none (a few mm on the first and last filled frames)."""
     from mocapkit import features
     from mocapkit.core.kinematics import forward_kinematics
 
@@ -2413,8 +2436,8 @@ class Inbetween:
     ``blended_from``, with their weights from :func:`fill_weights`) or "kalman" (the Kalman
     transition: asked for, or the fallback of ``requested`` "auto"; ``candidate`` is still the
     best library candidate, for the report). ``kalman_lscore``: the Kalman transition's own
-    two-sided L-score; ``candidates``: library candidates scored; ``search_seconds``: wall time
-    of the search.
+    two-sided L-score; ``candidates``: library candidates scored (by the first search);
+    ``search_seconds``: wall time of the search (of both, with :attr:`height_from`).
     """
 
     motion: Motion
@@ -2735,11 +2758,17 @@ def inbetween(
             wl = weights if None not in levels else neighbour_weights([c.score for c in found])
             known = [(d, wk) for d, wk in zip(levels, wl, strict=True) if d is not None]
             shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known) if known else 0.0
-            return fill, shift
+            return fill, _kept_level(shift, onpath, up)
 
         lfill, shift = combined(cands, share)
         extra = None
-        if config.height_share > 0 and not one_sided and len(cands) > 1:
+        if (
+            config.height_share > 0
+            and not one_sided
+            and len(cands) > 1
+            and method != "kalman"
+            and _has_legs(onpath)
+        ):
             t0 = time.perf_counter()
             heights, _ = search_inbetween_top(
                 ctx, b - a, lib, len(cands), w=w, config=config, model=model,
