@@ -492,9 +492,8 @@ def print_table(rows, title):
 
 def search_timing(lib_files, extra_files, reference, config):
     """(inbetween search s, stitch search s, frames, inbetween search s with cold caches) on a
-    100,000-frame library; the in-betweening's time is both of a fill's searches (its
-    ``neighbours`` segments, and as many found weighing heights: ``height_share``), as
-    :func:`inbetween` runs them. Warm: the library's squared feature norms cached, as when one
+    100,000-frame library; the in-betweening's search is for a fill's ``neighbours`` segments,
+    as :func:`inbetween` runs it. Warm: the library's squared feature norms cached, as when one
     prepared library fills many gaps; cold: the first search, which computes them (a library
     with the clip's own frames added is new for each gap)."""
     from mocapkit.features import ground_root_on_path
@@ -530,9 +529,6 @@ def search_timing(lib_files, extra_files, reference, config):
         t0 = time.perf_counter()
         k = config.neighbours
         search_inbetween_top(ctx, b - a, lib, k, w=5, config=config)
-        if config.height_share > 0 and k > 1:
-            search_inbetween_top(ctx, b - a, lib, k, w=5, config=config,
-                                 heights=config.height_weight)  # fmt: skip
         t_inb = time.perf_counter() - t0
         cold = t_inb if cold is None else cold
     return t_inb, t_stitch, total, cold

@@ -36,9 +36,7 @@ stitch's injected frames), ``"inbetween"`` (frames of ``source``, time-warped an
 the frames around a gap, their ends blended into them: ``mocapkit inbetween``; with
 ``"backwards": true`` when the source played in reverse; ``source`` is the best-scoring of the
 library segments the fill combines, and ``parameters["blended_from"]`` lists every one of them
-with its share, which may be small or negative; ``parameters["height_from"]``, where present,
-lists the second set of segments ``parameters["height_share"]`` of the pelvis' height path
-over the gap comes from). Readers ignore keys they do not know,
+with its share, which may be small or negative). Readers ignore keys they do not know,
 so later tools may add some.
 
 A motion made from a motion mocapkit made (a take filled twice) traces its copied frames back

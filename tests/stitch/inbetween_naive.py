@@ -7,17 +7,15 @@ one clip, the score
     lscore_weight (L_start + L_end)  +  travel  +  pose
 
 with the L-scores by the textbook RTS smoother of naive.py (one dimension at a time), the
-ground-path term from the pelvis path and heading, and the pose term as the squared distances of
-frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
-divided by (joints x tolerance²), times pose_weight (the up coordinates' differences times
-``heights``, the second search of ``InbetweenConfig.height_share``); with pelvis heights in the
-library and the context (three past frames or more, a frame time), plus the bob term: bob_weight
-times the squared differences of the pelvis' vertical acceleration and speed, over the frames
+ground-path term from the pelvis path and heading, and the pose term as the squared distances
+of frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
+divided by (joints x tolerance²), times pose_weight; with pelvis heights in the library and
+the context (three past frames or more, a frame time), plus the bob term: bob_weight times
+the squared differences of the pelvis' vertical acceleration and speed, over the frames
 end-2k_s, end-k_s, end of the candidate (end = s, or s+1 on its clip's second frame) and
 A-1-2k_s, A-1-k_s, A-1 of the context, over their tolerances (metres), where k_s is half
-bob_span_seconds in frames, or less where the candidate's clip or the context has fewer frames
-before.
-Returns every candidate, best first.
+bob_span_seconds in frames, or less where the candidate's clip or the context has fewer
+frames before. Returns every candidate, best first.
 
 A context with no future frames (a gap at the clip's end) has no L_end, no displacement or
 turn in the ground-path term (its velocity is the warped segment's, not the library's own),
@@ -49,12 +47,8 @@ def _turn(v, h):  # ground vector (side, forward) into the frame of heading h
     return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
 
 
-def inbetween_scores_reference(
-    ctx, gap: int, library, w: int, config, metres_per_unit: float, heights: float = 1.0
-):
-    """[(score, clip, start time, rate), ...] of every valid candidate, lowest score first.
-    ``heights``: each feature joint's up coordinate (the second of its three: Y up) weighs
-    this many times its difference in the pose term."""
+def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_per_unit: float):
+    """[(score, clip, start time, rate), ...] of every valid candidate, lowest score first."""
     g = int(gap)
     wl = max(3, min(w, g))
     tol = config.travel_tolerance_m / metres_per_unit
@@ -96,11 +90,7 @@ def inbetween_scores_reference(
                 travel += np.sum((d - ctx.travel) ** 2) / tol**2
                 travel += ((dh - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
             score += config.travel_weight * travel
-            pose = 0.0
-            for c, off in refs:
-                d = W.feats[s + off].astype(float) - c
-                d[1::3] *= heights  # Y up
-                pose += float(np.sum(d**2))
+            pose = sum(float(np.sum((W.feats[s + k].astype(float) - c) ** 2)) for c, k in refs)
             score += config.pose_weight * (3 / len(refs)) * pose / ((m / 3) * ptol**2)
             if with_bob:  # the pelvis' vertical motion ending on A-1, the context's and s's
                 h, dt = W.pelvis, ctx.frame_time

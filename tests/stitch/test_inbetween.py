@@ -160,33 +160,6 @@ def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
     assert best.lscore == pytest.approx(own[0], rel=1e-3)
 
 
-@pytest.mark.parametrize("gap", [2, 7])
-@pytest.mark.parametrize("heights", [3.0, 6.0])
-def test_search_weighing_heights_matches_brute_force(gap, heights):
-    """The second search of height_share (the pose term's up coordinates weighed ``heights``
-    times): the best candidate and its score are the brute force's, the order of all
-    candidates is not the plain search's, and the mismatch it reports (what fill_weights
-    regresses on) has its up coordinates scaled alike."""
-    config, lib, ctx = _brute_force_case(20 + gap, 0.0, one_sided=False)
-    best, count = search_inbetween_top(ctx, gap, lib, 1, w=5, config=config,
-                                       metres_per_unit=0.01, heights=heights)  # fmt: skip
-    best = best[0]
-    ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01, heights)
-    assert count == len(ref)
-    assert (best.clip, best.rate) == (ref[0][1], ref[0][3])
-    assert best.start == pytest.approx(ref[0][2])
-    assert best.score == pytest.approx(ref[0][0], rel=1e-4)
-    plain = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
-    assert [x[1:] for x in plain] != [x[1:] for x in ref]
-    W = lib.warp(best.rate)
-    i = int(np.flatnonzero((W.clip == best.clip) & np.isclose(W.time, best.start))[0])
-    mis = W.feats[[i - 1, i, i + gap + 1]].astype(float) - np.concatenate(
-        [ctx.past[-2:], ctx.future[:1]]
-    )
-    mis[:, 1::3] *= heights
-    np.testing.assert_allclose(best.mismatch, mis.ravel(), rtol=1e-5, atol=1e-6)
-
-
 @pytest.mark.parametrize("gap", [3, 8])
 @pytest.mark.parametrize("lscore_weight", [0.0, 0.5])
 def test_search_of_a_gap_at_the_clips_end_matches_brute_force(gap, lscore_weight):
@@ -465,8 +438,7 @@ def test_inbetween_fills_with_fill_weights(humanoid, monkeypatch):
 
     walk, lib = humanoid
     gap = (60, 80)
-    # (the pelvis height path of a second search off: it has its own test)
-    config = replace(DEFAULT_CONFIG, foot_lock=False, level_seconds=0.0, height_share=0.0)
+    config = replace(DEFAULT_CONFIG, foot_lock=False, level_seconds=0.0)
     one = replace(config, neighbours=1)
     alone = inbetween(walk, gap, lib, up="Y", method="library", config=one)
     real = mod.fill_weights
@@ -492,70 +464,6 @@ def test_inbetween_fills_with_fill_weights(humanoid, monkeypatch):
                       config=replace(config, regression_rank=0))  # fmt: skip
     w = neighbour_weights([x["score"] for x in plain.blended_from])
     np.testing.assert_allclose([x["weight"] for x in plain.blended_from], w / w.sum(), atol=1e-4)
-
-
-def test_a_second_search_on_heights_sets_a_share_of_the_pelvis_height_path(humanoid, tmp_path):
-    """height_share: the pelvis' height over the gap is that share of the way from the first
-    set of segments' to the second's (a search weighing heights height_weight times), the
-    legs take up the change (the feet stay put, the other joints keep the first set's
-    poses), the second set is listed with weights summing to 1 in the result, its JSON and
-    its sidecar; at 0 there is no second set."""
-    from mocapkit.body import body_of
-    from mocapkit.features import pelvis_index
-
-    walk, lib = humanoid
-    gap = a, b = 60, 90
-    config = replace(DEFAULT_CONFIG, foot_lock=False)
-    res = {
-        s: inbetween(walk, gap, lib, up="Y", method="library",
-                     config=replace(config, height_share=s))
-        for s in (0.0, 0.5, 1.0)
-    }
-    assert res[0.0].height_from == () and res[0.0].height_share == 0.0
-    half = res[0.5]
-    assert half.height_share == 0.5 and len(half.height_from) == len(half.blended_from) > 1
-    assert sum(x["weight"] for x in half.height_from) == pytest.approx(1.0, abs=1e-3)
-    assert [x["source_frames"] for x in half.height_from] != [
-        x["source_frames"] for x in half.blended_from
-    ]
-    assert half.to_json()["height_from"] == [dict(x) for x in half.height_from]
-    params = half.provenance(str(tmp_path / "o.bvh")).parameters
-    assert params["height_share"] == 0.5 and params["height_from"] == half.to_json()["height_from"]
-    pel = pelvis_index(walk.skeleton)
-    P = {s: forward_kinematics(r.motion)[0] for s, r in res.items()}
-    h = {s: p[a:b, pel, 1] for s, p in P.items()}
-    assert np.abs(h[1.0] - h[0.0]).max() > 1e-3  # the two sets' height paths differ
-    np.testing.assert_allclose(h[0.5], 0.5 * (h[0.0] + h[1.0]), atol=1e-3)
-    body = body_of(walk)
-    legs = {j for name in ("hip", "knee", "ankle", "toe") for j in body.both(name)}
-    others = [j for j in range(walk.num_joints) if j not in legs and j != pel and j > 0]
-    for s in (0.5, 1.0):  # the poses are the first set's; the feet stay where they were
-        np.testing.assert_allclose(res[s].motion.rotations[:, others],
-                                   res[0.0].motion.rotations[:, others], atol=1e-12)  # fmt: skip
-        feet = [j for j in body.both("ankle")]
-        assert np.abs(P[s][a:b, feet] - P[0.0][a:b, feet]).max() < 0.01
-    with pytest.raises(ValueError, match="height_share"):
-        InbetweenConfig(height_share=1.5)
-
-
-def test_no_second_search_where_the_height_path_does_not_apply(humanoid):
-    """No second set (height_from empty, share 0) for a gap at the clip's start or end (one
-    side of context: its best segment alone), for the Kalman transition, or with
-    height_share 0; a two-sided library fill has one."""
-    walk, lib = humanoid
-    F = walk.num_frames
-    cases = {
-        "start": dict(gap=(0, 20)),
-        "end": dict(gap=(F - 20, F)),
-        "kalman": dict(gap=(60, 66), method="kalman"),
-        "off": dict(gap=(60, 80), config=replace(DEFAULT_CONFIG, height_share=0.0)),
-    }
-    for name, kw in cases.items():
-        res = inbetween(walk, kw.pop("gap"), lib, up="Y", **kw)
-        assert res.height_from == () and res.height_share == 0.0, name
-        assert res.to_json()["height_from"] == [], name
-    both = inbetween(walk, (60, 80), lib, up="Y")
-    assert both.height_from and both.height_share == DEFAULT_CONFIG.height_share
 
 
 def test_fallback_when_kalman_scores_lower(humanoid):

@@ -244,14 +244,6 @@ def inbetween_cmd(
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
             "speed and weight: --json or the sidecar)"
         )
-    if res.height_from:
-        htakes = shares_by_take(res.height_from)
-        say(
-            f"the pelvis' height over the gap is {_percent(res.height_share)} from "
-            f"{len(res.height_from)} segments of {len(htakes)} take(s) found by a second search "
-            "that weighs the body's heights more (the legs take up the change; 'height_from' "
-            "in --json and the sidecar)"
-        )
     if res.warning:
         a, b = res.gap
         hint = (

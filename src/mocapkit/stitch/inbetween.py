@@ -104,11 +104,7 @@ local linear regression of the fills on how each candidate's poses beside the ga
 context's, read at no miss, so that what the candidates share in missing it is not carried
 into the fill. The weights sum to 1 and each fill meets the context exactly, so the
 combination does too; where the candidates disagree it is the better estimate of the unknown
-motion. A second search, its pose term weighing the bodies' heights
-:attr:`InbetweenConfig.height_weight` times more, finds a second set of segments combined
-alike; :attr:`InbetweenConfig.height_share` of the pelvis' height path over the gap is that
-set's (:func:`_height_path`, taken up by the legs in :func:`_to_level`), the poses staying the
-first set's: two sets chosen on different parts of the pose err partly apart on the height.
+motion.
 On rigs with a ground root (Bandai's ``joint_Root``) the work is done with the root on the
 body's path (:func:`mocapkit.features.ground_root_on_path`) and the filled frames are written
 back in the clip's own convention (its root interpolated between A-1 and B, the joint below
@@ -510,32 +506,6 @@ class InbetweenConfig:
     library holds no segment like the gap, the neighbours disagree and their combination is
     the better guess."""
 
-    height_weight: float = 6.0
-    """The second search of :attr:`height_share`: the pose term's heights (each feature joint's
-    up coordinate) count this many times their distance, their squares this squared. Tuning
-    windows (``bench_inbetween.py --tune``, the take's person and gait left out of the library;
-    :attr:`height_share` 0.5), L2P at 15 / 30 frames: 2.284 / 3.254 without the second search,
-    2.297 / 3.167 at 3, 2.285 / 3.103 at 6, 2.276 / 3.140 at 10; the person left out 1.894 /
-    2.561 without, 1.884 / 2.499 at 3, 1.882 / 2.462 at 6."""
-    height_share: float = 0.5
-    """Share of the pelvis' height path (over the gap, level included) taken from a second set
-    of :attr:`neighbours` segments, found by a search that weighs the bodies' heights
-    :attr:`height_weight` times more (:func:`search_inbetween_top` ``heights``); the legs take
-    up the change by IK (:func:`_to_level`), the poses stay the first set's. 0: off. Relies on:
-    the pelvis' rise and fall over a gap follows how high the body holds its trunk, knees and
-    feet at its ends (where in the step each foot is, how bent the knees), while the first
-    search matches mostly the limbs' layout along the travel (60 cm of spread against 2-3 cm
-    of height), so two sets of segments chosen on different parts of the pose err in partly
-    different ways on the height, and their mean errs less. The benchmark's L2P counts a
-    centimetre of height about 25 times one along the travel (the library's spread), so the
-    pelvis' height was most of the fill's error (72% of it vertical at 30 frames). Tuning
-    windows at 5 / 15 / 30 / 45 frames (person and gait left out), L2P 0.862 / 2.284 / 3.254
-    / 4.161 at 0, 0.851 / 2.285 / 3.103 / 4.068 at 0.5; 2.312 / 3.149 at 15 / 30 frames at 0.7
-    (weight 3), 2.346 / 3.146 at 1 (weight 3). Averaged into the whole pose instead of the
-    pelvis height alone: 2.280 / 3.100, but foot skate at 30 frames 33.65 -> 35.07 cm/s.
-    Only where :attr:`neighbours` are averaged (up to :attr:`average_max_seconds`) and the gap
-    has context on both sides."""
-
     regression_rank: int = 3
     """Main directions of the candidates' mismatches the fill is regressed on
     (:func:`fill_weights`; at most the number of candidates less 2); 0: the score-weighted mean
@@ -641,10 +611,6 @@ class InbetweenConfig:
             raise ValueError(f"fallback_margin must be > 0, got {self.fallback_margin}")
         if not self.neighbours >= 1:
             raise ValueError(f"neighbours must be an int >= 1, got {self.neighbours!r}")
-        if not (math.isfinite(self.height_weight) and self.height_weight > 0):
-            raise ValueError(f"height_weight must be > 0, got {self.height_weight}")
-        if not 0.0 <= self.height_share <= 1.0:
-            raise ValueError(f"height_share must be in [0, 1], got {self.height_share}")
         if not (self.regression_rank >= 0 and self.regression_ridge_m > 0):
             raise ValueError(
                 "regression_rank must be >= 0 and regression_ridge_m > 0, got "
@@ -1214,27 +1180,12 @@ def _travel_costs(
     return cost, valid
 
 
-def _height_scale(m: int, up: str, heights: float) -> np.ndarray:
-    """(m,) per feature coordinate (3 per feature joint, body-local): ``heights`` on the up
-    axis, 1 on the ground plane."""
-    from mocapkit import features
-
-    upv = np.abs(features.ground_frame(up)[1])
-    return np.tile(1.0 + (heights - 1.0) * upv, m // 3)
-
-
 def _pose_costs(
-    W: _Warped,
-    ctx: GapContext,
-    g: int,
-    config: InbetweenConfig,
-    mpu: float,
-    scale: np.ndarray | None = None,
+    W: _Warped, ctx: GapContext, g: int, config: InbetweenConfig, mpu: float
 ) -> np.ndarray:
     """(N,) per warped frame s (the frame on A-1): the pose term, squared body-local distances
     of frames s-1, s, s+g+1 to the context's A-2, A-1, B over joints and squared tolerance
-    (inf where a frame is outside the library; clip boundaries are checked by the caller).
-    ``scale`` (m,): each feature coordinate's difference multiplied by it (None: 1)."""
+    (inf where a frame is outside the library; clip boundaries are checked by the caller)."""
     N, m = W.feats.shape
     cost = np.full(N, np.inf)
     if config.pose_weight == 0:
@@ -1244,19 +1195,13 @@ def _pose_costs(
     if hi <= lo:
         return cost
     X = W.feats
-    s2 = np.ones(m) if scale is None else np.asarray(scale, np.float64) ** 2
-    norms = W.__dict__.setdefault("_sqnorm", {})
-    key = s2.tobytes()
-    if key not in norms:  # scaled squared norms of the rows, once per prepared library
-        norms[key] = (
-            np.einsum("nm,nm->n", X, X, dtype=np.float64)
-            if scale is None
-            else np.einsum("nm,nm,m->n", X, X, s2.astype(np.float32), dtype=np.float64)
-        )
-    n2 = norms[key]
+    n2 = W.__dict__.get("_sqnorm")
+    if n2 is None:  # squared norms of the rows, once per prepared library
+        n2 = np.einsum("nm,nm->n", X, X, dtype=np.float64)
+        object.__setattr__(W, "_sqnorm", n2)
     C = np.concatenate([ctx.past[-2:], ctx.future[:1]]).astype(float)  # on s-1, s (, s+g+1)
-    XC = (X @ (C * s2).T.astype(np.float32)).astype(np.float64)  # (N, 3)
-    cc = np.einsum("km,km,m->k", C, C, s2)
+    XC = (X @ C.T.astype(np.float32)).astype(np.float64)  # (N, 3)
+    cc = np.einsum("km,km->k", C, C)
     total = np.zeros(hi - lo)
     for j, k in enumerate((-1, 0, g + 1)[: len(C)]):
         total += n2[lo + k : hi + k] - 2.0 * XC[lo + k : hi + k, j] + cc[j]
@@ -1347,20 +1292,15 @@ def search_inbetween_top(
     config: InbetweenConfig = DEFAULT_CONFIG,
     model: ConstantAccelerationModel = DEFAULT_MODEL,
     metres_per_unit: float = 0.01,
-    heights: float = 1.0,
 ) -> tuple[list[Candidate], int]:
     """The ``k`` best :class:`Candidate` s (lowest score first) for a gap of ``gap`` frames, no
     two of them on overlapping library frames (a candidate whose segment overlaps a better
-    one's in the same clip is passed over), and the number scored. ``heights``: the pose
-    term's heights (and the candidates' mismatches') count this many times their distance
-    (:attr:`InbetweenConfig.height_weight`)."""
+    one's in the same clip is passed over), and the number scored."""
     g = int(gap)
     k = max(1, int(k))
     if ctx.frame_time is not None and library.motions:
         _check_rate(library, ctx.frame_time)
     pool, count = [], 0
-    m = ctx.past.shape[1]
-    scale = None if heights == 1.0 else _height_scale(m, library.up, heights)
     wl = min(w, g)  # the gap frames seen by each junction's window
     if wl < 3:
         wl = 3
@@ -1387,15 +1327,15 @@ def search_inbetween_top(
         first = np.clip(s + g - wl + 1, 0, N - 1)
         last = np.clip(s + wl, 0, N - 1)
         valid &= ok & (W.clip[first] == W.clip) & (W.clip[last] == W.clip)
-        pose = _pose_costs(W, ctx, g, config, metres_per_unit, scale)
+        pose = _pose_costs(W, ctx, g, config, metres_per_unit)
         bob = _bob_costs(W, ctx, config, metres_per_unit)
         lw = config.lscore_weight
         lsum = lw * (ls + le) if lw > 0 else np.zeros(N)
         total = np.where(valid, lsum + travel + pose + bob, np.inf)
         count += int(valid.sum())
         # enough of this warp's best to leave k non-overlapping ones after the overlap check
-        most = min(N, k * (2 * g + 8))
-        top = np.argpartition(total, most - 1)[:most] if most < N else np.arange(N)
+        m = min(N, k * (2 * g + 8))
+        top = np.argpartition(total, m - 1)[:m] if m < N else np.arange(N)
         top = top[np.isfinite(total[top])]
         pool += [(float(total[i]), W, int(i), float(ls[i]), float(le[i]), float(travel[i]),
                   float(pose[i])) for i in top]  # fmt: skip
@@ -1426,8 +1366,7 @@ def search_inbetween_top(
         if ctx.past.shape[0] >= 2:
             rows = [i - 1, i] + ([] if ctx.one_sided else [i + g + 1])
             Cm = np.concatenate([ctx.past[-2:], ctx.future[:1]])
-            mis = (X[rows].astype(np.float64) - Cm)
-            mis = (mis if scale is None else mis * scale).ravel()
+            mis = (X[rows].astype(np.float64) - Cm).ravel()
         chosen.append(Candidate(c, t, W.rate, score, l0, l1, tr, po, mis))
         if len(chosen) == k:
             break
@@ -2184,35 +2123,13 @@ between takes), so a larger difference is something else (a crouch, a slope) tha
 could not take up."""
 
 
-def _kept_level(shift: float, clip: Motion, up: str) -> float:
-    """The level offset :func:`_to_level` applies: ``shift``, or 0 where it is under 1 mm or
-    over :data:`LEVEL_MAX_HEIGHT_FRACTION` of the character's height (no level that far off
-    is the person's)."""
-    from mocapkit import features
-
-    if abs(shift) * features.metres_per_unit(clip, None) < 1e-3 or abs(shift) > (
-        LEVEL_MAX_HEIGHT_FRACTION * features.character_height(clip, up)
-    ):
-        return 0.0
-    return float(shift)
-
-
 def _to_level(
-    clip: Motion,
-    a: int,
-    b: int,
-    fill: Motion,
-    shift: float,
-    up: str,
-    config: InbetweenConfig,
-    extra: np.ndarray | None = None,
+    clip: Motion, a: int, b: int, fill: Motion, shift: float, up: str, config: InbetweenConfig
 ) -> Motion:
     """``fill`` (frames A..B-1 on ``clip``'s path) with the pelvis ``shift`` (file units, along
     ``up``: :func:`_level_offset`, combined over the candidates with the fill's weights) up or
     down in the middle of the gap, fading to none at its ends as the end offsets do (the context
-    frames are met exactly), plus ``extra`` ((B-A,) file units, optional: the height path of
-    :attr:`InbetweenConfig.height_share`, none at the gap's ends), and the legs turned by IK
-    (:mod:`mocapkit.ik`) so that the feet
+    frames are met exactly), and the legs turned by IK (:mod:`mocapkit.ik`) so that the feet
     stay where ``fill`` puts them: the ground is at the same height for everyone, so a foot the
     segments put on it stays there and the legs take up the change of level (tuning windows: the
     level alone, feet moved with the pelvis, L2P at 15 / 30 frames 2.062 / 2.537 and foot skate
@@ -2224,15 +2141,15 @@ def _to_level(
     tuning windows (the take's person and gait left out), L2P at 15 / 30 frames 2.284 / 3.254
     either way, the legs' largest angular acceleration in a window at 30 frames (99th
     percentile / largest) 30.1 / 32.9 -> 27.4 / 28.5 deg/frame² (the truth's 40.1 / 43.2).
-    The shift is left out when under 1 mm or over :data:`LEVEL_MAX_HEIGHT_FRACTION` of the
-    character's height; ``fill`` is unchanged when nothing is left (``extra`` under 1 mm too)
-    or the rig has no legs to solve."""
+    Unchanged when the shift is under 1 mm, over :data:`LEVEL_MAX_HEIGHT_FRACTION` of the
+    character's height, or the rig has no legs to solve."""
     from mocapkit import features, ik
     from mocapkit.core.kinematics import forward_kinematics
 
     mpu = features.metres_per_unit(clip, None)
-    shift = _kept_level(shift, clip, up)
-    if shift == 0.0 and (extra is None or np.abs(extra).max() * mpu < 1e-3):
+    if abs(shift) * mpu < 1e-3 or abs(shift) > LEVEL_MAX_HEIGHT_FRACTION * (
+        features.character_height(clip, up)
+    ):
         return fill
     try:
         chains = list(ik.leg_chains(fill))
@@ -2246,11 +2163,9 @@ def _to_level(
     w0 = _decay(g + 2, blend)
     w1 = np.zeros_like(w0) if b == clip.num_frames else w0[::-1]  # no end to meet at the clip's
     profile = np.clip(1.0 - w0 - w1, 0.0, 1.0)[1:-1] * shift  # as the end offsets fade
-    if extra is not None:
-        profile = profile + extra
     _, upv, _ = features.ground_frame(up)
     pos, _ = forward_kinematics(fill)
-    if (profile > 0).any():  # a rise no leg can follow to its foot is capped there
+    if shift > 0:  # a rise no leg can follow to its foot is capped there
         tr = fill.local_translations()
         reach = np.full(g, np.inf)
         for c in chains:
@@ -2263,7 +2178,7 @@ def _to_level(
             side = np.linalg.norm(d - h[:, None] * upv[None], axis=-1)
             reach = np.minimum(reach, np.sqrt(np.maximum(length**2 - side**2, 0.0)) - h)
         # min() of two smooth curves: continuous, so the cap does not pop the pelvis
-        profile = np.where(profile > 0, np.minimum(profile, np.maximum(reach, 0.0)), profile)
+        profile = np.minimum(profile, np.maximum(reach, 0.0))
     lifted = fill.copy()
     lifted.root_positions = fill.root_positions + profile[:, None] * upv[None]
     if lifted.translations is not None:
@@ -2282,43 +2197,6 @@ def _to_level(
     after = np.concatenate([own[:1], fit, last])
     lifted.rotations[:, legs] = _gentle_correction(before, after, clip.fps, config)[1:-1]
     return lifted
-
-
-def _has_legs(motion: Motion) -> bool:
-    """True where the rig has legs for IK to turn (:func:`mocapkit.ik.leg_chains`)."""
-    from mocapkit import ik
-
-    try:
-        return any(c.effectors for c in ik.leg_chains(motion))
-    except ValueError:
-        return False
-
-
-def _height_path(
-    clip: Motion,
-    fill: Motion,
-    shift: float,
-    other: Motion,
-    other_shift: float,
-    up: str,
-    config: InbetweenConfig,
-) -> np.ndarray:
-    """(B-A,) how far (file units, along ``up``) ``other``'s pelvis runs above ``fill``'s over
-    the gap, each with its level offset (``shift``, ``other_shift``: :func:`_level_offset`)
-    faded in as :func:`_to_level` fades it (:attr:`InbetweenConfig.height_share`). Both fills
-    meet the context at A-1 and B with its velocities, so the path starts and ends near
-    none (a few mm on the first and last filled frames)."""
-    from mocapkit import features
-    from mocapkit.core.kinematics import forward_kinematics
-
-    g = fill.num_frames
-    blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
-    w0 = _decay(g + 2, blend)
-    middle = np.clip(1.0 - w0 - w0[::-1], 0.0, 1.0)[1:-1]
-    pel = features.pelvis_index(clip.skeleton)
-    upv = features.ground_frame(up)[1]
-    h, h_other = (forward_kinematics(m)[0][:, pel] @ upv for m in (fill, other))
-    return (h_other - h) + middle * (other_shift - shift)
 
 
 def _average_fills(fills: Sequence[Motion], weights: Sequence[float] | None = None) -> Motion:
@@ -2436,8 +2314,8 @@ class Inbetween:
     ``blended_from``, with their weights from :func:`fill_weights`) or "kalman" (the Kalman
     transition: asked for, or the fallback of ``requested`` "auto"; ``candidate`` is still the
     best library candidate, for the report). ``kalman_lscore``: the Kalman transition's own
-    two-sided L-score; ``candidates``: library candidates scored (by the first search);
-    ``search_seconds``: wall time of the search (of both, with :attr:`height_from`).
+    two-sided L-score; ``candidates``: library candidates scored; ``search_seconds``: wall time
+    of the search.
     """
 
     motion: Motion
@@ -2486,12 +2364,6 @@ class Inbetween:
     the scale the other L-scores read on (an L-score has no unit a user knows; a fill scoring
     about what the capture scored there is as smooth at its junctions as the capture was; a
     glitch in the frames replaced scores higher)."""
-    height_from: tuple[dict[str, Any], ...] = ()
-    """The segments of the second search (:attr:`InbetweenConfig.height_share`), as
-    :attr:`blended_from` lists them: ``height_share`` of the pelvis' height path over the gap
-    is theirs (their weights sum to 1 within it). Empty where it is off or does not apply."""
-    height_share: float = 0.0
-    """The share of the pelvis' height path taken from :attr:`height_from` (0: none)."""
 
     @property
     def fell_back(self) -> bool:
@@ -2546,9 +2418,6 @@ class Inbetween:
         if self.method == "library":
             params["source_backwards"] = self.backwards
             params["blended_from"] = [dict(x) for x in self.blended_from]
-            if self.height_from:
-                params["height_share"] = self.height_share
-                params["height_from"] = [dict(x) for x in self.height_from]
         return Provenance(
             "inbetween", str(output), float(self.motion.fps), F,
             list(dict.fromkeys([self.clip_name, *self.library_names])), params, segs, trans,
@@ -2571,9 +2440,6 @@ class Inbetween:
             "source_backwards": self.backwards,
             "source_used": used,
             "blended_from": [dict(x) for x in self.blended_from],
-            # the segments the pelvis' height path over the gap is height_share theirs
-            "height_share": self.height_share,
-            "height_from": [dict(x) for x in self.height_from],
             # the best segment's own search scores: raw, joined to the context as found
             **{  # the L-score of a junction a gap at the clip's start or end lacks is null
                 f"segment_{k}": None if c is None else _finite_or_none(getattr(c, k))
@@ -2738,48 +2604,23 @@ def inbetween(
         kal = sum(_two_sided(onpath, kfill, a, b, ctx, w, up, model))
     lib_ends, lfill = (math.nan, math.nan), None
     share = fill_weights(cands, config, mpu) if cands else np.zeros(0)
-    heights: list[Candidate] = []
-    height_share = np.zeros(0)
     if cands:
-
-        def combined(found: list[Candidate], weights: np.ndarray) -> tuple[Motion, float]:
-            """The segments' fills combined, and their pelvis level offset (combined)."""
-            fill = _average_fills(
-                [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config,
-                              future_frames=len(ctx.future))
-                 for c in found], weights,
-            )  # fmt: skip
-            levels = [
-                _level_offset(onpath, a, lib.motions[c.clip], c, up, config.level_seconds)
-                for c in found
-            ]
-            # the fill's own weights where every segment has a level; else the score weights
-            # of those that have one (signed weights over a part of them need not sum to 1)
-            wl = weights if None not in levels else neighbour_weights([c.score for c in found])
-            known = [(d, wk) for d, wk in zip(levels, wl, strict=True) if d is not None]
-            shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known) if known else 0.0
-            return fill, _kept_level(shift, onpath, up)
-
-        lfill, shift = combined(cands, share)
-        extra = None
-        if (
-            config.height_share > 0
-            and not one_sided
-            and len(cands) > 1
-            and method != "kalman"
-            and _has_legs(onpath)
-        ):
-            t0 = time.perf_counter()
-            heights, _ = search_inbetween_top(
-                ctx, b - a, lib, len(cands), w=w, config=config, model=model,
-                metres_per_unit=mpu, heights=config.height_weight,
-            )  # fmt: skip
-            seconds += time.perf_counter() - t0
-            height_share = fill_weights(heights, config, mpu)
-            hfill, hshift = combined(heights, height_share)
-            extra = config.height_share * _height_path(onpath, lfill, shift, hfill, hshift, up,
-                                                       config)  # fmt: skip
-        lfill = _to_level(onpath, a, b, lfill, shift, up, config, extra)
+        lfill = _average_fills(
+            [library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config,
+                          future_frames=len(ctx.future))
+             for c in cands], share,
+        )  # fmt: skip
+        levels = [
+            _level_offset(onpath, a, lib.motions[c.clip], c, up, config.level_seconds)
+            for c in cands
+        ]
+        # the fill's own weights where every segment has a level; else the score weights of
+        # those that have one (signed weights over a part of the segments need not sum to 1)
+        wl = share if None not in levels else neighbour_weights([c.score for c in cands])
+        known = [(d, wk) for d, wk in zip(levels, wl, strict=True) if d is not None]
+        if known:
+            shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known)
+            lfill = _to_level(onpath, a, b, lfill, shift, up, config)
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
     lib_score = sum(x for x in lib_ends if not (one_sided and math.isnan(x)))  # one junction
     replaced = sum(
@@ -2803,20 +2644,17 @@ def inbetween(
         motion = _lock_feet(motion, a, b, up, config, sources)
     how = "kalman" if use_kalman else "library"
     used = () if lib is None else tuple(dict.fromkeys(lib.names))  # each file once
-    def listed(found: list[Candidate], weights: np.ndarray) -> tuple[dict[str, Any], ...]:
-        return tuple(
-            {
-                "weight": round(float(wk), 4),
-                "source": lib.names[c.clip],
-                "source_frames": list(lib.clip_frames(c.clip, *c.source_frames(b - a))),
-                "backwards": bool(lib.backwards and lib.backwards[c.clip]),
-                "rate": c.rate,
-                "score": c.score,
-            }
-            for c, wk in zip(found, weights, strict=True)
-        )
-
-    blended = listed(cands, share)
+    blended = tuple(
+        {
+            "weight": round(float(wk), 4),
+            "source": lib.names[c.clip],
+            "source_frames": list(lib.clip_frames(c.clip, *c.source_frames(b - a))),
+            "backwards": bool(lib.backwards and lib.backwards[c.clip]),
+            "rate": c.rate,
+            "score": c.score,
+        }
+        for c, wk in zip(cands, share, strict=True)
+    )
     best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
     pose_rms, path_miss, warning = _fit_of(cand, config, (b - a) * clip.frame_time, one_sided)
     return Inbetween(
@@ -2825,8 +2663,7 @@ def inbetween(
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
         () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
-        replaced, () if use_kalman else listed(heights, height_share),
-        0.0 if use_kalman or not heights else config.height_share,
+        replaced,
     )  # fmt: skip
 
 
