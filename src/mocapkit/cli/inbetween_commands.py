@@ -60,9 +60,9 @@ from mocapkit.stitch.search import check_same_skeleton
     type=click.Choice(METHODS),
     default="auto",
     show_default=True,
-    help="auto: the library, or the Kalman transition when the library fill's two-sided "
-    f"L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's (a "
-    "library with nothing like the context); "
+    help="auto: the library, or the Kalman transition when the library holds nothing like the "
+    "motion around the gap (the fit's warning) or the library fill's two-sided L-score is "
+    f"more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's; "
     "library: never fall back; kalman: the Kalman transition. The Kalman transition fills "
     f"gaps of up to {DEFAULT_CONFIG.kalman_max_seconds:g} s (it carries the motion's "
     "accelerations across the gap, and strays from the ground over a longer one).",
@@ -244,14 +244,16 @@ def inbetween_cmd(
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
             "speed and weight: --json or the sidecar)"
         )
-    if res.warning:
+    fit_warning = None  # said on standard error, and in the JSON's warnings
+    if res.warning and not res.unlike:  # (with unlike, the fill is not the library's)
         a, b = res.gap
         hint = (
             " (--method kalman fills it with the smoother's transition instead)"
             if b - a <= kalman_max_frames(res.motion) and a > 0 and b < q.num_frames
             else ""
         )
-        click.echo(f"mocapkit: warning: {clip}: {res.warning}{hint}", err=True)
+        fit_warning = f"warning: {clip}: {res.warning}{hint}"
+        click.echo(f"mocapkit: {fit_warning}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     # the frames replaced, scored alike: the scale an L-score reads on (lower is smoother)
     was = f", the frames replaced {res.replaced_lscore:.6g}"
@@ -264,9 +266,12 @@ def inbetween_cmd(
             why = "--method kalman"
         elif res.note:
             why = res.note
+        elif res.unlike:
+            why = res.warning.replace("; the fill may not look like the clip's own motion", "")
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
-        say(f"filled frames {a}:{b} with the Kalman transition ({why})")
+        tail = f": {why}" if res.unlike else f" ({why})"
+        say(f"filled frames {a}:{b} with the Kalman transition{tail}")
     elif a == 0 or b == res.motion.num_frames:  # one junction, no Kalman transition to weigh
         at = b if a == 0 else a
         say(
@@ -296,7 +301,9 @@ def inbetween_cmd(
         side = side.write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         # what standard error will say too (the writer's: a unit BVH cannot state)
-        result = {**res.to_json(), "skipped": [*unnamed, *skipped], "warnings": warnings_so_far()}
+        said = [fit_warning] if fit_warning else []
+        result = {**res.to_json(), "skipped": [*unnamed, *skipped],
+                  "warnings": [*said, *warnings_so_far()]}  # fmt: skip
         if json_path and json_path != "-":
             write_json(json_path, result)
             wrote.append(f"wrote {json_path}")

@@ -124,7 +124,9 @@ without a margin sent 10, 11, 1 and 0 of the gaps of 5, 15, 30 and 45 frames to 
 transition, which was the better fill on 5, 0, 0 and 0 of them (L2P at 15 frames 4.9 against
 1.55 never falling back). The ratio of the two scores does not tell the better fill (ratios of
 the Kalman's wins 0.6 to 1.3, of the library's 0.1 to 2.3); the margin keeps the fallback for a
-library that has nothing like the context. The Kalman transition fills gaps of up to
+library that has nothing like the context. A library segment that misses the context by
+more than the poor-fit bounds (:attr:`Inbetween.warning`) gives the gap to the Kalman
+transition too (:attr:`Inbetween.unlike`). The Kalman transition fills gaps of up to
 :attr:`InbetweenConfig.kalman_max_seconds` only (its error grows with the square of the gap's
 length): a longer gap keeps the library fill, and is refused where no library segment fits.
 A gap over :attr:`InbetweenConfig.average_max_seconds` is filled by the best segment alone,
@@ -380,8 +382,16 @@ class InbetweenConfig:
     3.088 cm."""
     fallback: bool = True
     """Fill with the Kalman transition when the library fill's two-sided L-score is more than
-    ``fallback_margin`` times the Kalman transition's own (on gaps of up to
-    ``kalman_max_seconds`` only)."""
+    ``fallback_margin`` times the Kalman transition's own, or when the best segment is unlike
+    the motion around the gap (the warning of :attr:`poor_fit_path_m` and
+    :attr:`poor_fit_pose_m`), on gaps of up to ``kalman_max_seconds`` only. Relies on: a
+    segment unlike the context is a guess from other motion, while over a gap this short the
+    smoother's path between the clip's own poses keeps the clip's motion (newcomer report: a
+    Bandai-1 back walk's 6-frame gap from a library of one run, warned about, kept: mean
+    acceleration 9.4 m/s² in the gap against the take's 4.7, largest joint error 17 cm; the
+    Kalman transition 4.7 m/s² and 2.4 cm). On the tuning windows with hand gestures as the
+    library, the Kalman transition from one future frame was the closer fill at 5 frames
+    (:attr:`poor_fit_path_m`)."""
     fallback_margin: float = 4.0
     """See :attr:`fallback` and the module docstring (Fallback): above every ratio seen on the
     tuning takes where the library fill was the better one."""
@@ -2364,6 +2374,9 @@ class Inbetween:
     the scale the other L-scores read on (an L-score has no unit a user knows; a fill scoring
     about what the capture scored there is as smooth at its junctions as the capture was; a
     glitch in the frames replaced scores higher)."""
+    unlike: bool = False
+    """True when "auto" gave the gap to the Kalman transition because the library holds nothing
+    like the motion around it (:attr:`warning`; :attr:`InbetweenConfig.fallback`)."""
 
     @property
     def fell_back(self) -> bool:
@@ -2382,10 +2395,12 @@ class Inbetween:
 
     def provenance(self, output: str, parameters: dict[str, Any] | None = None) -> Provenance:
         """The sidecar (:mod:`mocapkit.provenance`): the clip's frames, the filled frames (kind
-        "inbetween", with the library clip and frames; "generated" for the Kalman fallback),
+        "inbetween", with the library clip and frames of the segment with the largest weight in
+        :attr:`blended_from`; "generated" for the Kalman fallback),
         the clip's frames again, and the two junctions as transitions."""
         a, b = self.gap
         F = self.motion.num_frames
+        backwards = self.backwards
         if self.method == "kalman":
             mid = Segment(a, b, "generated", None, None, None)
             trans = [
@@ -2393,13 +2408,20 @@ class Inbetween:
             ]
         else:
             assert self.source_frames is not None and self.candidate is not None
-            s0, s1 = self.source_frames
-            mid = Segment(a, b, "inbetween", self.source, s0, s1, self.backwards)
-            first, last = (s1 - 1, s0) if self.backwards else (s0, s1 - 1)  # in gap order
+            # the segment the fill owes most to (newcomer report: the best-scoring one was
+            # named at a weight of -7%, the one weighing 55% nowhere)
+            source, (s0, s1), backwards = self.source, self.source_frames, self.backwards
+            if self.blended_from:
+                main = max(self.blended_from, key=lambda x: x["weight"])
+                source, (s0, s1), backwards = (
+                    main["source"], main["source_frames"], main["backwards"]
+                )
+            mid = Segment(a, b, "inbetween", source, s0, s1, backwards)
+            first, last = (s1 - 1, s0) if backwards else (s0, s1 - 1)  # in gap order
             l0, l1 = self.library_lscore_ends  # the written frames' junctions
             trans = [
-                TransitionTaken(a, self.clip_name, a - 1, self.source, first, l0),
-                TransitionTaken(b, self.source, last, self.clip_name, b, l1),
+                TransitionTaken(a, self.clip_name, a - 1, source, first, l0),
+                TransitionTaken(b, source, last, self.clip_name, b, l1),
             ]
             # a gap at the clip's start or end has one junction
             trans = [t for t in trans if 0 < t.output_frame < F]
@@ -2416,7 +2438,7 @@ class Inbetween:
         if self.note:  # why no library segment filled the gap
             params["note"] = self.note
         if self.method == "library":
-            params["source_backwards"] = self.backwards
+            params["source_backwards"] = backwards  # the segment named, as segments names it
             params["blended_from"] = [dict(x) for x in self.blended_from]
         return Provenance(
             "inbetween", str(output), float(self.motion.fps), F,
@@ -2524,7 +2546,8 @@ def inbetween(
     junction's scores, every frame for the clip's own frames searched). Frames before A and
     from B on are returned unchanged. ``method``: "auto" (the library, or the Kalman transition when
     the best candidate's two-sided L-score is more than ``config.fallback_margin`` times the
-    Kalman transition's own, ``config.fallback`` is on and the gap is within
+    Kalman transition's own or the best candidate is unlike the context (the poor-fit warning),
+    ``config.fallback`` is on and the gap is within
     ``config.kalman_max_seconds``), "library" (never fall back) or "kalman" (the Kalman
     transition, ValueError past ``config.kalman_max_seconds`` or at the clip's start or end; the
     search still runs, for the report). A gap at the clip's start (``0:B``) or end (``A:F``) is
@@ -2626,15 +2649,14 @@ def inbetween(
     replaced = sum(
         x for x in _two_sided(onpath, onpath[a:b], a, b, ctx, w, up, model) if not math.isnan(x)
     )
+    pose_rms, path_miss, warning = _fit_of(cand, config, (b - a) * clip.frame_time, one_sided)
+    may_fall_back = method == "auto" and config.fallback and kalman_ok and lfill is not None
+    unlike = may_fall_back and bool(warning)  # the library holds nothing like the context
     use_kalman = (
         method == "kalman"
         or lfill is None
-        or (
-            method == "auto"
-            and config.fallback
-            and kalman_ok
-            and lib_score > config.fallback_margin * kal
-        )
+        or unlike
+        or (may_fall_back and lib_score > config.fallback_margin * kal)
     )
     fill = kfill if use_kalman else lfill
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip, up)
@@ -2656,14 +2678,13 @@ def inbetween(
         for c, wk in zip(cands, share, strict=True)
     )
     best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
-    pose_rms, path_miss, warning = _fit_of(cand, config, (b - a) * clip.frame_time, one_sided)
     return Inbetween(
         motion, (a, b), how, cand, best["source"], kal, count, seconds,
         str(clip_name), used, None if output is None else str(output),
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
         () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
-        replaced,
+        replaced, unlike,
     )  # fmt: skip
 
 

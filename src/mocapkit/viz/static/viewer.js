@@ -673,11 +673,12 @@
     var takes = stitch.takes || [];  // the shares summed by take (viewer.py: shares_by_take)
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
+        stitch.warning ? 'by the Kalman transition (the library holds nothing like the motion around the gap)' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + takes.length + ' take(s), by take: ' +
         takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
-        ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); best match: ' +
-        segText(blended[0]) + '; every segment in the sidecar' :
+        ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); largest share: ' +
+        segText(blended.reduce(function (m, x) { return x.weight > m.weight ? x : m; })) + '; every segment in the sidecar' :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' (--gap ' + stitch.generated[0] + ':' + stitch.generated[1] + ') filled (drawn yellow) ' + from +
       (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
