@@ -2580,7 +2580,11 @@ def inbetween(
             f"{clip_name}: method {method!r} needs a library, or {OWN_PIECE_MIN_SECONDS:g} s "
             f"of the clip before or after the gap {a}:{b} to search"
             f"{'' if config.own_frames else ' (InbetweenConfig.own_frames is off)'}"
-            " (only 'kalman' works without)"
+            + (
+                ""
+                if one_sided
+                else f" (or method 'kalman', for a gap of up to {config.kalman_max_seconds:g} s)"
+            )
         )
     if a == 0:  # the reversed clip's end, filled from the library played the other way
         if lib is not None and not any(lib.backwards):
@@ -2614,7 +2618,8 @@ def inbetween(
             raise
         if one_sided:
             raise NoLibraryFitError(
-                f"{e}; a gap at the clip's start or end is filled from the library only"
+                f"{e}; a gap at the clip's start or end is filled from the library or the "
+                "clip's own frames beside it only, not the Kalman transition"
             ) from None
         if not kalman_ok:
             raise NoLibraryFitError(f"{e}; {_kalman_too_long(clip, a, b, config)}") from None
