@@ -280,3 +280,32 @@ def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     assert "largest share: walk.bvh (the take's own frames) frames" in text
     assert f"(weight {round(100 * main['weight'])}%)" in text
     _assert_no_errors(b)
+
+
+def test_a_gap_given_to_the_kalman_transition_for_an_unlike_library_says_why(browser, tmp_path):
+    """A short gap whose library holds nothing like the motion around it (a standing take for
+    a walk) is filled by the Kalman transition: the page gives the fit's misses as the reason,
+    and shows no warning that the fill may not look like the clip's (it is not the
+    library's)."""
+    from dataclasses import replace
+
+    from mocapkit.stitch.inbetween import DEFAULT_CONFIG, inbetween
+
+    walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
+    idle = [datasets.procedural_motion("idle", 6.0, seed=3).motion]
+    out = tmp_path / "filled.bvh"
+    config = replace(DEFAULT_CONFIG, own_frames=False)  # the walk's own steps would match
+    res = inbetween(walk, (60, 64), idle, up="Y", output=str(out), clip_name="walk.bvh",
+                    config=config)  # fmt: skip
+    assert res.unlike and res.method == "kalman"
+    write_motion(res.motion, out)
+    page = write_page(
+        tmp_path / "filled.html", [ViewMotion(res.motion, str(out), provenance=res.provenance(out))]
+    )
+    b = browser
+    _open(b, page)
+    text = b.eval("document.body.innerText")
+    why = "by the Kalman transition (the library holds nothing like the motion around the gap: "
+    assert why in " ".join(text.split()), text
+    assert "may not look like" not in text
+    _assert_no_errors(b)

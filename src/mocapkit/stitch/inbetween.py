@@ -2435,6 +2435,8 @@ class Inbetween:
         params["requested"] = self.requested
         if self.warning:
             params["warning"] = self.warning
+        if self.unlike:  # the warning is why the Kalman transition filled the gap
+            params["unlike"] = True
         if self.note:  # why no library segment filled the gap
             params["note"] = self.note
         if self.method == "library":

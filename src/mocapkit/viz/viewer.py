@@ -352,6 +352,8 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         ],
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
+        # the warning gave the gap to the Kalman transition (it is the reason, not a warning)
+        "unlike": bool(plan.parameters.get("unlike")),
         "note": plan.parameters.get("note"),
         "earlier": [  # frames filled by earlier runs on the take this one filled
             {"generated": [s.output_start, s.output_stop], "data": s.source}
