@@ -1817,6 +1817,21 @@ def test_a_cmu_fill_keeps_a_foot_standing_on_a_box_and_its_json_says_the_unit_is
     assert step(P)[still].sum() < 1.0 and step(Q)[still].sum() < 2.0
 
 
+def _lowered(walk, drop: float):
+    """``walk`` with its pelvis ``drop`` lower and the knees bent so the feet do not move, and
+    the legs' effector joints."""
+    from mocapkit import ik
+    from mocapkit.features import pelvis_index
+
+    low = walk.copy()
+    tr = low.local_translations()
+    tr[:, pelvis_index(walk.skeleton), 1] -= drop
+    low.translations = tr
+    chains = list(ik.leg_chains(low))
+    effs = [e for c in chains for e in c.effectors]
+    return ik.solve(low, chains, forward_kinematics(walk)[0][:, effs]).motion, effs
+
+
 def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humanoid):
     """A library person whose pelvis sits lower (knees bent more, feet on the same ground):
     the fill's pelvis stays at the clip's level through the middle of the gap, and the feet
@@ -1824,19 +1839,12 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     the gap sinks to the library's level."""
     from dataclasses import replace
 
-    from mocapkit import ik
     from mocapkit.features import character_height, pelvis_index
 
     walk, _ = humanoid
     drop = 0.025 * character_height(walk)
-    low = walk.copy()  # the same walk, pelvis lower and knees bent so the feet do not move
-    tr = low.local_translations()
+    low, effs = _lowered(walk, drop)
     pel = pelvis_index(walk.skeleton)
-    tr[:, pel, 1] -= drop
-    low.translations = tr
-    chains = list(ik.leg_chains(low))
-    effs = [e for c in chains for e in c.effectors]
-    low = ik.solve(low, chains, forward_kinematics(walk)[0][:, effs]).motion
     P_low = forward_kinematics(low)[0]
     T = forward_kinematics(walk)[0]
     assert np.allclose(P_low[:, pel, 1], T[:, pel, 1] - drop)
@@ -1875,21 +1883,14 @@ def test_the_levels_leg_correction_turns_no_faster_than_a_foot_locks(humanoid, l
     pelvis is raised in the middle of the gap (newcomer report: a knee near straight swung
     through the capped rise's corner within a frame). At the clip's end, where the level does
     not fade, the last frame keeps its correction: its feet stay put (reviewer)."""
-    from mocapkit import ik
     from mocapkit.body import body_of
     from mocapkit.features import character_height, pelvis_index
     from mocapkit.stitch.inbetween import _to_level
 
     walk, _ = humanoid
     drop = 0.025 * character_height(walk)
-    low = walk.copy()
-    tr = low.local_translations()
+    low, effs = _lowered(walk, drop)
     pel = pelvis_index(walk.skeleton)
-    tr[:, pel, 1] -= drop
-    low.translations = tr
-    chains = list(ik.leg_chains(low))
-    effs = [e for c in chains for e in c.effectors]
-    low = ik.solve(low, chains, forward_kinematics(walk)[0][:, effs]).motion
     a, b = (40, 70) if not at_end else (low.num_frames - 30, low.num_frames)
     fill = low[a:b]
     out = _to_level(low, a, b, fill, drop, "Y", replace(DEFAULT_CONFIG, lock_max_speed_deg=limit))
