@@ -118,15 +118,17 @@ def inbetween_cmd(
     transition of stitching fills a gap of up to 0.3 s instead, and says so, when the library
     fill's two-sided L-score (smoothness at both junctions, lower is better) is more than 4x the
     Kalman transition's own. The frames replaced are scored too: a fill scoring about as they
-    did is as smooth at its junctions as the capture was. A warning says when the best
-    segment's path over the ground misses the clip's by more than 0.5 m (0.35 m per second of
-    a gap over 1.4 s), or its poses beside the gap by more than 12 cm RMS per joint: the
-    library then holds nothing like the motion around the gap. OUT gets a provenance sidecar
+    did is as smooth at its junctions as the capture was. When the best segment's path over
+    the ground misses the clip's by more than 0.5 m (0.35 m per second of a gap over 1.4 s),
+    or its poses beside the gap by more than 12 cm RMS per joint, the library holds nothing
+    like the motion around the gap: a gap of up to 0.3 s is then given to the Kalman
+    transition (with auto), and a library fill kept is warned about. OUT gets a provenance sidecar
     naming the library files and frames used
     (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
     before), the earlier fills are traced into it. --json writes the same with the scores and
     the warnings of reading and writing the files (``warnings``: a CMU take written as BVH,
-    whose unit BVH cannot state, among them; the fit's is ``warning``). A library file that
+    whose unit BVH cannot state, among them, and the fit's warning when a library fill is kept;
+    ``warning`` is the fit's assessment whichever method filled the gap). A library file that
     cannot be read, or has another skeleton, gets one error line and is left out; the gap is
     still filled from the others (the clip's own frames, if none is left), and the exit status
     is then 2. CLIP and library files may be .bvh, .npz or CMU .amc (with its subject's .asf
@@ -234,6 +236,7 @@ def inbetween_cmd(
     takes = shares_by_take(res.blended_from)
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
+        main = max(res.blended_from, key=lambda x: x["weight"])
         shown = ", ".join(f"{name} {_percent(share)}" for name, share in takes[:4])
         rest = sum(share for _, share in takes[4:])
         more = f", {len(takes) - 4} more take(s) {_percent(rest)}" if len(takes) > 4 else ""
@@ -242,10 +245,12 @@ def inbetween_cmd(
             f"take: {shown}{more} (the weights follow how well each segment matches, corrected "
             "for what the segments share in missing the clip beside the gap"
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
-            "speed and weight: --json or the sidecar)"
+            "speed and weight: --json or the sidecar, whose filled frames name the segment "
+            f"weighing most, {Path(main['source']).name} frames {main['source_frames'][0]}:"
+            f"{main['source_frames'][1]} ({_percent(main['weight'])}))"
         )
     fit_warning = None  # said on standard error, and in the JSON's warnings
-    if res.warning and not res.unlike:  # (with unlike, the fill is not the library's)
+    if res.warning and res.method == "library":  # (a Kalman fill is not the library's)
         a, b = res.gap
         hint = (
             " (--method kalman fills it with the smoother's transition instead)"
@@ -267,7 +272,7 @@ def inbetween_cmd(
         elif res.note:
             why = res.note
         elif res.unlike:
-            why = res.warning.replace("; the fill may not look like the clip's own motion", "")
+            why = res.warning.replace("; the Kalman transition filled the gap", "")
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         tail = f": {why}" if res.unlike else f" ({why})"

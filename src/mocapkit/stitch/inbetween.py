@@ -2665,6 +2665,8 @@ def inbetween(
         or unlike
         or (may_fall_back and lib_score > config.fallback_margin * kal)
     )
+    if use_kalman and warning:  # the fit's assessment stands; the fill is not the library's
+        warning = warning.replace(_MAY_NOT_LOOK, "; the Kalman transition filled the gap")
     fill = kfill if use_kalman else lfill
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip, up)
     motion = _join(clip[:a], fill, clip[b:])
@@ -2764,6 +2766,9 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
+_MAY_NOT_LOOK = "; the fill may not look like the clip's own motion"
+
+
 def _fit_of(
     cand: Candidate | None, config: InbetweenConfig, seconds: float = 0.0, one_sided: bool = False
 ) -> tuple[float, float, str]:
@@ -2797,6 +2802,6 @@ def _fit_of(
     return (
         pose,
         path,
-        f"the library holds nothing like the motion around the gap ({'; '.join(why)}); the fill "
-        "may not look like the clip's own motion",
+        f"the library holds nothing like the motion around the gap ({'; '.join(why)})"
+        + _MAY_NOT_LOOK,
     )

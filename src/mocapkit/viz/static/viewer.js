@@ -673,7 +673,7 @@
     var takes = stitch.takes || [];  // the shares summed by take (viewer.py: shares_by_take)
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
-        stitch.unlike ? 'by the Kalman transition (the library holds nothing like the motion around the gap: ' + stitch.warning.replace(/^the library holds nothing like the motion around the gap \((.*)\); the fill may not look like the clip's own motion$/, '$1') + ')' :
+        stitch.unlike ? 'by the Kalman transition (the library holds nothing like the motion around the gap: ' + stitch.warning.replace(/^the library holds nothing like the motion around the gap \((.*)\); the Kalman transition filled the gap$/, '$1') + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + takes.length + ' take(s), by take: ' +
         takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
@@ -689,7 +689,7 @@
         return 'frames ' + e.generated[0] + '\u2013' + (e.generated[1] - 1) + (e.data ? ' from ' + base(e.data) : ' (Kalman)');
       }).join('; '));
     }
-    if (stitch.warning && !stitch.unlike) info('warning: ' + stitch.warning).style.color = '#ffb74d';
+    if (stitch.warning && stitch.data) info('warning: ' + stitch.warning).style.color = '#ffb74d';  // a library fill's
   } else if (stitch) {
     // a cut (k = 0) has no injected frame: its yellow frames are the landing eased in; a
     // cross-fade's are the blend
