@@ -1371,6 +1371,14 @@ def test_cli_reports_the_fit_in_metres_and_warns(files, humanoid):
                        files / "idle.bvh", "--out", files / "idle_fill3.bvh")  # fmt: skip
     assert code == 0 and "with the Kalman transition: the library holds nothing like" in so
     assert "holds nothing like" not in se
+    # asked for, the Kalman transition is not warned about the library's fit either; the JSON
+    # keeps the fit's assessment, saying what filled the gap
+    code, so, se = run("inbetween", files / "walk.bvh", "--gap", "60:64", "--library",
+                       files / "idle.bvh", "--out", files / "idle_fill4.bvh", "--method",
+                       "kalman", "--json", "-")  # fmt: skip
+    out = json.loads(so)
+    assert code == 0 and "holds nothing like" not in se and out["warnings"] == []
+    assert out["warning"].endswith("; the Kalman transition filled the gap")
 
 
 def test_cli_says_when_no_library_file_could_be_used(files, tmp_path):
