@@ -525,6 +525,21 @@ def test_an_unlike_library_gives_a_short_gap_to_the_kalman_transition(humanoid):
     assert not like.warning and not like.unlike and like.method == "library"
 
 
+def test_with_nothing_to_search_auto_gives_a_short_gap_to_the_kalman_transition(humanoid):
+    """No library and too little of the clip beside the gap to search (newcomer report: an
+    error suggesting --method kalman): "auto" fills a gap the Kalman transition may fill with
+    it, and says why; a longer gap, or "library", is refused in one line."""
+    walk, _ = humanoid
+    short = walk[:31]  # under a second on each side of any gap
+    res = inbetween(short, (12, 18), None, up="Y")
+    assert res.method == "kalman" and res.fell_back and "no library" in res.note
+    with pytest.raises(ValueError, match="needs a library") as e:
+        inbetween(short, (12, 25), None, up="Y")
+    assert "kalman" not in str(e.value)  # 0.43 s: past what the Kalman transition fills
+    with pytest.raises(ValueError, match="or method 'kalman'"):
+        inbetween(short, (12, 18), None, up="Y", method="library")
+
+
 def test_backward_walk_from_forward_library(humanoid):
     """A walk played backwards is filled from the forward walks played backwards: the library
     copy that is the gap's own frames reversed is found, named by the file's frames (ascending)

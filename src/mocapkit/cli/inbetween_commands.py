@@ -60,9 +60,10 @@ from mocapkit.stitch.search import check_same_skeleton
     type=click.Choice(METHODS),
     default="auto",
     show_default=True,
-    help="auto: the library, or the Kalman transition when the library holds nothing like the "
-    "motion around the gap (the fit's warning) or the library fill's two-sided L-score is "
-    f"more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman transition's; "
+    help="auto: the library, or the Kalman transition when there is nothing to search, the "
+    "library holds nothing like the motion around the gap (the fit's warning) or the library "
+    f"fill's two-sided L-score is more than {DEFAULT_CONFIG.fallback_margin:g}x the Kalman "
+    "transition's; "
     "library: never fall back; kalman: the Kalman transition. The Kalman transition fills "
     f"gaps of up to {DEFAULT_CONFIG.kalman_max_seconds:g} s (it carries the motion's "
     "accelerations across the gap, and strays from the ground over a longer one).",

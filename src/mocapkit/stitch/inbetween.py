@@ -2577,15 +2577,22 @@ def inbetween(
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
     if not _own_added and (lib is not None or method != "kalman"):
         lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames)
-    if lib is None and method != "kalman":
+    # nothing to search: "auto" gives a gap the Kalman transition may fill to it (below)
+    kalman_fills = (
+        method == "auto"
+        and config.fallback
+        and not one_sided
+        and b - a <= kalman_max_frames(clip, config)
+    )
+    if lib is None and method != "kalman" and not kalman_fills:
         raise ValueError(
             f"{clip_name}: method {method!r} needs a library, or {OWN_PIECE_MIN_SECONDS:g} s "
             f"of the clip before or after the gap {a}:{b} to search"
             f"{'' if config.own_frames else ' (InbetweenConfig.own_frames is off)'}"
             + (
-                ""
-                if one_sided
-                else f" (or method 'kalman', for a gap of up to {config.kalman_max_seconds:g} s)"
+                " (or method 'kalman')"
+                if not one_sided and b - a <= kalman_max_frames(clip, config)
+                else ""
             )
         )
     if a == 0:  # the reversed clip's end, filled from the library played the other way
@@ -2610,7 +2617,10 @@ def inbetween(
     note = ""
     try:
         if lib is None:  # the Kalman transition alone, asked for without a library
-            raise NoLibraryFitError("no library to search")
+            raise NoLibraryFitError(
+                f"no library, and not {OWN_PIECE_MIN_SECONDS:g} s of the clip beside the gap, "
+                "to search"
+            )
         cands, count = search_inbetween_top(
             ctx, b - a, lib, averaged(clip, b - a, config, one_sided), w=w, config=config,
             model=model, metres_per_unit=mpu,
