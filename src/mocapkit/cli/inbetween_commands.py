@@ -33,7 +33,12 @@ from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs, same_file
 from mocapkit.provenance import Provenance, find_provenance, shares_by_take
-from mocapkit.stitch.inbetween import DEFAULT_CONFIG, METHODS, kalman_max_frames
+from mocapkit.stitch.inbetween import (
+    DEFAULT_CONFIG,
+    KALMAN_FILLED,
+    METHODS,
+    kalman_max_frames,
+)
 from mocapkit.stitch.search import check_same_skeleton
 
 
@@ -237,7 +242,7 @@ def inbetween_cmd(
     takes = shares_by_take(res.blended_from)
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
-        main = max(res.blended_from, key=lambda x: x["weight"])
+        main = res.largest
         shown = ", ".join(f"{name} {_percent(share)}" for name, share in takes[:4])
         rest = sum(share for _, share in takes[4:])
         more = f", {len(takes) - 4} more take(s) {_percent(rest)}" if len(takes) > 4 else ""
@@ -273,7 +278,7 @@ def inbetween_cmd(
         elif res.note:
             why = res.note
         elif res.unlike:
-            why = res.warning.replace("; the Kalman transition filled the gap", "")
+            why = res.warning.removesuffix(KALMAN_FILLED)
         else:
             why = f"the library fill's L-score is over {margin:g}x the Kalman's: {scores}"
         tail = f": {why}" if res.unlike else f" ({why})"

@@ -2379,6 +2379,12 @@ class Inbetween:
     like the motion around it (:attr:`warning`; :attr:`InbetweenConfig.fallback`)."""
 
     @property
+    def largest(self) -> dict[str, Any] | None:
+        """The entry of :attr:`blended_from` with the largest weight: the segment the fill owes
+        most to, which the sidecar names (None without one)."""
+        return max(self.blended_from, key=lambda x: x["weight"]) if self.blended_from else None
+
+    @property
     def fell_back(self) -> bool:
         """True when "auto" chose the Kalman transition over the library."""
         return self.method == "kalman" and self.requested == "auto"
@@ -2411,8 +2417,7 @@ class Inbetween:
             # the segment the fill owes most to (newcomer report: the best-scoring one was
             # named at a weight of -7%, the one weighing 55% nowhere)
             source, (s0, s1), backwards = self.source, self.source_frames, self.backwards
-            if self.blended_from:
-                main = max(self.blended_from, key=lambda x: x["weight"])
+            if (main := self.largest) is not None:
                 source, (s0, s1), backwards = (
                     main["source"], main["source_frames"], main["backwards"]
                 )
@@ -2577,23 +2582,15 @@ def inbetween(
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
     if not _own_added and (lib is not None or method != "kalman"):
         lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames)
+    kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
     # nothing to search: "auto" gives a gap the Kalman transition may fill to it (below)
-    kalman_fills = (
-        method == "auto"
-        and config.fallback
-        and not one_sided
-        and b - a <= kalman_max_frames(clip, config)
-    )
-    if lib is None and method != "kalman" and not kalman_fills:
+    auto_kalman = method == "auto" and config.fallback and kalman_ok
+    if lib is None and method != "kalman" and not auto_kalman:
         raise ValueError(
             f"{clip_name}: method {method!r} needs a library, or {OWN_PIECE_MIN_SECONDS:g} s "
             f"of the clip before or after the gap {a}:{b} to search"
             f"{'' if config.own_frames else ' (InbetweenConfig.own_frames is off)'}"
-            + (
-                " (or method 'kalman')"
-                if not one_sided and b - a <= kalman_max_frames(clip, config)
-                else ""
-            )
+            + (" (or method 'kalman')" if kalman_ok else "")
         )
     if a == 0:  # the reversed clip's end, filled from the library played the other way
         if lib is not None and not any(lib.backwards):
@@ -2610,7 +2607,6 @@ def inbetween(
     onpath = features.ground_root_on_path(clip, up)
     ctx = gap_context(onpath, a, b, w, up, future_frames)
     mpu = features.metres_per_unit(clip, None)
-    kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
     if method == "kalman" and not kalman_ok:
         raise ValueError(_kalman_too_long(clip, a, b, config, lib is not None))
     t0 = time.perf_counter()
@@ -2676,7 +2672,7 @@ def inbetween(
         or (may_fall_back and lib_score > config.fallback_margin * kal)
     )
     if use_kalman and warning:  # the fit's assessment stands; the fill is not the library's
-        warning = warning.replace(_MAY_NOT_LOOK, "; the Kalman transition filled the gap")
+        warning = warning.replace(_MAY_NOT_LOOK, KALMAN_FILLED)
     fill = kfill if use_kalman else lfill
     fill = _back_to_clip(fill, clip, a, b, onpath is not clip, up)
     motion = _join(clip[:a], fill, clip[b:])
@@ -2777,6 +2773,9 @@ def _finite_or_none(x: float) -> float | None:
 
 
 _MAY_NOT_LOOK = "; the fill may not look like the clip's own motion"
+KALMAN_FILLED = "; the Kalman transition filled the gap"
+"""How the fit's warning ends (:attr:`Inbetween.warning`) when the Kalman transition, not the
+library, filled the gap."""
 
 
 def _fit_of(
