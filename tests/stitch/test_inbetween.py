@@ -19,6 +19,7 @@ from mocapkit import datasets
 from mocapkit.cli import main
 from mocapkit.core import rotations as rot
 from mocapkit.core.kinematics import forward_kinematics
+from mocapkit.core.motion import Motion
 from mocapkit.io import read_motion, write_motion
 from mocapkit.stitch import inbetween as inbetween_module
 from mocapkit.stitch.inbetween import (
@@ -788,6 +789,89 @@ def test_a_fill_leaves_the_context_moving_as_it_moved():
     assert v[0] > rise  # the context's own step into A-1 (rising, and the walk's bob)
     assert v[1] == pytest.approx(v[0] * (1 - 1 / blend) ** 2)  # leaves at its speed, faded
     assert fill.root_positions[0, 1] > clip.root_positions[a - 1, 1]
+
+
+def _held_pose_on_path(pose: Motion, path: np.ndarray, headings: np.ndarray) -> Motion:
+    """``pose`` (one frame) held, its root carried along ``path`` (n, 3) and turned about up
+    to ``headings`` (n,) radians: a body gliding along a path, facing where the path says."""
+    from mocapkit.features import GroundTransform
+
+    n = len(path)
+    out = pose[np.zeros(n, dtype=int)]
+    q = np.stack([GroundTransform(h, np.zeros(3), "Y").quaternion for h in headings])
+    out.rotations[:, 0] = rot.quat_mul(q, out.rotations[:, 0])
+    out.root_positions = np.asarray(path, dtype=np.float64).copy()
+    if out.translations is not None:
+        out.translations[:, 0] = out.root_positions
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    turn=st.floats(-1.2, 1.2),
+    step=st.floats(0.01, 0.12),
+    n=st.integers(5, 60),
+    before=st.integers(0, 1),
+    after=st.integers(0, 1),
+)
+def test_ground_warp_bends_a_straight_segment_onto_a_steady_turn(turn, step, n, before, after):
+    """A body gliding straight, warped onto a context turning steadily by ``turn`` over the
+    same frames at the same speed, follows the context's arc exactly: the heading correction
+    bends the path as the turn does (each step turned by the share reached at its middle) and
+    leaves nothing for the end's translation. Turning the whole path about its start (the rule
+    before) bowed it out twice as far: a sideways miss of L·turn/8 at mid-gap."""
+    from mocapkit.features import facing_directions
+    from mocapkit.stitch.inbetween import _ground_warp
+
+    pose = datasets.procedural_motion("walk", 1.0, seed=3, noise=0.0).motion[5]
+    heading0 = float(np.arctan2(*facing_directions(pose, "Y")[0][[0, 2]]))
+    m = n + before + after  # the segment's frames, the context's gap (pinned ends) among them
+    k = np.arange(m) - before
+    last = n - 1  # context frame of the segment's frame ``before + last``
+    fwd = np.array([np.sin(heading0), 0.0, np.cos(heading0)])
+    straight = _held_pose_on_path(pose, pose.root_positions[0] + step * k[:, None] * fwd,
+                                  np.zeros(m))  # fmt: skip
+    # the context: the same glide along a circle whose tangent turns by turn / last a frame
+    d = turn / last
+    ang = heading0 + d * (np.arange(n) + 0.5)
+    steps = step * np.stack([np.sin(ang), np.zeros(n), np.cos(ang)], axis=1)
+    arc = pose.root_positions[0] + np.concatenate([np.zeros((1, 3)), np.cumsum(steps[:-1], 0)])
+    ctx = _held_pose_on_path(pose, arc, d * np.arange(n))
+    out = _ground_warp(straight, ctx, 0, last, "Y", before, after)
+    got = out.root_positions[before : before + n]
+    np.testing.assert_allclose(got, arc, atol=1e-9)
+    np.testing.assert_allclose(out.rotations[before : before + n], ctx.rotations, atol=1e-9)
+    np.testing.assert_allclose(out.root_positions[:, 1], straight.root_positions[:, 1])
+    if n >= 20 and abs(turn) > 0.3:  # the old swing about the start: a bow as large again
+        mid = n // 2
+        chord = np.linalg.norm(arc[-1] - arc[0])
+        assert np.linalg.norm(got[mid] - arc[mid]) < 1e-6 < chord * abs(turn) / 16
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), before=st.integers(0, 1), after=st.integers(0, 1))
+def test_ground_warp_puts_both_ends_on_the_context(seed, before, after):
+    """Any segment, any context: at its frame ``before`` the warped segment's pelvis ground
+    position and facing are the context's at A-1, at its last frame but ``after`` the
+    context's at B, and no frame's height changes."""
+    from mocapkit import features
+    from mocapkit.stitch.inbetween import _ground_warp
+
+    rng = np.random.default_rng(seed)
+    kinds = ("walk", "run", "idle")
+    seg = datasets.procedural_motion(
+        kinds[seed % 3], 2.0, seed=seed, heading=float(rng.uniform(-3, 3))
+    ).motion[: 20 + before + after]
+    ctx = datasets.procedural_motion(
+        kinds[seed // 3 % 3], 2.0, seed=seed + 1, heading=float(rng.uniform(-3, 3))
+    ).motion
+    i0, i1 = 3, 3 + 19 + int(rng.integers(-4, 5))
+    out = _ground_warp(seg, ctx, i0, i1, "Y", before, after)
+    for mine, theirs in ((before, i0), (out.num_frames - 1 - after, i1)):
+        T = features.ground_alignment(ctx, theirs, out, mine, up="Y")
+        assert abs(T.angle) < 1e-9
+        np.testing.assert_allclose(T.translation, 0.0, atol=1e-9)
+    np.testing.assert_allclose(out.root_positions[:, 1], seg.root_positions[:, 1])
 
 
 def test_turn_offset_is_the_clips_turn_less_the_segments_as_the_offset_carries_it():
