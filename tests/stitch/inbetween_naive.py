@@ -7,7 +7,9 @@ one clip, the score
     lscore_weight (L_start + L_end)  +  travel  +  pose
 
 with the L-scores by the textbook RTS smoother of naive.py (one dimension at a time), the
-ground-path term from the pelvis path and heading, and the pose term as the squared distances
+ground-path term from the pelvis path and heading (divided by the square of the gap's length
+A-1 to B over travel_seconds where that is longer and the context has a frame time), and the
+pose term as the squared distances
 of frames s-1, s and s+g+1 to the context's last two past frames and its first future frame,
 divided by (joints x tolerance²), times pose_weight; with pelvis heights in the library and
 the context (three past frames or more, a frame time), plus the bob term: bob_weight times
@@ -89,6 +91,11 @@ def inbetween_scores_reference(ctx, gap: int, library, w: int, config, metres_pe
                 dh = W.heading[s + g + 1] - W.heading[s]
                 travel += np.sum((d - ctx.travel) ** 2) / tol**2
                 travel += ((dh - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
+                if ctx.frame_time is not None and config.travel_seconds > 0:
+                    # past travel_seconds, the differences as rates over the gap's length
+                    span = (g + 1) * ctx.frame_time
+                    if span > config.travel_seconds:
+                        travel *= (config.travel_seconds / span) ** 2
             score += config.travel_weight * travel
             pose = sum(float(np.sum((W.feats[s + k].astype(float) - c) ** 2)) for c, k in refs)
             score += config.pose_weight * (3 / len(refs)) * pose / ((m / 3) * ptol**2)

@@ -120,13 +120,13 @@ def _random_context(rng, m):
     )
 
 
-def _brute_force_case(seed: int, lscore_weight: float, one_sided: bool):
+def _brute_force_case(seed: int, lscore_weight: float, one_sided: bool, travel_seconds=0.5):
     """A config with every score term, a random-walk library of three clips (9 to 30 frames,
     three warps, the second feature column a pelvis height) and a random context (30 fps),
     without future frames when ``one_sided``."""
     config = InbetweenConfig(
         warps=(0.8, 1.0, 1.25), pose_weight=2.0, lscore_weight=lscore_weight, travel_weight=1.0,
-        bob_weight=1.0, bob_tolerance_m_s2=20.0,
+        bob_weight=1.0, bob_tolerance_m_s2=20.0, travel_seconds=travel_seconds,
     )  # fmt: skip
     lib = _synthetic_library(3, (30, 9, 26), 6, config.warps, pelvis=True)
     ctx = _random_context(np.random.default_rng(seed), 6)
@@ -138,14 +138,23 @@ def _brute_force_case(seed: int, lscore_weight: float, one_sided: bool):
 
 @pytest.mark.parametrize("gap", [2, 7])
 @pytest.mark.parametrize("lscore_weight", [0.0, 0.5])
-def test_search_with_pose_term_matches_brute_force(gap, lscore_weight):
+@pytest.mark.parametrize("travel_seconds", [0.5, 0.05, 0.0])
+def test_search_with_pose_term_matches_brute_force(gap, lscore_weight, travel_seconds):
     """The pose term (frames s-1, s, s+g+1 against A-2, A-1, B), with and without the
     L-scores in the score: the best candidate and its score are the brute force's, and the
-    chosen candidate reports its own L-scores even when they are not in the score."""
-    config, lib, ctx = _brute_force_case(10 + gap, lscore_weight, one_sided=False)
+    chosen candidate reports its own L-scores even when they are not in the score. The
+    ground-path term judged as rates (A-1 to B longer than ``travel_seconds``: 0.05 s, both
+    gaps here; 0.5 s neither; 0 never) alike."""
+    config, lib, ctx = _brute_force_case(10 + gap, lscore_weight, False, travel_seconds)
     best, count = search_inbetween(ctx, gap, lib, w=5, config=config, metres_per_unit=0.01)
     ref = inbetween_naive.inbetween_scores_reference(ctx, gap, lib, 5, config, 0.01)
     assert count == len(ref)
+    scores = [r[0] for r in ref]
+    if travel_seconds == 0.05:  # the rule changed the scores (the same config judging lengths)
+        plain = inbetween_naive.inbetween_scores_reference(
+            ctx, gap, lib, 5, replace(config, travel_seconds=0.0), 0.01
+        )
+        assert sorted(r[0] for r in plain) != pytest.approx(sorted(scores))
     assert (best.clip, best.rate) == (ref[0][1], ref[0][3])
     assert best.start == pytest.approx(ref[0][2])
     assert best.score == pytest.approx(ref[0][0], rel=1e-4)
@@ -423,9 +432,13 @@ def test_the_clips_own_take_in_the_library_fills_the_gap_alone(humanoid):
     assert res.replaced_lscore == pytest.approx(res.library_lscore, rel=1e-6)
     alike = inbetween(walk, (a, b), lib, up="Y", method="library", config=config)
     assert alike.replaced_lscore == pytest.approx(res.replaced_lscore)  # the clip's, not the fill's
+    s0 = alike.blended_from[0]["score"]
     for x in alike.blended_from:  # walks alike share the weight; far worse ones count for nothing
-        near = x["score"] < 2.0 * alike.blended_from[0]["score"] + 1.0
-        assert 0.05 < x["weight"] < 0.5 if near else abs(x["weight"]) < 0.005, x
+        if x["score"] < 2.0 * s0 + 1.0:
+            assert 0.05 < x["weight"] < 0.5, x
+        elif x["score"] > s0 + 5.0 * (s0 + 1.0):  # e^-5 of the best's score weight
+            assert abs(x["weight"]) < 0.005, x
+    assert any(x["score"] > s0 + 5.0 * (s0 + 1.0) for x in alike.blended_from)  # the run's
 
 
 def test_inbetween_fills_with_fill_weights(humanoid, monkeypatch):
