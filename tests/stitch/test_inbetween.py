@@ -1151,6 +1151,13 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
         bf[0]["weight"], bf[1]["weight"] = 0.0017, -0.0857
         bf[2]["weight"] += 0.0857 - 0.0017 + (res.blended_from[0]["weight"]
                                               + res.blended_from[1]["weight"])  # fmt: skip
+        # and a take none of whose segments weighs anything (shown apart, at 0%)
+        keep = {bf[i]["source"] for i in (0, 1, 2)}
+        gone = next(x["source"] for x in bf if x["source"] not in keep)
+        for x in bf:
+            if x["source"] == gone:
+                bf[2]["weight"] += x["weight"]
+                x["weight"] = 0.0
         return dataclasses.replace(res, blended_from=tuple(bf))
 
     monkeypatch.setattr(mod, "inbetween", reweighted)  # the command imports it when run
@@ -1166,11 +1173,16 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
     first = max(by_take, key=by_take.get)
     assert re.search(r"best library segment: .*weight 0%;", so)  # named, whatever its share
     line = next(ln for ln in so.splitlines() if ln.startswith("the fill combines"))
-    assert f"combines {len(bf)} segments of {len(by_take)} take(s), by take: {first} " in line
+    # takes whose segments weigh under half a percent are counted apart (newcomer: "0%" takes)
+    weighing = [t for t, w in by_take.items() if abs(w) >= 0.005]
+    nothing = len(by_take) - len(weighing)
+    assert f"combines {len(bf)} segments of {len(weighing)} take(s), by take: {first} " in line
     assert f"{by_take[first]:.0%}" in line
+    assert nothing >= 1 and f"; {nothing} more take(s) at 0%" in line
+    assert not re.search(r"by take: [^(]* 0%", line)  # none listed at 0%
     negative = sum(x["weight"] < -0.0005 for x in bf)
     assert negative >= 1 and f"{negative} of them subtracted" in line
-    assert f"from {len(bf)} segments of {len(by_take)} take(s)" in so
+    assert f"from {len(bf)} segments of {len(weighing)} take(s)" in so
 
 
 def test_shares_by_take_names_a_clashing_file_by_its_path():
@@ -2474,6 +2486,7 @@ def test_cli_names_the_clips_own_frames_and_the_sidecar_the_clip_once(files, hum
     code, so, _ = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
                       files / "idle.bvh", "--out", files / "own_fill.bvh")  # fmt: skip
     assert code == 0 and "walk.bvh (the clip's own frames) frames" in so
+    assert "best segment: " in so and "best library segment" not in so  # not the library's
     inputs = find_provenance(files / "own_fill.bvh").inputs
     assert sum(Path(x).name == "walk.bvh" for x in inputs) == 1
 

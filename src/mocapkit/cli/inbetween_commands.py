@@ -231,23 +231,28 @@ def inbetween_cmd(
         path = "ground path (from its start velocity over the gap)" if ends else "ground path"
         mixed = len(res.blended_from) > 1
         weight = f", weight {_percent(res.blended_from[0]['weight'])}" if mixed else ""
-        own = " (the clip's own frames)" if res.source == str(clip) else ""
+        own = res.source == str(clip)  # the clip's frames beside the gap, not the library's
+        what, mark = ("segment", " (the clip's own frames)") if own else ("library segment", "")
         say(
-            f"best library segment: {res.source}{own} frames {s0}:{s1}"
+            f"best {what}: {res.source}{mark} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
             f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at {where}, {path} "
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
     takes = shares_by_take(res.blended_from)
+    # a take whose segments weigh under half a percent is counted apart: it shows as 0%
+    weighing = [(name, share) for name, share in takes if _percent(share) != "0%"]
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
         main = res.largest
-        shown = ", ".join(f"{name} {_percent(share)}" for name, share in takes[:4])
-        rest = sum(share for _, share in takes[4:])
-        more = f", {len(takes) - 4} more take(s) {_percent(rest)}" if len(takes) > 4 else ""
+        shown = ", ".join(f"{name} {_percent(share)}" for name, share in weighing[:4])
+        rest = sum(share for _, share in weighing[4:])
+        more = f", {len(weighing) - 4} more take(s) {_percent(rest)}" if len(weighing) > 4 else ""
+        nothing = len(takes) - len(weighing)
+        more += f"; {nothing} more take(s) at 0%" if nothing else ""
         say(
-            f"the fill combines {len(res.blended_from)} segments of {len(takes)} take(s), by "
+            f"the fill combines {len(res.blended_from)} segments of {len(weighing)} take(s), by "
             f"take: {shown}{more} (the weights follow how well each segment matches, corrected "
             "for what the segments share in missing the clip beside the gap"
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
@@ -293,7 +298,7 @@ def inbetween_cmd(
         )
     else:
         n = len(res.blended_from)
-        what = res.source if n == 1 else f"{n} segments of {len(takes)} take(s)"
+        what = res.source if n == 1 else f"{n} segments of {len(weighing)} take(s)"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
             scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}{was}"
