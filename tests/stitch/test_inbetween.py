@@ -887,6 +887,53 @@ def test_ground_warp_puts_both_ends_on_the_context(seed, before, after):
     np.testing.assert_allclose(out.root_positions[:, 1], seg.root_positions[:, 1])
 
 
+@pytest.mark.parametrize("extra_turn", [0.0, 0.5])
+def test_ground_warp_moves_the_body_alike_wherever_its_root_is(humanoid, extra_turn):
+    """A ground root left at the origin (as Bandai's files keep it) or moved onto the body's
+    path: the same body, warped alike (the pelvis' path bent, each frame turned about its
+    pelvis; reviewer: bending the root's own path swung a body 5 m from it 15 cm aside)."""
+    from mocapkit.features import GroundTransform, ground_root_on_path
+    from mocapkit.stitch.inbetween import _ground_warp
+
+    walk, lib = humanoid
+    seg = lib[1][10:45]
+    ctx = walk.copy()  # the context turned from frame 30 on, so the warp has a turn to make
+    q = GroundTransform(extra_turn, np.zeros(3), "Y").quaternion
+    ctx.rotations[30:, 0] = rot.quat_mul(q, ctx.rotations[30:, 0])
+    assert np.allclose(seg.root_positions[:, [0, 2]], 0.0)  # the ground root at the origin
+    on_path = ground_root_on_path(seg, "Y")
+    assert not np.allclose(on_path.root_positions[:, [0, 2]], 0.0)
+    got = [forward_kinematics(_ground_warp(m, ctx, 20, 50, "Y", 1, 1))[0] for m in (seg, on_path)]
+    np.testing.assert_allclose(got[0][:, 1:], got[1][:, 1:], atol=1e-6)  # the body's joints
+
+
+def test_the_path_miss_is_in_metres_whatever_the_score_makes_of_it():
+    """The score judges a long gap's path differences as rates (travel_seconds); the
+    candidate's ``travel`` (the fit's path miss in metres, and the poor-fit warning) stays the
+    displacement (reviewer: a 2 s gap's 1.26 m miss read 0.31 m, and warned of nothing)."""
+    from mocapkit.stitch.inbetween import _travel_rate_factor
+
+    gap = 7  # A-1 to B: 8 frames, 0.267 s at 30 fps
+    config, lib, ctx = _brute_force_case(17, 0.0, False, travel_seconds=0.1)
+    assert _travel_rate_factor(ctx, gap, config) == pytest.approx((0.1 / (8 / 30)) ** 2)
+    assert _travel_rate_factor(ctx, gap, replace(config, travel_seconds=0.5)) == 1.0
+    assert _travel_rate_factor(ctx, gap, replace(config, travel_seconds=0.0)) == 1.0
+    one_sided = replace(ctx, future=ctx.past[:0], travel=np.full(2, np.nan), turn=float("nan"))
+    assert _travel_rate_factor(one_sided, gap, config) == 1.0
+    plain = replace(config, travel_seconds=0.0)
+    k = 6
+    rated, _ = search_inbetween_top(ctx, gap, lib, k, config=config, metres_per_unit=0.01)
+    as_is, _ = search_inbetween_top(ctx, gap, lib, k, config=plain, metres_per_unit=0.01)
+    f = _travel_rate_factor(ctx, gap, config)
+    both = {(c.clip, c.start, c.rate): c for c in as_is}
+    shared = [(c, both[(c.clip, c.start, c.rate)]) for c in rated if (c.clip, c.start, c.rate)
+              in both]  # fmt: skip
+    assert shared
+    for c, d in shared:
+        assert c.travel == pytest.approx(d.travel) and c.travel > 0
+        assert c.score == pytest.approx(d.score - (1.0 - f) * d.travel)
+
+
 def test_turn_offset_is_the_clips_turn_less_the_segments_as_the_offset_carries_it():
     """The segment's turn is seen through the pose offset that puts it on the clip: a clip
     that is the segment turned by D, plus a turn of its own, differs from it by that turn."""

@@ -1169,21 +1169,9 @@ def _last_offset(ctx: GapContext, g: int) -> int:
 def _travel_costs(
     W: _Warped, ctx: GapContext, g: int, config: InbetweenConfig, mpu: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(cost, valid) per warped frame s (the frame on A-1): the ground-path term.
-
-    Over a gap (A-1 to B) of more than :attr:`InbetweenConfig.travel_seconds` the term is
-    divided by the square of its length over that: the path differences are judged as rates.
-    Relies on: the ground warp (:func:`_ground_warp`) spreads a segment's miss of the context's
-    displacement and heading change over the whole gap, so what the fill shows of a miss is a
-    change of speed and of turning rate, the miss over the gap's length; the pose term does
-    not grow with the gap. Judged as displacements a long gap's path term outweighed the
-    poses: tuning windows (bandai2's tuning tenth), L2P at 15 / 30 / 45 frames, the take's
-    person and gait left out of the library, 2.195 / 3.008 / 3.778 as displacements, 2.207 /
-    2.775 / 3.495 as rates past 0.5 s (2.195 / 2.765 / 3.495 past 16 frames; 2.304 / 2.766
-    past 11; 30 / 45 frames 2.825 / 3.635 past 21); the person left out 1.840 / 2.478 / 2.897
-    and 1.839 / 2.293 / 2.816. Rates below half a second too (the term heavier on a shorter
-    gap): 5 frames 0.858 -> 0.876. The velocity term's growth with the gap (a speed difference
-    at A-1 over half the gap) is undone alike."""
+    """(cost, valid) per warped frame s (the frame on A-1): the ground-path term, its
+    differences as displacements (what :attr:`Candidate.travel` keeps: the fit's path miss in
+    metres); the score takes it times :func:`_travel_rate_factor`."""
     N = W.feats.shape[0]
     s = np.arange(N)
     valid = np.zeros(N, bool)
@@ -1207,12 +1195,31 @@ def _travel_costs(
             + np.sum((d - ctx.travel) ** 2, -1) / tol**2
             + ((turn - ctx.turn) / math.radians(config.turn_tolerance_deg)) ** 2
         )
-        if ctx.frame_time is not None and config.travel_seconds > 0:
-            c = c / max(1.0, (g + 1) * ctx.frame_time / config.travel_seconds) ** 2
     cost = np.full(N, np.inf)
     cost[idx] = config.travel_weight * c
     valid[idx] = same
     return cost, valid
+
+
+def _travel_rate_factor(ctx: GapContext, g: int, config: InbetweenConfig) -> float:
+    """The factor on the ground-path term in the score: 1, or over a two-sided gap (A-1 to B)
+    longer than :attr:`InbetweenConfig.travel_seconds` the square of that over its length, so
+    that the path differences are judged as rates. Relies on: the ground warp
+    (:func:`_ground_warp`) spreads a segment's miss of the context's displacement and heading
+    change over the whole gap, so what the fill shows of a miss is a change of speed and of
+    turning rate, the miss over the gap's length; the pose term does not grow with the gap.
+    Judged as displacements a long gap's path term outweighed the poses: tuning windows
+    (bandai2's tuning tenth), L2P at 15 / 30 / 45 frames, the take's person and gait left out of
+    the library, 2.195 / 3.008 / 3.778 as displacements, 2.207 / 2.775 / 3.495 as rates past 0.5
+    s (2.195 / 2.765 / 3.495 past 16 frames; 2.304 / 2.766 past 11; 30 / 45 frames 2.825 / 3.635
+    past 21); the person left out 1.840 / 2.478 / 2.897 and 1.839 / 2.293 / 2.816. Rates below
+    half a second too (the term heavier on a shorter gap): 5 frames 0.858 -> 0.876. The velocity
+    term's growth with the gap (a speed difference at A-1 over half the gap) is undone alike.
+    Held out (bench/bench_inbetween.py, one run each): 0.574 / 0.628 / 0.715 of interpolation at
+    15 / 30 / 45 frames as displacements, 0.572 / 0.628 / 0.698 as rates."""
+    if ctx.one_sided or ctx.frame_time is None or config.travel_seconds <= 0:
+        return 1.0
+    return min(1.0, config.travel_seconds / ((g + 1) * ctx.frame_time)) ** 2
 
 
 def _pose_costs(
@@ -1337,6 +1344,7 @@ def search_inbetween_top(
         _check_rate(library, ctx.frame_time)
     pool, count = [], 0
     wl = min(w, g)  # the gap frames seen by each junction's window
+    rate = _travel_rate_factor(ctx, g, config)
     if wl < 3:
         wl = 3
     for W in library.warped:
@@ -1366,7 +1374,7 @@ def search_inbetween_top(
         bob = _bob_costs(W, ctx, config, metres_per_unit)
         lw = config.lscore_weight
         lsum = lw * (ls + le) if lw > 0 else np.zeros(N)
-        total = np.where(valid, lsum + travel + pose + bob, np.inf)
+        total = np.where(valid, lsum + rate * travel + pose + bob, np.inf)
         count += int(valid.sum())
         # enough of this warp's best to leave k non-overlapping ones after the overlap check
         m = min(N, k * (2 * g + 8))
@@ -1546,7 +1554,8 @@ def _ground_warp(
     reached there (the path bent as a turn bends it), and the position the bent path still
     misses at the end is made up by a translation growing linearly. ``i_end`` None: by the
     first alone. The ``before`` and ``after`` frames beyond them go along (the growth carried
-    on), so that the segment's velocity there can be read.
+    on), so that the segment's velocity there can be read. The pelvis' ground path is bent
+    and each frame turned about its pelvis, wherever the root is.
 
     Why bent, not swung: turning the whole path about its start by the growing correction
     (the rule before) moves a straight path's point at u sideways by L dθ u², twice the L dθ
@@ -1574,14 +1583,19 @@ def _ground_warp(
     def turn(angles: np.ndarray) -> np.ndarray:
         return np.stack([features.GroundTransform(a, np.zeros(3), up).quaternion for a in angles])
 
-    pts = moved.root_positions
-    steps = rot.quat_apply(turn(0.5 * (u[1:] + u[:-1]) * T1.angle), np.diff(pts, axis=0))
+    # the pelvis' ground path is bent (the root may be anywhere: a ground root left at the
+    # origin, reviewer), and each frame turned about its pelvis' vertical
+    side, _, fwd = features.ground_frame(up)
+    g2 = features.root_trajectory(moved, up)
+    pel = g2[:, :1] * side + g2[:, 1:] * fwd  # (n, 3), no up component
+    steps = rot.quat_apply(turn(0.5 * (u[1:] + u[:-1]) * T1.angle), np.diff(pel, axis=0))
     bent = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
-    bent += pts[before] - bent[before]
-    miss = T1.apply(pts[last]) - bent[last]  # ground only: T1 keeps heights
+    bent += pel[before] - bent[before]
+    bent += u[:, None] * (T1.apply(pel[last]) - bent[last])[None]  # the end pinned
+    q = turn(u * T1.angle)
     out = moved.copy()
-    out.root_positions = bent + u[:, None] * miss[None]
-    out.rotations[:, 0] = rot.quat_mul(turn(u * T1.angle), moved.rotations[:, 0])
+    out.root_positions = bent + rot.quat_apply(q, moved.root_positions - pel)
+    out.rotations[:, 0] = rot.quat_mul(q, moved.rotations[:, 0])
     if out.translations is not None:
         out.translations[:, 0] = out.root_positions
     return out
