@@ -4,6 +4,7 @@ the exact meeting of the context poses, the Kalman fallback and the CLI's gap ch
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -1461,7 +1462,11 @@ def test_demo_step(tmp_path, capsys):
     inbetween_demo_step(tmp_path)
     assert (tmp_path / "inbetween_walk.bvh").exists()
     assert (tmp_path / "inbetween_walk.bvh.provenance.json").exists()
-    assert "gap 60:90" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "gap 60:90" in out
+    line = next(ln for ln in out.splitlines() if "gap 60:90" in ln)
+    # the takes the fill weighs in with, each named once; none listed at 0%
+    assert re.search(r"from 12 segments of [\w.]+ \d+%", line) and " 0%," not in line
 
 
 def test_warns_when_the_library_holds_nothing_like_the_context(humanoid):

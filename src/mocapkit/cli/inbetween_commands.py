@@ -240,20 +240,13 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
-    takes = shares_by_take(res.blended_from)
-    # a take whose segments weigh under half a percent is counted apart: it shows as 0%
-    weighing = [(name, share) for name, share in takes if _percent(share) != "0%"]
+    weighing, shown = _takes_shown(res.blended_from, 4)
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
         main = res.largest
-        shown = ", ".join(f"{name} {_percent(share)}" for name, share in weighing[:4])
-        rest = sum(share for _, share in weighing[4:])
-        more = f", {len(weighing) - 4} more take(s) {_percent(rest)}" if len(weighing) > 4 else ""
-        nothing = len(takes) - len(weighing)
-        more += f"; {nothing} more take(s) at 0%" if nothing else ""
         say(
-            f"the fill combines {len(res.blended_from)} segments of {len(weighing)} take(s), by "
-            f"take: {shown}{more} (the weights follow how well each segment matches, corrected "
+            f"the fill combines {len(res.blended_from)} segments of {weighing} take(s), by "
+            f"take: {shown} (the weights follow how well each segment matches, corrected "
             "for what the segments share in missing the clip beside the gap"
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
             "speed and weight: --json or the sidecar, whose filled frames name the segment "
@@ -298,7 +291,7 @@ def inbetween_cmd(
         )
     else:
         n = len(res.blended_from)
-        what = res.source if n == 1 else f"{n} segments of {len(weighing)} take(s)"
+        what = res.source if n == 1 else f"{n} segments of {weighing} take(s)"
         within = ""
         if b - a > kalman_max_frames(res.motion):  # no Kalman transition to weigh it against
             scores = f"two-sided L-score of the filled frames {res.library_lscore:.6g}{was}"
@@ -368,12 +361,11 @@ def inbetween_demo_step(out: Path) -> None:
     write_motion(res.motion, bvh)
     side = res.provenance(bvh).write(bvh)
     err = res.difference_to(walk)
-    takes = shares_by_take(res.blended_from)
-    used = ", ".join(f"{name} {_percent(share)}" for name, share in takes)
+    _, used = _takes_shown(res.blended_from)
     click.echo(
         f"  gap {a}:{b} of the walk filled by {res.method}"
-        f"{f' from {len(res.blended_from)} segments of {used}' if takes else ''}; largest "
-        f"joint difference to the blanked frames {err * 100:.1f} cm"
+        f"{f' from {len(res.blended_from)} segments of {used}' if res.blended_from else ''}; "
+        f"largest joint difference to the blanked frames {err * 100:.1f} cm"
     )
     click.echo(
         f"  wrote {bvh}, {side.name} and the clip and library it came from (mocapkit view "
@@ -385,6 +377,22 @@ def inbetween_demo_step(out: Path) -> None:
 DEMO_STEPS.append(
     (15, "in-betweening: a blanked second filled from a library", inbetween_demo_step)
 )
+
+
+def _takes_shown(blended, most: int | None = None) -> tuple[int, str]:
+    """How many takes the segments ``blended`` (an in-betweening's ``blended_from``) weigh in
+    with, and those takes with their shares, largest first (the first ``most``, the rest
+    summed); takes whose segments weigh under half a percent are counted apart, "N more
+    take(s) at 0%" (newcomer: takes listed at 0% read as used)."""
+    takes = shares_by_take(blended)
+    weighing = [(name, share) for name, share in takes if _percent(share) != "0%"]
+    cut = len(weighing) if most is None else most
+    shown = ", ".join(f"{name} {_percent(share)}" for name, share in weighing[:cut])
+    if len(weighing) > cut:
+        rest = sum(share for _, share in weighing[cut:])
+        shown += f", {len(weighing) - cut} more take(s) {_percent(rest)}"
+    nothing = len(takes) - len(weighing)
+    return len(weighing), shown + (f"; {nothing} more take(s) at 0%" if nothing else "")
 
 
 def _percent(share: float) -> str:
