@@ -377,3 +377,12 @@ def shares_by_take(blended: Sequence[dict[str, Any]]) -> list[tuple[str, float]]
     names = [Path(k).name for k in shares]
     shown = [k if names.count(Path(k).name) > 1 else Path(k).name for k in shares]
     return sorted(zip(shown, shares.values(), strict=True), key=lambda kv: -kv[1])
+
+
+def weighing_takes(blended: Sequence[dict[str, Any]]) -> tuple[list[tuple[str, float]], int]:
+    """:func:`shares_by_take` less the takes whose segments weigh under half a percent
+    together (a whole percentage would read 0%), and how many those are: the report, the demo
+    and the viewer count them apart (newcomer: takes listed at 0% read as used)."""
+    takes = shares_by_take(blended)
+    weighing = [(name, share) for name, share in takes if abs(share) >= 0.005]
+    return weighing, len(takes) - len(weighing)

@@ -1253,6 +1253,25 @@ def test_shares_by_take_names_a_clashing_file_by_its_path():
     assert _percent(-0.001) == "0%" and _percent(0.306) == "31%" and _percent(-0.06) == "-6%"
 
 
+def test_weighing_takes_counts_the_takes_at_zero_apart():
+    """Takes whose segments weigh under half a percent together (a whole percentage reads
+    0%, whichever sign) are left out of the list and counted; a take whose segments cancel out
+    is one of them."""
+    from mocapkit.provenance import weighing_takes
+
+    bf = [
+        {"source": "walk.bvh", "weight": 0.7},
+        {"source": "run.bvh", "weight": 0.306},
+        {"source": "idle.bvh", "weight": 0.004},
+        {"source": "turn.bvh", "weight": -0.0049},
+        {"source": "back.bvh", "weight": 0.05},
+        {"source": "back.bvh", "weight": -0.05},
+        {"source": "side.bvh", "weight": -0.006},
+    ]
+    weighing, nothing = weighing_takes(bf)
+    assert [n for n, _ in weighing] == ["walk.bvh", "run.bvh", "side.bvh"] and nothing == 3
+
+
 def test_cli_writes_motion_and_sidecar(files):
     out = files / "filled.bvh"
     code, so, se = run(

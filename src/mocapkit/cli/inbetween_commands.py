@@ -32,7 +32,7 @@ from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs, same_file
-from mocapkit.provenance import Provenance, find_provenance, shares_by_take
+from mocapkit.provenance import Provenance, find_provenance, weighing_takes
 from mocapkit.stitch.inbetween import (
     DEFAULT_CONFIG,
     KALMAN_FILLED,
@@ -382,16 +382,13 @@ DEMO_STEPS.append(
 def _takes_shown(blended, most: int | None = None) -> tuple[int, str]:
     """How many takes the segments ``blended`` (an in-betweening's ``blended_from``) weigh in
     with, and those takes with their shares, largest first (the first ``most``, the rest
-    summed); takes whose segments weigh under half a percent are counted apart, "N more
-    take(s) at 0%" (newcomer: takes listed at 0% read as used)."""
-    takes = shares_by_take(blended)
-    weighing = [(name, share) for name, share in takes if _percent(share) != "0%"]
+    summed), then "N more take(s) at 0%" (:func:`mocapkit.provenance.weighing_takes`)."""
+    weighing, nothing = weighing_takes(blended)
     cut = len(weighing) if most is None else most
     shown = ", ".join(f"{name} {_percent(share)}" for name, share in weighing[:cut])
     if len(weighing) > cut:
         rest = sum(share for _, share in weighing[cut:])
         shown += f", {len(weighing) - cut} more take(s) {_percent(rest)}"
-    nothing = len(takes) - len(weighing)
     return len(weighing), shown + (f"; {nothing} more take(s) at 0%" if nothing else "")
 
 

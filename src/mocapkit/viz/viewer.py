@@ -25,7 +25,7 @@ import numpy as np
 
 from mocapkit.core.kinematics import end_site_positions, forward_kinematics
 from mocapkit.core.motion import Motion
-from mocapkit.provenance import Provenance, shares_by_take
+from mocapkit.provenance import Provenance, weighing_takes
 
 __all__ = [
     "PALETTE",
@@ -315,6 +315,9 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
     clip = plan.inputs[0] if plan.inputs else None
     before = a - 1 if a > 0 else None  # a gap at the clip's start or end: no frame there
     after = b if b < plan.frames else None
+    weighing = weighing_takes(
+        [x for x in plan.parameters.get("blended_from") or [] if "weight" in x]
+    )
     return {
         "motion": idx,
         "sidecar": True,  # drawn from the motion's provenance sidecar
@@ -343,13 +346,10 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
             }
             for x in plan.parameters.get("blended_from") or []
         ],
-        # the segments' shares summed by take, largest first (as the command's report)
-        "takes": [
-            {"name": name, "share": share}
-            for name, share in shares_by_take(
-                [x for x in plan.parameters.get("blended_from") or [] if "weight" in x]
-            )
-        ],
+        # the segments' shares summed by take, largest first, and how many takes weigh
+        # nothing (as the command's report)
+        "takes": [{"name": name, "share": share} for name, share in weighing[0]],
+        "takesAtZero": weighing[1],
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
         # the warning gave the gap to the Kalman transition (it is the reason, not a warning)

@@ -670,13 +670,14 @@
         (x.weight != null ? ' (weight ' + pct(x.weight) + ')' : '');
     };
     var blended = stitch.blended || [];
-    var takes = stitch.takes || [];  // the shares summed by take (viewer.py: shares_by_take)
+    var takes = stitch.takes || [];  // the shares summed by take (viewer.py: weighing_takes)
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         stitch.unlike ? 'by the Kalman transition (the library holds nothing like the motion around the gap: ' + stitch.warning.replace(/^the library holds nothing like the motion around the gap \((.*)\); the Kalman transition filled the gap$/, '$1') + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + takes.length + ' take(s), by take: ' +
         takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
+        (stitch.takesAtZero ? '; ' + stitch.takesAtZero + ' more take(s) at 0%' : '') +
         ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); largest share: ' +
         segText(blended.reduce(function (m, x) { return x.weight > m.weight ? x : m; })) + '; every segment in the sidecar' :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
