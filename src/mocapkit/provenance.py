@@ -124,6 +124,11 @@ class Provenance:
             ],
         }
 
+    def made_frames(self) -> list[tuple[int, int]]:
+        """``(start, stop)`` of the frames mocapkit made rather than copied from a capture
+        (every segment but a "clip"'s: a fill, a transition, injected frames), in order."""
+        return [(s.output_start, s.output_stop) for s in self.segments if s.kind != "clip"]
+
     def through(self, earlier: Provenance, file: str) -> Provenance:
         """This sidecar with the frames it copied from ``file`` traced back through
         ``earlier``, the sidecar of ``file`` (a motion mocapkit made: a take whose gap was

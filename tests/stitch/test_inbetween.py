@@ -2484,6 +2484,64 @@ def test_own_frames_respect_future_frames_and_a_stretchs_least_length(humanoid):
     assert "clip" not in res.library_names
 
 
+def test_own_pieces_split_around_frames_an_earlier_fill_made(humanoid):
+    """Frames that are not the take's capture (an earlier run's fill) are never searched: the
+    stretches beside the gap are split around them, and a part under a second is dropped."""
+    from mocapkit.stitch.inbetween import own_pieces
+
+    walk, _ = humanoid
+    least = walk.seconds_to_frames(1.0)
+    assert walk.num_frames == 150 and least == 30
+    pieces = own_pieces(walk, 60, 75, skip=[(10, 20), (85, 110), (-5, 3), (140, 999)])
+    got = [(f, f + m.num_frames) for f, m in pieces]
+    assert got == [(20, 60), (110, 140)]  # 0:10 and 75:85 are under a second
+    for f, m in pieces:
+        np.testing.assert_array_equal(m.rotations, walk.rotations[f : f + m.num_frames])
+    plain = [(f, m.num_frames) for f, m in own_pieces(walk, 60, 90)]
+    assert [(f, m.num_frames) for f, m in own_pieces(walk, 60, 90, skip=[])] == plain == [
+        (0, 60), (90, 60),
+    ]
+
+
+@pytest.mark.own_frames
+def test_a_fill_never_copies_frames_an_earlier_fill_made(humanoid):
+    """inbetween(not_captured=...): no segment of the take's own comes from those frames (the
+    procedural walk repeats one cycle, so every stretch of it matches as well as another)."""
+    walk, _ = humanoid
+    made = (0, 100)
+    res = inbetween(walk, (130, 145), None, up="Y", method="library", not_captured=[made])
+    own = [x for x in res.blended_from if x["source"] == "clip"]
+    assert own and all(x["source_frames"][0] >= made[1] for x in own), own
+    free = inbetween(walk, (130, 145), None, up="Y", method="library")
+    assert any(x["source_frames"][0] < made[1] for x in free.blended_from)  # it would have
+
+
+@pytest.mark.own_frames
+def test_cli_refuses_a_second_gap_and_a_second_run_skips_the_first_fill(files, humanoid):
+    """Newcomer: a repeated --gap kept the last one silently. It is refused, naming both and
+    how to fill the other; run again on the output, the first fill's frames (its sidecar's)
+    are not searched as the take's own."""
+    _, lib = humanoid
+    write_motion(lib[3], files / "idle2.bvh")  # nothing like the walk: its own steps fill it
+    o1, o2 = files / "two1.bvh", files / "two2.bvh"
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "80:110", "--gap", "120:140",
+                       "--out", o1)  # fmt: skip
+    assert code != 0 and not o1.exists()
+    assert "--gap given 2 times (80:110, 120:140)" in se and "--gap 120:140" in se
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
+                      files / "idle2.bvh", "--out", o1)  # fmt: skip
+    assert code == 0, se
+    code, _, se = run("inbetween", o1, "--gap", "120:140", "--library", files / "idle2.bvh",
+                      "--out", o2, "--json", files / "two2.json")  # fmt: skip
+    assert code == 0, se
+    bf = json.loads((files / "two2.json").read_text())["blended_from"]
+    own = [x for x in bf if Path(x["source"]).name == "two1.bvh"]
+    assert own  # the take's own steps weigh in
+    for x in own:  # none of them from the first fill's frames
+        s0, s1 = x["source_frames"]
+        assert s1 <= 60 or s0 >= 90, x
+
+
 @pytest.mark.own_frames
 def test_own_frames_are_added_after_the_library_each_with_its_reversed_copy(humanoid):
     """The clip's pieces come after the library's motions, so a candidate's index into the

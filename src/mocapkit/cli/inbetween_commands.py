@@ -46,10 +46,12 @@ from mocapkit.stitch.search import check_same_skeleton
 @click.argument("clip")
 @click.option(
     "--gap",
+    "gaps",
     required=True,
+    multiple=True,
     help="Frames to replace: A:B for frames A..B-1 (B excluded), or 1.5s:2.5s in seconds; "
     "the frames before A and from B on are the context. :B and A: reach the clip's start "
-    "and end.",
+    "and end. One gap per run.",
 )
 @click.option(
     "--library",
@@ -88,7 +90,7 @@ from mocapkit.stitch.search import check_same_skeleton
 @friendly_errors
 def inbetween_cmd(
     clip: str,
-    gap: str,
+    gaps: tuple[str, ...],
     library: tuple[str, ...],
     method: str,
     up: str | None,
@@ -152,6 +154,13 @@ def inbetween_cmd(
 
     say = report_lines(json_path)
 
+    if len(gaps) > 1:  # click keeps the last of a repeated option: said, not dropped (newcomer)
+        raise CLIError(
+            f"--gap given {len(gaps)} times ({', '.join(gaps)}); inbetween fills one gap per "
+            f"run: fill {gaps[0]}, then run again on its output with --gap {gaps[1]} (a take "
+            "filled before keeps its earlier fills marked, and they are not searched)"
+        )
+    gap = gaps[0]
     try:
         spec = RangeSpec.parse(gap, "--gap")
     except RangeError as e:
@@ -206,11 +215,13 @@ def inbetween_cmd(
     if not none_kept:
         say_left_out(left_out)
     lib_paths, lib = [p for p, _ in kept], [m for _, m in kept]
+    earlier = _earlier(clip, q.num_frames)
     with naming(clip, *lib_paths):
-        try:
+        try:  # an earlier run's fills are not the take's capture: not searched as its own
             res = inbetween(
                 q, (a, b), lib, library_names=[str(p) for p in lib_paths], method=method, up=up,
                 clip_name=clip, output=out_path,
+                not_captured=earlier.made_frames() if earlier else (),
             )  # fmt: skip
         except ValueError as e:
             if not none_kept:
@@ -306,7 +317,7 @@ def inbetween_cmd(
     wrote = []
     with naming(clip, *lib_paths), all_or_nothing():
         write_motion(res.motion, out_path)
-        side = _traced(res.provenance(out_path, {"gap_spec": gap}), clip, q.num_frames)
+        side = _traced(res.provenance(out_path, {"gap_spec": gap}), clip, earlier)
         side = side.write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         # what standard error will say too (the writer's: a unit BVH cannot state)
@@ -325,18 +336,22 @@ def inbetween_cmd(
         raise click.exceptions.Exit(2)
 
 
-def _traced(plan: Provenance, clip: str, frames: int) -> Provenance:
-    """``plan`` with the frames it kept of ``clip`` traced back through ``clip``'s own sidecar,
-    where it has one that still describes it (its frame count): a take whose gaps are filled
-    one run at a time keeps every fill in the last sidecar (newcomer report: only the newest)."""
+def _earlier(clip: str, frames: int) -> Provenance | None:
+    """``clip``'s own sidecar, where it has one that still describes it (its frame count), or
+    None; one that cannot be read is warned about once and left out."""
     try:
         earlier = find_provenance(clip)
     except ValueError as e:
         click.echo(f"mocapkit: warning: {one_line(e)}: its history is left out", err=True)
-        return plan
-    if earlier is None or earlier.frames != frames:
-        return plan
-    return plan.through(earlier, clip)
+        return None
+    return earlier if earlier is not None and earlier.frames == frames else None
+
+
+def _traced(plan: Provenance, clip: str, earlier: Provenance | None) -> Provenance:
+    """``plan`` with the frames it kept of ``clip`` traced back through ``clip``'s own sidecar
+    ``earlier`` (:func:`_earlier`): a take whose gaps are filled one run at a time keeps every
+    fill in the last sidecar (newcomer report: only the newest)."""
+    return plan if earlier is None else plan.through(earlier, clip)
 
 
 # ------------------------------------------------------------------------------------ demo

@@ -907,20 +907,30 @@ is shorter, so it searches the library alone."""
 
 
 def own_pieces(
-    clip: Motion, a: int, b: int, future_frames: int | None = None
+    clip: Motion,
+    a: int,
+    b: int,
+    future_frames: int | None = None,
+    skip: Sequence[tuple[int, int]] = (),
 ) -> list[tuple[int, Motion]]:
     """The clip's own stretches beside the gap ``a:b`` long enough to search
     (:data:`OWN_PIECE_MIN_SECONDS`): ``(first frame, motion)`` for frames ``0..a-1`` and
     ``b..F-1`` (only the ``future_frames`` from B on where that limits what may be looked
-    at). The gap's own frames are never among them (they are what is replaced)."""
+    at), split around the frame ranges ``skip`` (``(start, stop)``, stop excluded: frames that
+    are not the clip's capture, an earlier run's fill). The gap's own frames are never among
+    them (they are what is replaced); nor are ``skip``'s (a fill copied from another fill
+    would be named as the take's own capture, newcomer report)."""
     least = max(clip.seconds_to_frames(OWN_PIECE_MIN_SECONDS), 1)
-    stop = clip.num_frames if future_frames is None else min(clip.num_frames, b + future_frames)
-    out = []
-    if a >= least:
-        out.append((0, clip[:a]))
-    if stop - b >= least:
-        out.append((b, clip[b:stop]))
-    return out
+    F = clip.num_frames
+    stop = F if future_frames is None else min(F, b + future_frames)
+    searched = np.zeros(F + 1, dtype=bool)  # a last False ends every run
+    searched[:a] = True
+    searched[b:stop] = True
+    for s0, s1 in skip:
+        searched[max(int(s0), 0) : max(min(int(s1), F), 0)] = False
+    edges = np.flatnonzero(np.diff(np.concatenate([[False], searched])))
+    runs = zip(edges[::2], edges[1::2], strict=True)  # (first, stop) of each searched run
+    return [(int(r0), clip[r0:r1]) for r0, r1 in runs if r1 - r0 >= least]
 
 
 def with_own_frames(
@@ -932,8 +942,10 @@ def with_own_frames(
     up: str,
     config: InbetweenConfig = DEFAULT_CONFIG,
     future_frames: int | None = None,
+    skip: Sequence[tuple[int, int]] = (),
 ) -> InbetweenLibrary:
-    """``library`` with the clip's own frames beside the gap ``a:b`` (:func:`own_pieces`) added
+    """``library`` with the clip's own frames beside the gap ``a:b`` (:func:`own_pieces`, less
+    the frame ranges ``skip``) added
     after its motions as library clips named ``clip_name`` (their frames numbered as the
     clip's: :attr:`InbetweenLibrary.first_frames`), so the library's own indices stay as they
     were; ``library`` itself where :attr:`InbetweenConfig.own_frames` is off or no stretch is
@@ -942,7 +954,7 @@ def with_own_frames(
     reverse)."""
     from dataclasses import replace
 
-    pieces = own_pieces(clip, a, b, future_frames) if config.own_frames else []
+    pieces = own_pieces(clip, a, b, future_frames, skip) if config.own_frames else []
     if not pieces:
         return library
     if library is not None and any(library.backwards) != config.backwards:
@@ -2600,6 +2612,7 @@ def inbetween(
     method: str = "auto",
     clip_name: str = "clip",
     output: str | None = None,
+    not_captured: Sequence[tuple[int, int]] = (),
     _own_added: bool = False,
 ) -> Inbetween:
     """Replace frames ``A..B-1`` of ``clip`` (``gap`` = ``(A, B)`` or ``"A:B"``) by motion found
@@ -2616,8 +2629,9 @@ def inbetween(
     transition, ValueError past ``config.kalman_max_seconds`` or at the clip's start or end; the
     search still runs, for the report). A gap at the clip's start (``0:B``) or end (``A:F``) is
     filled from its one side (module docstring). The clip's own frames beside the gap are
-    searched too, as a library clip named ``clip_name`` (:attr:`InbetweenConfig.own_frames`).
-    Returns :class:`Inbetween`."""
+    searched too, as a library clip named ``clip_name`` (:attr:`InbetweenConfig.own_frames`),
+    but for the frame ranges ``not_captured`` (``(start, stop)``: frames an earlier fill made,
+    which are not the take's capture). Returns :class:`Inbetween`."""
     from mocapkit import features
     from mocapkit.stitch.transition import _join
 
@@ -2638,7 +2652,7 @@ def inbetween(
         )
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
     if not _own_added and (lib is not None or method != "kalman"):
-        lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames)
+        lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames, not_captured)
     kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
     # nothing to search: "auto" gives a gap the Kalman transition may fill to it (below)
     auto_kalman = method == "auto" and config.fallback and kalman_ok
