@@ -2484,6 +2484,43 @@ def test_own_frames_respect_future_frames_and_a_stretchs_least_length(humanoid):
     assert "clip" not in res.library_names
 
 
+@pytest.mark.own_frames
+def test_a_dropout_elsewhere_in_the_take_is_never_searched(humanoid):
+    """Newcomer: a stretch frozen elsewhere in the take (every joint holding frame 100's
+    values, as a solver with no data writes them) was copied into a fill with a good score.
+    dropout_frames finds it; a joint that returns to a held value again and again (the
+    procedural walk's toes, flat on every step) is parked, not dropped out."""
+    from mocapkit.stitch.inbetween import dropout_frames
+
+    walk, _ = humanoid
+    assert dropout_frames(walk) == []  # its toes hold exactly on every step: parks
+    frozen = walk.copy()
+    frozen.rotations[100:125] = walk.rotations[100]
+    runs = set(dropout_frames(frozen))
+    assert runs == {(101, 125)}  # frame 100 is the last captured value, genuine
+    res = inbetween(frozen, (40, 55), None, up="Y", method="library")
+    own = [x["source_frames"] for x in res.blended_from]
+    assert own and all(s1 <= 101 or s0 >= 125 for s0, s1 in own), own
+
+
+def test_real_takes_hold_no_dropout_but_the_captures_that_do(shared_path):
+    """On Bandai's polished takes nothing is held bit for bit; in CMU's raw releases 03_02
+    opens with its upper body held for 50 frames, holds its right foot and toes for 88 and its
+    neck and head for 83 (its fingers, held all but one step, are not animated: no dropout),
+    and 01_02 holds its neck and head for 49."""
+    from mocapkit.stitch.inbetween import dropout_frames
+
+    b1 = shared_path("bandai1/data")
+    for name in ("dataset-1_walk_normal_001.bvh", "dataset-1_run_happy_001.bvh",
+                 "dataset-1_walk-back_happy_001.bvh"):  # fmt: skip
+        assert dropout_frames(read_motion(b1 / name)) == []
+    cmu = shared_path("cmu-asfamc")
+    assert set(dropout_frames(read_motion(cmu / "03" / "03_02.amc"))) == {
+        (0, 50), (167, 254), (252, 335),
+    }
+    assert set(dropout_frames(read_motion(cmu / "01" / "01_02.amc"))) == {(1685, 1734)}
+
+
 def test_own_pieces_split_around_frames_an_earlier_fill_made(humanoid):
     """Frames that are not the take's capture (an earlier run's fill) are never searched: the
     stretches beside the gap are split around them, and a part under a second is dropped."""

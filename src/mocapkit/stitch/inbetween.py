@@ -920,17 +920,52 @@ def own_pieces(
     are not the clip's capture, an earlier run's fill). The gap's own frames are never among
     them (they are what is replaced); nor are ``skip``'s (a fill copied from another fill
     would be named as the take's own capture, newcomer report)."""
+    from mocapkit.core.runs import true_runs
+
     least = max(clip.seconds_to_frames(OWN_PIECE_MIN_SECONDS), 1)
     F = clip.num_frames
     stop = F if future_frames is None else min(F, b + future_frames)
-    searched = np.zeros(F + 1, dtype=bool)  # a last False ends every run
+    searched = np.zeros(F, dtype=bool)
     searched[:a] = True
     searched[b:stop] = True
     for s0, s1 in skip:
         searched[max(int(s0), 0) : max(min(int(s1), F), 0)] = False
-    edges = np.flatnonzero(np.diff(np.concatenate([[False], searched])))
-    runs = zip(edges[::2], edges[1::2], strict=True)  # (first, stop) of each searched run
-    return [(int(r0), clip[r0:r1]) for r0, r1 in runs if r1 - r0 >= least]
+    return [(r0, clip[r0 : r1 + 1]) for r0, r1 in true_runs(searched) if r1 + 1 - r0 >= least]
+
+
+def dropout_frames(clip: Motion) -> list[tuple[int, int]]:
+    """``(start, stop)`` of the frames where a joint repeats its rotation bit for bit for at
+    least the cleaning's ``frozen_seconds`` (:class:`mocapkit.clean.detect.config.DetectConfig`)
+    while it turns elsewhere in the take: a dropout, the solver holding the last value it had
+    (:func:`mocapkit.clean.mdm.exact_holds_tell`: not on a joint whose data repeat values all
+    along, a keyframed or low-rate source; nor a value the joint holds again elsewhere, a park
+    at a limit, as the cleaning's frozen rule reads it; nor on a joint so held for over half the
+    take, which the take hardly animates: CMU 03_02's fingers, moved once). Relies on: a
+    captured joint trembles by more than a file's last digit every frame. Not the take's motion,
+    so never searched as its own frames (newcomer report: a frozen stretch elsewhere in the
+    take, copied into a fill with a good score, threw a toe 61 cm in a frame)."""
+    from mocapkit.clean.detect.config import DetectConfig
+    from mocapkit.clean.mdm import exact_holds_tell, held_from
+    from mocapkit.core.runs import true_runs
+
+    cfg = DetectConfig()
+    least = max(clip.seconds_to_frames(cfg.frozen_seconds), 2)
+    q = clip.rotations
+    exact = np.all(q[1:] == q[:-1], axis=-1)  # (F-1, J) step f: frame f -> f+1
+    out = []
+    for j in range(q.shape[1]):
+        runs = [(a, b) for a, b in true_runs(exact[:, j]) if b - a + 1 >= least]
+        if 2 * sum(b - a + 1 for a, b in runs) > len(exact) or not exact_holds_tell(
+            q[:, j], least, cfg.frozen_exact_share
+        ):
+            continue  # held most of the take (hardly animated: CMU's fingers), or its data
+            # repeat values all along
+        for a, b in runs:
+            elsewhere = np.all(q[:, j] == q[b + 1, j], axis=-1)
+            elsewhere[a : b + 2] = False
+            if not elsewhere.any():  # a value it returns to: a park
+                out.append((held_from(a), b + 2))
+    return sorted(out)
 
 
 def with_own_frames(
@@ -2631,7 +2666,8 @@ def inbetween(
     filled from its one side (module docstring). The clip's own frames beside the gap are
     searched too, as a library clip named ``clip_name`` (:attr:`InbetweenConfig.own_frames`),
     but for the frame ranges ``not_captured`` (``(start, stop)``: frames an earlier fill made,
-    which are not the take's capture). Returns :class:`Inbetween`."""
+    which are not the take's capture) and its dropouts (:func:`dropout_frames`). Returns
+    :class:`Inbetween`."""
     from mocapkit import features
     from mocapkit.stitch.transition import _join
 
@@ -2652,7 +2688,8 @@ def inbetween(
         )
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
     if not _own_added and (lib is not None or method != "kalman"):
-        lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames, not_captured)
+        skip = [*not_captured, *dropout_frames(clip)]
+        lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames, skip)
     kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
     # nothing to search: "auto" gives a gap the Kalman transition may fill to it (below)
     auto_kalman = method == "auto" and config.fallback and kalman_ok
