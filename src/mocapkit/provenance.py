@@ -125,9 +125,16 @@ class Provenance:
         }
 
     def made_frames(self) -> list[tuple[int, int]]:
-        """``(start, stop)`` of the frames mocapkit made rather than copied from a capture
-        (every segment but a "clip"'s: a fill, a transition, injected frames), in order."""
-        return [(s.output_start, s.output_stop) for s in self.segments if s.kind != "clip"]
+        """``(start, stop)`` of the frames mocapkit made rather than took from a capture, in
+        order: an in-betweening's fill, a transition's blend, and "generated" frames of no
+        source (injected frames, a Kalman fill). "generated" frames of a source are that
+        capture re-timed or retargeted (``edit --speed``, ``retarget``: reviewer, a whole take
+        read as made), and "clip" frames are copied."""
+        return [
+            (s.output_start, s.output_stop)
+            for s in self.segments
+            if s.kind in ("inbetween", "transition") or (s.kind == "generated" and not s.source)
+        ]
 
     def through(self, earlier: Provenance, file: str) -> Provenance:
         """This sidecar with the frames it copied from ``file`` traced back through

@@ -1485,7 +1485,8 @@ def test_demo_step(tmp_path, capsys):
     assert "gap 60:90" in out
     line = next(ln for ln in out.splitlines() if "gap 60:90" in ln)
     # the takes the fill weighs in with, each named once; none listed at 0%
-    assert re.search(r"from 12 segments of [\w.]+ \d+%", line) and " 0%," not in line
+    assert re.search(r"from 12 segments of [\w.]+ \d+%", line)
+    assert not re.search(r"\.bvh -?0%", line)  # a take at 0% is counted, not listed
 
 
 def test_warns_when_the_library_holds_nothing_like_the_context(humanoid):
@@ -2498,6 +2499,11 @@ def test_a_dropout_elsewhere_in_the_take_is_never_searched(humanoid):
     frozen.rotations[100:125] = walk.rotations[100]
     runs = set(dropout_frames(frozen))
     assert runs == {(101, 125)}  # frame 100 is the last captured value, genuine
+    least = walk.seconds_to_frames(1.0 / 3.0)  # the cleaning's frozen_seconds, in steps
+    for steps, found in ((least, {(101, 101 + least)}), (least - 1, set())):
+        short = walk.copy()
+        short.rotations[100 : 101 + steps] = walk.rotations[100]
+        assert set(dropout_frames(short)) == found, steps
     res = inbetween(frozen, (40, 55), None, up="Y", method="library")
     own = [x["source_frames"] for x in res.blended_from]
     assert own and all(s1 <= 101 or s0 >= 125 for s0, s1 in own), own
@@ -2519,6 +2525,38 @@ def test_real_takes_hold_no_dropout_but_the_captures_that_do(shared_path):
         (0, 50), (167, 254), (252, 335),
     }
     assert set(dropout_frames(read_motion(cmu / "01" / "01_02.amc"))) == {(1685, 1734)}
+
+
+def test_made_frames_are_fills_blends_and_frames_of_no_source():
+    """What an input's sidecar says mocapkit made (not searched as the take's own): fills,
+    transitions' blends and generated frames of no source; a take re-timed or retargeted
+    (generated frames of a source: edit --speed, retarget) and copied clips are capture
+    (reviewer: an edited take's own frames were all skipped)."""
+    from mocapkit.provenance import Provenance, Segment
+
+    plan = Provenance("x", "o.bvh", 30.0, 100, ["a.bvh"], segments=[
+        Segment(0, 10, "clip", "a.bvh", 0, 10),
+        Segment(10, 20, "generated"),
+        Segment(20, 30, "clip", "a.bvh", 20, 30),
+        Segment(30, 40, "inbetween", "lib.bvh", 5, 15),
+        Segment(40, 45, "transition", "b.bvh", 0, 5),
+        Segment(45, 100, "generated", "c.bvh", 0, 61),
+    ])  # fmt: skip
+    assert plan.made_frames() == [(10, 20), (30, 40), (40, 45)]
+
+
+def test_a_sidecar_of_another_length_is_not_the_takes(files):
+    """The input's sidecar is read for its fills only while it describes the file (its frame
+    count): a take trimmed since keeps no marks that would now be wrong."""
+    from mocapkit.cli.inbetween_commands import _earlier
+
+    out = files / "trim_src.bvh"
+    code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
+                      files / "lib", "--out", out)  # fmt: skip
+    assert code == 0, se
+    frames = read_motion(out).num_frames
+    assert _earlier(str(out), frames).made_frames() == [(60, 90)]
+    assert _earlier(str(out), frames - 1) is None
 
 
 def test_own_pieces_split_around_frames_an_earlier_fill_made(humanoid):
@@ -2564,7 +2602,7 @@ def test_cli_refuses_a_second_gap_and_a_second_run_skips_the_first_fill(files, h
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "80:110", "--gap", "120:140",
                        "--out", o1)  # fmt: skip
     assert code != 0 and not o1.exists()
-    assert "--gap given 2 times (80:110, 120:140)" in se and "--gap 120:140" in se
+    assert "--gap given 2 times (80:110, 120:140)" in se and "one gap per run" in se
     code, _, se = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
                       files / "idle2.bvh", "--out", o1)  # fmt: skip
     assert code == 0, se

@@ -157,8 +157,8 @@ def inbetween_cmd(
     if len(gaps) > 1:  # click keeps the last of a repeated option: said, not dropped (newcomer)
         raise CLIError(
             f"--gap given {len(gaps)} times ({', '.join(gaps)}); inbetween fills one gap per "
-            f"run: fill {gaps[0]}, then run again on its output with --gap {gaps[1]} (a take "
-            "filled before keeps its earlier fills marked, and they are not searched)"
+            "run: fill one, then run again on its output for each other one (a take filled "
+            "before keeps its earlier fills marked, and they are not searched)"
         )
     gap = gaps[0]
     try:
