@@ -133,14 +133,15 @@ def inbetween_cmd(
     transition (with auto), and a library fill kept is warned about. OUT gets a provenance sidecar
     naming the library files and frames used
     (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
-    before), the earlier fills are traced into it. --json writes the same with the scores and
-    the warnings of reading and writing the files (``warnings``: a CMU take written as BVH,
-    whose unit BVH cannot state, among them, and the fit's warning when a library fill is kept;
-    ``warning`` is the fit's assessment whichever method filled the gap). A library file that
-    cannot be read, or has another skeleton, gets one error line and is left out; the gap is
-    still filled from the others (the clip's own frames, if none is left), and the exit status
-    is then 2. CLIP and library files may be .bvh, .npz or CMU .amc (with its subject's .asf
-    beside it).
+    before), the earlier fills are traced into it, and their frames are not searched as the
+    take's own, nor are its dropouts (a joint holding its value bit for bit for 1/3 s).
+    --json writes the same with the scores and the warnings of reading and writing the files
+    (``warnings``: a CMU take written as BVH, whose unit BVH cannot state, among them, and the
+    fit's warning when a library fill is kept; ``warning`` is the fit's assessment whichever
+    method filled the gap). A library file that cannot be read, or has another skeleton, gets
+    one error line and is left out; the gap is still filled from the others (the clip's own
+    frames, if none is left), and the exit status is then 2. CLIP and library files may be .bvh,
+    .npz or CMU .amc (with its subject's .asf beside it).
 
     \b
     Examples:
