@@ -1219,7 +1219,7 @@ def test_cli_sums_the_combined_segments_by_take(files, monkeypatch):
     for x in bf:
         by_take[Path(x["source"]).name] += x["weight"]
     first = max(by_take, key=by_take.get)
-    assert re.search(r"best library segment: .*weight 0%;", so)  # named, whatever its share
+    assert re.search(r"best-scoring library segment: .*weight 0%;", so)  # whatever its share
     line = next(ln for ln in so.splitlines() if ln.startswith("the fill combines"))
     # takes whose segments weigh under half a percent are counted apart (newcomer: "0%" takes)
     weighing = [t for t, w in by_take.items() if abs(w) >= 0.005]
@@ -2690,7 +2690,7 @@ def test_cli_names_the_clips_own_frames_and_the_sidecar_the_clip_once(files, hum
     code, so, _ = run("inbetween", files / "walk.bvh", "--gap", "60:90", "--library",
                       files / "idle.bvh", "--out", files / "own_fill.bvh")  # fmt: skip
     assert code == 0 and "walk.bvh (the clip's own frames) frames" in so
-    assert "best segment: " in so and "best library segment" not in so  # not the library's
+    assert "best-scoring segment: " in so and "library segment" not in so  # not the library's
     inputs = find_provenance(files / "own_fill.bvh").inputs
     assert sum(Path(x).name == "walk.bvh" for x in inputs) == 1
 

@@ -245,8 +245,8 @@ def inbetween_cmd(
         weight = f", weight {_percent(res.blended_from[0]['weight'])}" if mixed else ""
         own = res.source == str(clip)  # the clip's frames beside the gap, not the library's
         what, mark = ("segment", " (the clip's own frames)") if own else ("library segment", "")
-        say(
-            f"best {what}: {res.source}{mark} frames {s0}:{s1}"
+        say(  # the best-scoring one, whatever its share of the fill (the next line's)
+            f"best-scoring {what}: {res.source}{mark} frames {s0}:{s1}"
             f"{' played backwards' if res.backwards else ''} (speed x{c.rate:g}): poses "
             f"{res.pose_rms_m * 100:.1f} cm RMS per joint off at {where}, {path} "
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
