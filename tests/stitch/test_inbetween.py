@@ -2509,6 +2509,21 @@ def test_a_dropout_elsewhere_in_the_take_is_never_searched(humanoid):
     assert own and all(s1 <= 101 or s0 >= 125 for s0, s1 in own), own
 
 
+@pytest.mark.own_frames
+def test_the_refusal_names_the_frames_left_out_of_the_clips_own(humanoid):
+    """A take whose stretches beside the gap are cut under a second by its dropouts and an
+    earlier run's fill is refused, saying which frames were left out (reviewer: "needs 1 s of
+    the clip" with 200 frames before the gap read as wrong)."""
+    walk, _ = humanoid
+    frozen = walk.copy()
+    frozen.rotations[20:50] = walk.rotations[20]
+    frozen.rotations[100:130] = walk.rotations[100]
+    with pytest.raises(ValueError) as e:
+        inbetween(frozen, (60, 75), None, up="Y", method="library", not_captured=[(5, 12)])
+    assert "(not searched: its dropouts at frames 21:50, 101:130; frames an earlier run made at "\
+        "frames 5:12)" in str(e.value)  # fmt: skip
+
+
 def test_real_takes_hold_no_dropout_but_the_captures_that_do(shared_path):
     """On Bandai's polished takes nothing is held bit for bit; in CMU's raw releases 03_02
     opens with its upper body held for 50 frames, holds its right foot and toes for 88 and its

@@ -933,6 +933,17 @@ def own_pieces(
     return [(r0, clip[r0 : r1 + 1]) for r0, r1 in true_runs(searched) if r1 + 1 - r0 >= least]
 
 
+def _merged(spans) -> list[tuple[int, int]]:
+    """Frame ranges ``(start, stop)`` sorted, overlapping or touching ones merged."""
+    out: list[tuple[int, int]] = []
+    for x, y in sorted((int(x), int(y)) for x, y in spans):
+        if out and x <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], y))
+        else:
+            out.append((x, y))
+    return out
+
+
 def dropout_frames(clip: Motion) -> list[tuple[int, int]]:
     """``(start, stop)`` of the frames where a joint repeats its rotation bit for bit for at
     least the cleaning's ``frozen_seconds`` (:class:`mocapkit.clean.detect.config.DetectConfig`)
@@ -2687,17 +2698,25 @@ def inbetween(
             "Kalman transition needs context on both sides of the gap; fill it from a library"
         )
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
+    dropouts: list[tuple[int, int]] = []
     if not _own_added and (lib is not None or method != "kalman"):
-        skip = [*not_captured, *dropout_frames(clip)]
+        dropouts = _merged(dropout_frames(clip))
+        skip = [*not_captured, *dropouts]
         lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames, skip)
     kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
     # nothing to search: "auto" gives a gap the Kalman transition may fill to it (below)
     auto_kalman = method == "auto" and config.fallback and kalman_ok
     if lib is None and method != "kalman" and not auto_kalman:
+        # the frames left out of the clip's own, said: they may be what leaves too little
+        shown = [f"{what} at frames {', '.join(f'{x}:{y}' for x, y in spans)}"
+                 for what, spans in (("its dropouts", dropouts),
+                                     ("frames an earlier run made", _merged(not_captured)))
+                 if spans]  # fmt: skip
         raise ValueError(
             f"{clip_name}: method {method!r} needs a library, or {OWN_PIECE_MIN_SECONDS:g} s "
             f"of the clip before or after the gap {a}:{b} to search"
             f"{'' if config.own_frames else ' (InbetweenConfig.own_frames is off)'}"
+            + (f" (not searched: {'; '.join(shown)})" if shown and config.own_frames else "")
             + (" (or method 'kalman')" if kalman_ok else "")
         )
     if a == 0:  # the reversed clip's end, filled from the library played the other way
