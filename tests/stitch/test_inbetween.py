@@ -745,13 +745,35 @@ def test_offset_blend_carries_the_angular_velocity_offsets(blend):
     np.testing.assert_allclose(step(out[0], out[1]), v0 * keep, atol=1e-9)
     np.testing.assert_allclose(step(out[-2], out[-1]), v1 * keep, atol=1e-9)
     np.testing.assert_allclose(out[blend : n - blend], rots[blend : n - blend], atol=1e-12)
-    # a velocity offset over 3 max_step is capped there: the joint leaves at that rate and the
-    # fade's return (at most a third of it, past a third of the fade) stays within max_step
-    capped, _ = _offset_blend(rots, zeros, rots[0], rots[-1], zeros[0], zeros[-1], blend,
-                              0.005, v0=v0 * 10)  # fmt: skip
-    turn = np.linalg.norm(step(capped[:-1], capped[1:]), axis=-1)[:, 1]
-    assert turn.max() <= 3 * 0.005 + 1e-9
-    assert turn[int(np.ceil(blend / 3)) :].max() <= 0.005 + 1e-9
+    # a velocity offset far over the pose blend's speed limit is carried whole (a velocity
+    # left at the junction is a jolt): the joint leaves at the context's rate, and the fade's
+    # return (past a third of the fade) turns it at a third of that at most
+    fast, _ = _offset_blend(rots, zeros, rots[0], rots[-1], zeros[0], zeros[-1], blend,
+                            0.005, v0=v0 * 10)  # fmt: skip
+    np.testing.assert_allclose(step(fast[0], fast[1]), 10 * v0 * keep, atol=1e-9)
+    turn = np.linalg.norm(step(fast[:-1], fast[1:]), axis=-1)[:, 1]
+    assert turn[int(np.ceil(blend / 3)) :].max() <= 10 * np.linalg.norm(v0[1]) / 3 + 1e-9
+
+
+def test_library_fill_caps_a_glitchs_velocity_offset():
+    """A context joint flipping half a turn between A-2 and A-1 (a capture glitch) is not
+    carried into the fill: library_fill caps the angular-velocity offsets at
+    TURN_OFFSET_MAX_DEG_S, and the fill's first step turns no joint faster than that and the
+    blend's own correction allow."""
+    from mocapkit.stitch.inbetween import TURN_OFFSET_MAX_DEG_S, Candidate, library_fill
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=1).motion
+    a, b = 20, 40
+    clip = walk.copy()
+    elbow = walk.skeleton.names.index("LeftForeArm")
+    flip = np.array([0.0, 0.0, 1.0, 0.0])  # half a turn about y
+    clip.rotations[a - 2, elbow] = rot.quat_mul(flip, walk.rotations[a - 2, elbow])
+    cand = Candidate(0, 5.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    fill = library_fill(clip, a, b, walk, cand, up="Y", config=InbetweenConfig())
+    d = rot.quat_mul(fill.rotations[0, elbow], rot.quat_inv(clip.rotations[a - 1, elbow]))
+    first = np.degrees(np.linalg.norm(rot.quat_to_rotvec(np.where(d[:1] < 0, -d, d))))
+    cap = TURN_OFFSET_MAX_DEG_S * walk.frame_time  # degrees per frame
+    assert 0.5 * cap < first < 1.5 * cap  # the glitch's 180 deg a frame is held to the cap
 
 
 @pytest.mark.parametrize("blend", [3, 8])

@@ -93,8 +93,8 @@ context's exactly and the frames between are the library's motion turned by a sh
 ends' mean rotation offset held across the middle (:attr:`InbetweenConfig.offset_keep`: the
 clip's person holds their joints their own way). Where the clip has a second frame beside the
 gap, the joints' angular-velocity and translations' velocity offsets are carried too
-(:func:`_offset_blend` ``v0``, ``v1``, ``u0``, ``u1``; the latter capped at
-:data:`TRANSLATION_OFFSET_MAX_M_S`), so
+(:func:`_offset_blend` ``v0``, ``v1``, ``u0``, ``u1``; capped at
+:data:`TURN_OFFSET_MAX_DEG_S` and :data:`TRANSLATION_OFFSET_MAX_M_S`), so
 the fill leaves and reaches the context at its own velocity. Between the two blends the pelvis
 is kept at the clip's own level (its mean height before the gap,
 :attr:`InbetweenConfig.level_seconds`, not the library person's), the legs turned so that the
@@ -1524,15 +1524,15 @@ def _offset_blend(
     ``v0``, ``v1`` ((J, 3) radians per frame, optional): the joints' angular-velocity offsets
     (the context's turn per frame less the segment's) at index 0 and n-1, carried as
     inertialization carries them: a term ``v t (1 - t/blend)^2``, so the result leaves the
-    context at its own angular velocity, not the segment's; an offset over 3 ``max_step`` is
-    capped there, so that the term's return (a third of it at most) turns no joint faster than
-    ``max_step``. Relies on: a joint's angular velocity is continuous; a blend that meets the
-    pose but not its velocity jolts the junction (tuning windows, person held out: mean joint
-    acceleration at the junction 12.0-14.0 m/s² without, 9.9-10.7 with, the truth's 7.9-8.1;
-    L2P at 5 / 15 / 30 / 45 frames 1.034 / 2.245 / 2.943 / 3.491 without, 1.010 / 2.220 /
-    2.930 / 3.479 with, NPSS 0.0029 / 0.0419 / 0.1706 / 0.3269 without, 0.0025 / 0.0414 /
-    0.1706 / 0.3276 with; fading as smoothstep times t, in one log with the pose offset:
-    1.062 / 2.233 / 2.939 / 3.488, NPSS 0.0028 / 0.0421 / 0.1728 / 0.3293).
+    context at its own angular velocity, not the segment's (its return turns a joint at a third
+    of the offset at most; :func:`library_fill` caps the offsets at
+    :data:`TURN_OFFSET_MAX_DEG_S`). Relies on: a joint's angular velocity is continuous; a blend
+    that meets the pose but not its velocity jolts the junction (tuning windows, person held
+    out: mean joint acceleration at the junction 12.0-14.0 m/s² without, 9.9-10.7 with, the
+    truth's 7.9-8.1; L2P at 5 / 15 / 30 / 45 frames 1.034 / 2.245 / 2.943 / 3.491 without, 1.010
+    / 2.220 / 2.930 / 3.479 with, NPSS 0.0029 / 0.0419 / 0.1706 / 0.3269 without, 0.0025 /
+    0.0414 / 0.1706 / 0.3276 with; fading as smoothstep times t, in one log with the pose
+    offset: 1.062 / 2.233 / 2.939 / 3.488, NPSS 0.0028 / 0.0421 / 0.1728 / 0.3293).
 
     ``u0``, ``u1`` ((J, 3) per frame, optional): the same for the translations (the context's
     step per frame less the segment's), added as ``u t (1 - t/blend)^2``. Relies on: the body
@@ -1577,15 +1577,13 @@ def _offset_blend(
     mid = np.clip(1.0 - e0 - e1, 0.0, 1.0)
     off = rot.quat_exp(l0[None] * e0 + l1[None] * e1 + held[None] * mid)
     # the velocity offsets: t (1 - t/L)^2 leaves at slope 1, is gone with slope 0 at L = blend
-    # and swings back at most 1/3 as fast, so offsets capped at 3 max_step never turn a joint
-    # faster than max_step; a left factor of its own, exact however large the pose offset
+    # and swings back at most 1/3 as fast; a left factor of its own, exact however large the
+    # pose offset
     x = np.clip(np.arange(n, dtype=float) / max(blend, 1), 0.0, 1.0)
     fade = (np.arange(n) * (1.0 - x) ** 2)[:, None, None]
     vel = np.zeros((n, *l0.shape))
     for v, f in ((v0, fade), (v1, -fade[::-1])):
         if v is not None:
-            norm = np.linalg.norm(v, axis=-1, keepdims=True)
-            v = v * np.minimum(1.0, 3.0 * max_step / np.maximum(norm, 1e-12))
             vel = vel + 0.5 * v[None] * f  # the log is half the rotation vector
     out_r = rot.quat_normalize(rot.quat_mul(rot.quat_exp(vel), rot.quat_mul(off, rots)))
     out_t = trans + (t0 - trans[0])[None] * w0 + (t1 - trans[-1])[None] * w1
@@ -2102,6 +2100,21 @@ def _back_to_clip(
     return out
 
 
+TURN_OFFSET_MAX_DEG_S = 1000.0
+"""The largest angular-velocity offset :func:`library_fill` carries into a fill (degrees per
+second, per joint): about the fastest a person turns a joint (a sprinter's knee), so a capture
+glitch that flips a joint between two context frames is not carried. The cap was three times
+:attr:`InbetweenConfig.blend_max_speed_deg` (270 deg/s), so that the offset's return stayed
+under that speed; what it left out reached the junction as a jump of velocity, a jolt
+(newcomer report: a run's gap ending in a walk's swing, the knee's offset 705 deg/s, the toe at
+2.9x its largest acceleration in the take; 2.0x at this cap). Largest joint acceleration from
+two frames before a gap to its end over the take's 99th percentile, fills from the take's own
+frames (gaps of 30 and 60 frames at 30%, 50%, 70% of the take), capped at 270 / 1000 deg/s:
+CMU's 18 takes, mean 1.046 / 1.000 (102 fills: 13 better by over 0.05, 6 worse, the worst
++0.39); bandai2's tuning takes 2.236 / 2.198 (54 fills: 4 better, none worse). Tuning windows
+(one future frame: the start's offset alone), L2P at 5 / 30 frames 0.858 / 2.775 -> 0.860 /
+2.779, the legs' largest angular acceleration unchanged."""
+
 TRANSLATION_OFFSET_MAX_M_S = 2.0
 """The largest translation velocity offset :func:`library_fill` carries into a fill (metres
 per second, per joint): on the tuning windows they were at most 0.88 m/s; a capture glitch that
@@ -2162,6 +2175,8 @@ def library_fill(
         u1 = (ct[b + 1] - ct[b]) - (st[-1] - st[-2])
     cap = TRANSLATION_OFFSET_MAX_M_S * clip.frame_time / features.metres_per_unit(clip, None)
     u0, u1 = (None if u is None else _capped(u, cap) for u in (u0, u1))
+    turn_cap = math.radians(TURN_OFFSET_MAX_DEG_S) * clip.frame_time
+    v0, v1 = (None if v is None else _capped(v, turn_cap) for v in (v0, v1))
     keep = slice(before, seg.num_frames - after)
     seg, st = seg[keep], st[keep]
     r, tr = _offset_blend(
