@@ -391,10 +391,16 @@ def shares_by_take(blended: Sequence[dict[str, Any]]) -> list[tuple[str, float]]
     return sorted(zip(shown, shares.values(), strict=True), key=lambda kv: -kv[1])
 
 
+def whole_percent(share: float) -> str:
+    """A share as a whole percentage, never "-0%"."""
+    text = f"{share:.0%}"
+    return "0%" if text == "-0%" else text
+
+
 def weighing_takes(blended: Sequence[dict[str, Any]]) -> tuple[list[tuple[str, float]], int]:
-    """:func:`shares_by_take` less the takes whose segments weigh under half a percent
-    together (a whole percentage would read 0%), and how many those are: the report, the demo
-    and the viewer count them apart (newcomer: takes listed at 0% read as used)."""
+    """:func:`shares_by_take` less the takes whose segments together read 0% as a whole
+    percentage (:func:`whole_percent`), and how many those are: the report, the demo and the
+    viewer count them apart (newcomer: takes listed at 0% read as used)."""
     takes = shares_by_take(blended)
-    weighing = [(name, share) for name, share in takes if abs(share) >= 0.005]
+    weighing = [(name, share) for name, share in takes if whole_percent(share) != "0%"]
     return weighing, len(takes) - len(weighing)

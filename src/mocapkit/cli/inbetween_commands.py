@@ -32,7 +32,7 @@ from mocapkit.cli.demo import DEMO_STEPS
 from mocapkit.core.ranges import RangeError, RangeSpec
 from mocapkit.io import WRITABLE, write_motion
 from mocapkit.io.atomic import all_or_nothing, check_outputs, same_file
-from mocapkit.provenance import Provenance, find_provenance, weighing_takes
+from mocapkit.provenance import Provenance, find_provenance, weighing_takes, whole_percent
 from mocapkit.stitch.inbetween import (
     DEFAULT_CONFIG,
     KALMAN_FILLED,
@@ -242,7 +242,7 @@ def inbetween_cmd(
         where = f"the two frames {ends} the gap" if ends else "the gap's ends"
         path = "ground path (from its start velocity over the gap)" if ends else "ground path"
         mixed = len(res.blended_from) > 1
-        weight = f", weight {_percent(res.blended_from[0]['weight'])}" if mixed else ""
+        weight = f", weight {whole_percent(res.blended_from[0]['weight'])}" if mixed else ""
         own = res.source == str(clip)  # the clip's frames beside the gap, not the library's
         what, mark = ("segment", " (the clip's own frames)") if own else ("library segment", "")
         say(  # the best-scoring one, whatever its share of the fill (the next line's)
@@ -263,7 +263,7 @@ def inbetween_cmd(
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
             "speed and weight: --json or the sidecar, whose filled frames name the segment "
             f"weighing most, {Path(main['source']).name} frames {main['source_frames'][0]}:"
-            f"{main['source_frames'][1]} ({_percent(main['weight'])}))"
+            f"{main['source_frames'][1]} ({whole_percent(main['weight'])}))"
         )
     fit_warning = None  # said on standard error, and in the JSON's warnings
     if res.warning and res.method == "library":  # (a Kalman fill is not the library's)
@@ -401,13 +401,8 @@ def _takes_shown(blended, most: int | None = None) -> tuple[int, str]:
     summed), then "N more take(s) at 0%" (:func:`mocapkit.provenance.weighing_takes`)."""
     weighing, nothing = weighing_takes(blended)
     cut = len(weighing) if most is None else most
-    shown = ", ".join(f"{name} {_percent(share)}" for name, share in weighing[:cut])
+    shown = ", ".join(f"{name} {whole_percent(share)}" for name, share in weighing[:cut])
     if len(weighing) > cut:
         rest = sum(share for _, share in weighing[cut:])
-        shown += f", {len(weighing) - cut} more take(s) {_percent(rest)}"
+        shown += f", {len(weighing) - cut} more take(s) {whole_percent(rest)}"
     return len(weighing), shown + (f"; {nothing} more take(s) at 0%" if nothing else "")
-
-
-def _percent(share: float) -> str:
-    """A share as a whole percentage, never "-0%"."""
-    return f"{0.0 if abs(share) < 0.005 else share:.0%}"

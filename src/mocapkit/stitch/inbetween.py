@@ -231,7 +231,7 @@ class InbetweenConfig:
     travel_seconds: float = 0.5
     """Over a gap (A-1 to B) longer than this, the ground-path term's tolerances grow with its
     length: past half a second a path difference is judged as the change of speed and of
-    turning rate it makes (:func:`_travel_costs`)."""
+    turning rate it makes (:func:`_travel_rate_factor`)."""
     travel_weight: float = 1.0
     """Weight of the ground-path term (score units per squared tolerance). With the L-scores
     in the score, 5 beat 1 and 25 on the tuning takes; with the pose term instead, 1 (L2P over
@@ -945,9 +945,10 @@ def _merged(spans) -> list[tuple[int, int]]:
 
 
 def dropout_frames(clip: Motion) -> list[tuple[int, int]]:
-    """``(start, stop)`` of the frames where a joint repeats its rotation bit for bit for at
-    least the cleaning's ``frozen_seconds`` (:class:`mocapkit.clean.detect.config.DetectConfig`)
-    while it turns elsewhere in the take: a dropout, the solver holding the last value it had
+    """``(start, stop)`` (sorted, overlapping ones merged) of the frames where a joint repeats
+    its rotation bit for bit for at least the cleaning's ``frozen_seconds``
+    (:class:`mocapkit.clean.detect.config.DetectConfig`) while it turns elsewhere in the take: a
+    dropout, the solver holding the last value it had
     (:func:`mocapkit.clean.mdm.exact_holds_tell`: not on a joint whose data repeat values all
     along, a keyframed or low-rate source; nor a value the joint holds again elsewhere, a park
     at a limit, as the cleaning's frozen rule reads it; nor on a joint so held for over half the
@@ -976,7 +977,7 @@ def dropout_frames(clip: Motion) -> list[tuple[int, int]]:
             elsewhere[a : b + 2] = False
             if not elsewhere.any():  # a value it returns to: a park
                 out.append((held_from(a), b + 2))
-    return sorted(out)
+    return _merged(out)  # one range where several joints drop out together
 
 
 def with_own_frames(
@@ -2715,7 +2716,7 @@ def inbetween(
     lib = None if no_library else _as_library(library, clip, library_names, up, config)
     dropouts: list[tuple[int, int]] = []
     if not _own_added and (lib is not None or method != "kalman"):
-        dropouts = _merged(dropout_frames(clip))
+        dropouts = dropout_frames(clip)
         skip = [*not_captured, *dropouts]
         lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames, skip)
     kalman_ok = not one_sided and b - a <= kalman_max_frames(clip, config)
