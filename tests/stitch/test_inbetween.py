@@ -827,6 +827,40 @@ def test_a_fill_leaves_the_context_moving_as_it_moved():
     assert fill.root_positions[0, 1] > clip.root_positions[a - 1, 1]
 
 
+def test_a_segment_at_its_clips_ends_meets_the_contexts_velocity_too():
+    """A segment with no library frame before or after it (the clip's own frames beside the
+    gap end there: the best segment often runs up to the gap) still meets the context moving
+    as it moves: its own last step stands for the one it lacks. Before, it met B at its own
+    speed, and the context's pelvis went on at another, a jolt (newcomer: a run filled from its
+    own frames, the pelvis arriving falling at 1.3 m/s into a context rising at 1.2 m/s)."""
+    from mocapkit.core.motion import Motion
+    from mocapkit.stitch.inbetween import Candidate, library_fill
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=1).motion
+    clip = walk.copy()
+    a, b = 20, 40
+    g = b - a
+    tr = clip.local_translations()
+    rise, fall = 0.004, -0.003  # metres per frame, into A-1 and out of B
+    f = np.arange(clip.num_frames)  # level from A-1 to B: the segment's level at both ends
+    tr[:, 0, 1] = tr[a - 1, 0, 1] + rise * np.minimum(f - (a - 1), 0) + fall * np.maximum(f - b, 0)
+    clip.translations, clip.root_positions = tr, tr[:, 0].copy()
+    # the clip's frame A-1 held, exactly the segment's g + 2 frames: none before, none after
+    rep = np.full(g + 2, a - 1)
+    t0 = clip.local_translations()[rep]
+    src = Motion(clip.skeleton, clip.rotations[rep], t0[:, 0], clip.frame_time, t0)
+    cand = Candidate(0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    fill = library_fill(clip, a, b, src, cand, up="Y",
+                        config=InbetweenConfig(blend_seconds=0.25))  # fmt: skip
+    y = np.concatenate([clip.root_positions[a - 2 : a, 1], fill.root_positions[:, 1],
+                        clip.root_positions[b : b + 2, 1]])  # fmt: skip
+    v = np.diff(y)  # steps into A-1, out of it, ..., into B, out of B
+    keep = (1 - 1 / clip.seconds_to_frames(0.25)) ** 2
+    np.testing.assert_allclose(v[[0, -1]], [rise, fall], atol=1e-12)  # the context's
+    assert v[1] == pytest.approx(rise * keep)  # the segment stands still: the offset's fade
+    assert v[-2] == pytest.approx(fall * keep)  # was 0: the segment's own standing still
+
+
 def _held_pose_on_path(pose: Motion, path: np.ndarray, headings: np.ndarray) -> Motion:
     """``pose`` (one frame) held, its root carried along ``path`` (n, 3) and turned about up
     to ``headings`` (n,) radians: a body gliding along a path, facing where the path says."""

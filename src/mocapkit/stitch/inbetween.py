@@ -1545,7 +1545,15 @@ def _offset_blend(
     out of the library 1.352 / 2.766 / 3.859 / 4.611 without, 0.955 / 2.644 / 3.790 / 4.582
     with. :func:`library_fill` reads both velocities the same way (the segment's from the
     library frame before it, or after it), so that a capture filled from itself is itself;
-    the segment's step out of A-1 instead gave 0.763 / 2.065 / 2.868 / 3.432 but moved it."""
+    the segment's step out of A-1 instead gave 0.763 / 2.065 / 2.868 / 3.432 but moved it.
+    Where the library clip has no frame there (the clip's own frames beside the gap end at
+    it, and the best segment often runs up to it), the segment's own first (last) step
+    stands for the one it lacks (:func:`_carried_on`): left out, a fill from a run's own
+    frames met B at the segment's speed, its pelvis falling at 1.3 m/s into a context rising
+    at 1.2 m/s. Fills from the take's own frames (1 s gaps at 40% and 60% of 20 bandai2 walks
+    and runs and 12 CMU takes), largest joint acceleration of the fill's last two frames over
+    the take's 99th percentile: mean 0.922 -> 0.742, over 1.5 in 16% -> 7%, at most 3.36 ->
+    2.07; the first two frames' unchanged (0.637)."""
     n = rots.shape[0]
     w0 = _decay(n, blend)[:, None, None]
     w1 = w0[::-1]
@@ -2168,12 +2176,20 @@ def library_fill(
     blend = min(max(clip.seconds_to_frames(config.blend_seconds), 1), g + 1)
     v0 = v1 = u0 = u1 = None
     sr = seg.rotations  # as warped: the root turns with the warp's growing heading correction
-    if before:
-        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1], sr[0], sr[1], 1)
-        u0 = (ct[a - 1] - ct[a - 2]) - (st[1] - st[0])
-    if after:
-        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1], sr[-2], sr[-1], 0)
-        u1 = (ct[b + 1] - ct[b]) - (st[-1] - st[-2])
+    # the segment's steps into A-1 and out of B; where its clip has no frame before (after)
+    # it, its own first (last) step stands for the one it lacks
+    if a >= 2:
+        s_at, t_at = sr[before], st[before]
+        s_prev, t_prev = (sr[0], st[0]) if before else (_carried_on(sr[1], sr[0]), 2 * t_at - st[1])
+        v0 = _turn_offset(clip.rotations[a - 2], clip.rotations[a - 1], s_prev, s_at, 1)
+        u0 = (ct[a - 1] - ct[a - 2]) - (t_at - t_prev)
+    if not one_sided and seen >= 2:
+        s_at, t_at = sr[-1 - after], st[-1 - after]
+        s_next, t_next = (
+            (sr[-1], st[-1]) if after else (_carried_on(sr[-2], sr[-1]), 2 * t_at - st[-2])
+        )
+        v1 = _turn_offset(clip.rotations[b], clip.rotations[b + 1], s_at, s_next, 0)
+        u1 = (ct[b + 1] - ct[b]) - (t_next - t_at)
     cap = TRANSLATION_OFFSET_MAX_M_S * clip.frame_time / features.metres_per_unit(clip, None)
     u0, u1 = (None if u is None else _capped(u, cap) for u in (u0, u1))
     turn_cap = math.radians(TURN_OFFSET_MAX_DEG_S) * clip.frame_time
@@ -2187,6 +2203,13 @@ def library_fill(
         config.offset_keep,
     )  # fmt: skip
     return Motion(clip.skeleton, r[1:-1], tr[1:-1, 0], clip.frame_time, tr[1:-1] if has_t else None)
+
+
+def _carried_on(q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+    """The rotations one frame past ``q_to`` at the turn from ``q_from`` to ``q_to`` (each joint
+    in its parent's frame, the turn ``q_to q_from^-1`` applied once more): a segment's step
+    carried on where its clip has no frame beyond it (constant angular velocity)."""
+    return rot.quat_normalize(rot.quat_mul(rot.quat_mul(q_to, rot.quat_inv(q_from)), q_to))
 
 
 def _turn_offset(c0, c1, s0, s1, junction: int) -> np.ndarray:
