@@ -1581,6 +1581,21 @@ def test_the_poor_fit_bound_grows_with_a_long_gap(humanoid):
     )
 
 
+@pytest.mark.own_frames
+def test_a_poor_fit_from_the_clips_own_frames_names_them():
+    """With no library, the warning names what was searched: the clip's own frames (a take
+    standing for 3 s, then walking: its own frames hold no step), not a library there is none
+    of (newcomer: "the library holds nothing like..." with no --library given)."""
+    from mocapkit.core.motion import concatenate
+
+    idle = datasets.procedural_motion("idle", 3.0, seed=3).motion
+    clip = concatenate([idle, datasets.procedural_motion("walk", 2.0, seed=11).motion])
+    n = idle.num_frames
+    res = inbetween(clip, (n + 20, n + 40), None, up="Y")
+    assert res.warning.startswith("the clip's own frames hold nothing like the motion around")
+    assert "library" not in res.warning
+
+
 def test_poses_far_off_the_context_warn_too():
     """Poses over poor_fit_pose_m RMS per joint off the clip's beside the gap warn as well as a
     path that misses: at the clip's start or end (only a start velocity to judge the path by),

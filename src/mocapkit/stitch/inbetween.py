@@ -2828,7 +2828,10 @@ def inbetween(
     replaced = sum(
         x for x in _two_sided(onpath, onpath[a:b], a, b, ctx, w, up, model) if not math.isnan(x)
     )
-    pose_rms, path_miss, warning = _fit_of(cand, config, (b - a) * clip.frame_time, one_sided)
+    searched = "the clip's own frames" if no_library else "the library"
+    pose_rms, path_miss, warning = _fit_of(
+        cand, config, (b - a) * clip.frame_time, one_sided, searched
+    )
     may_fall_back = method == "auto" and config.fallback and kalman_ok and lfill is not None
     unlike = may_fall_back and bool(warning)  # the library holds nothing like the context
     use_kalman = (
@@ -2945,13 +2948,18 @@ library, filled the gap."""
 
 
 def _fit_of(
-    cand: Candidate | None, config: InbetweenConfig, seconds: float = 0.0, one_sided: bool = False
+    cand: Candidate | None,
+    config: InbetweenConfig,
+    seconds: float = 0.0,
+    one_sided: bool = False,
+    searched: str = "the library",
 ) -> tuple[float, float, str]:
     """The best candidate's pose and ground-path misses in metres (from its score terms), and
     the warning when the path's is beyond :attr:`InbetweenConfig.poor_fit_path_m` (on a gap of
     ``seconds``, beyond :attr:`InbetweenConfig.poor_fit_speed_m_s` per second of it) or the
     poses' beyond :attr:`InbetweenConfig.poor_fit_pose_m` (``one_sided``: the gap is at the
-    clip's start or end, its poses matched on one side only)."""
+    clip's start or end, its poses matched on one side only; ``searched``: what held the
+    candidates, the warning's subject)."""
     if cand is None:
         return math.nan, math.nan, ""
     pose = path = math.nan
@@ -2977,6 +2985,7 @@ def _fit_of(
     return (
         pose,
         path,
-        f"the library holds nothing like the motion around the gap ({'; '.join(why)})"
+        f"{searched} hold{'s' * (searched == 'the library')} nothing like the motion around "
+        f"the gap ({'; '.join(why)})"
         + _MAY_NOT_LOOK,
     )

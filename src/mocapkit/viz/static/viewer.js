@@ -673,7 +673,7 @@
     var takes = stitch.takes || [];  // the shares summed by take (viewer.py: weighing_takes)
     var from = !stitch.data ? (stitch.requested === 'kalman' ? 'by the Kalman transition (asked for)' :
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
-        stitch.unlike ? 'by the Kalman transition (the library holds nothing like the motion around the gap: ' + stitch.warning.replace(/^the library holds nothing like the motion around the gap \((.*)\); the Kalman transition filled the gap$/, '$1') + ')' :
+        stitch.unlike ? 'by the Kalman transition (' + stitch.warning.replace(/^(.*) (holds?) nothing like the motion around the gap \((.*)\); the Kalman transition filled the gap$/, '$1 $2 nothing like the motion around the gap: $3') + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
       blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + takes.length + ' take(s), by take: ' +
         takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
