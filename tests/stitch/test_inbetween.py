@@ -2304,6 +2304,58 @@ def test_feet_the_segments_plant_below_the_clips_floor_are_raised_to_it(humanoid
     np.testing.assert_array_equal(out[True][b:], T[b:])
 
 
+def test_a_foot_planted_through_the_gap_is_raised_only_as_the_fill_departs():
+    """_onto_floor: a foot planted on every filled frame stands where the context has it at
+    both ends; its rise onto the floor follows ``stand`` (none beside the gap), so a straight
+    standing leg is not bent at once to lift it (newcomer: the knee 2.8 cm in the first filled
+    frame of a standing take). A foot that steps within the gap is raised whole, as before."""
+    from mocapkit.stitch.inbetween import _onto_floor
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=1).motion  # metres
+    F, a, b = 40, 10, 30
+    gap = np.zeros(F, bool)
+    gap[a:b] = True
+    pos = np.zeros((F, 2, 3))
+    pos[gap, :, 1] = -0.01  # both feet 1 cm below the floor in the fill
+    flags = np.ones((F, 2), bool)
+    flags[18:22, 1] = False  # the second foot steps in the gap
+    stand = np.clip(np.minimum(np.arange(F) - (a - 1), b - np.arange(F)) / 7, 0, 1)
+    targets, weights = pos.copy(), np.zeros((F, 2))
+    t, w = _onto_floor(walk, pos, flags, gap, targets, weights, "Y", np.zeros(2), stand)
+    rise = t[:, :, 1] - pos[:, :, 1]
+    np.testing.assert_allclose(rise[gap, 0], 0.01 * stand[gap])  # faded in from both ends
+    assert rise[a, 0] < 0.002 and rise[a + 10, 0] == pytest.approx(0.01)
+    np.testing.assert_allclose(rise[gap, 1], 0.01)  # the stepping foot: raised whole
+    assert np.all(w[gap] == 1.0) and np.all(rise[~gap] == 0.0)
+    # without ``stand``, as before: every lifted foot raised whole
+    t0, _ = _onto_floor(walk, pos, flags, gap, targets, weights, "Y", np.zeros(2))
+    np.testing.assert_allclose(t0[gap, :, 1] - pos[gap, :, 1], 0.01)
+
+
+def test_a_standing_take_keeps_its_knees_at_the_gaps_start():
+    """End to end: a standing take filled from itself 1.5 cm lower (the fill's feet sink below
+    the floor as it leaves the context): the foot lock moves the knees in the first filled
+    frames little more than the fill did without it (1.4x; it was 2.1x: the rise at once)."""
+    from dataclasses import replace
+
+    from mocapkit.features import pelvis_index
+
+    idle = datasets.procedural_motion("idle", 4.0, seed=3).motion
+    low = idle.copy()
+    tr = low.local_translations()
+    tr[:, pelvis_index(idle.skeleton), 1] -= 0.015
+    low.translations, low.root_positions = tr, tr[:, 0].copy()
+    a, b = 40, 80
+    knees = [idle.skeleton.names.index(n) for n in ("LeftLeg", "RightLeg")]
+    step = {}
+    for lock in (False, True):
+        config = replace(DEFAULT_CONFIG, neighbours=1, own_frames=False, foot_lock=lock)
+        res = inbetween(idle, (a, b), [low], up="Y", method="library", config=config)
+        p = forward_kinematics(res.motion)[0][a - 1 : a + 4, knees]
+        step[lock] = np.linalg.norm(np.diff(p, axis=0), axis=-1).max()
+    assert step[True] < 1.6 * step[False], step
+
+
 def test_free_feet_pass_over_the_floor_as_high_as_their_segments_did():
     """A fill whose swinging feet were pushed 2 cm lower than its library segment carried them
     (as the legs' end offsets can): the foot lock raises them back to the segment's height over
