@@ -193,6 +193,9 @@ def inbetween_cmd(
             check_gap(gap, q.num_frames, clip, q.fps)
         except RangeError as e:
             raise CLIError(f"{clip}: {e}") from None
+    if method == "kalman" and (lib_paths or left_out):  # nothing is searched: not read either
+        click.echo("mocapkit: note: --method kalman: the library is not searched", err=True)
+        lib_paths, left_out, unnamed = [], [], []
     # as every library job: a file that cannot be read, or has another skeleton, is left out
     # (one error line each, exit status 2 at the end) and the others go on
     lib_paths, lib, skipped = load_readable(lib_paths, lenient)

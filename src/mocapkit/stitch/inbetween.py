@@ -2761,9 +2761,12 @@ def inbetween(
             f"{clip_name}: gap {a}:{b} is at the clip's {'start' if a == 0 else 'end'}: the "
             "Kalman transition needs context on both sides of the gap; fill it from a library"
         )
-    lib = None if no_library else _as_library(library, clip, library_names, up, config)
+    # the Kalman transition asked for: nothing is searched (neither the library nor the clip)
+    asked_kalman = method == "kalman"
+    lib = None if no_library or asked_kalman else _as_library(library, clip, library_names, up,
+                                                              config)  # fmt: skip
     dropouts: list[tuple[int, int]] = []
-    if not _own_added and (lib is not None or method != "kalman"):
+    if not _own_added and not asked_kalman:
         dropouts = dropout_frames(clip)
         skip = [*not_captured, *dropouts]
         lib = with_own_frames(lib, clip, a, b, clip_name, up, config, future_frames, skip)
@@ -2798,20 +2801,23 @@ def inbetween(
     onpath = features.ground_root_on_path(clip, up)
     ctx = gap_context(onpath, a, b, w, up, future_frames)
     mpu = features.metres_per_unit(clip, None)
-    if method == "kalman" and not kalman_ok:
-        raise ValueError(_kalman_too_long(clip, a, b, config, lib is not None))
+    if asked_kalman and not kalman_ok:
+        raise ValueError(_kalman_too_long(clip, a, b, config, asked=True))
     t0 = time.perf_counter()
     note = ""
     try:
-        if lib is None:  # the Kalman transition alone, asked for without a library
+        cands: list[Candidate] = []
+        count = 0
+        if lib is None and not asked_kalman:  # nothing to search: the Kalman transition alone
             raise NoLibraryFitError(
                 f"no library, and not {OWN_PIECE_MIN_SECONDS:g} s of the clip beside the gap, "
                 "to search"
             )
-        cands, count = search_inbetween_top(
-            ctx, b - a, lib, averaged(clip, b - a, config, one_sided), w=w, config=config,
-            model=model, metres_per_unit=mpu,
-        )  # fmt: skip
+        if lib is not None:
+            cands, count = search_inbetween_top(
+                ctx, b - a, lib, averaged(clip, b - a, config, one_sided), w=w, config=config,
+                model=model, metres_per_unit=mpu,
+            )  # fmt: skip
     except NoLibraryFitError as e:  # no library clip fits the gap: only the Kalman transition can
         if method == "library" or (not config.fallback and method == "auto"):
             raise
@@ -2947,11 +2953,15 @@ def kalman_max_frames(clip: Motion, config: InbetweenConfig = DEFAULT_CONFIG) ->
 
 
 def _kalman_too_long(
-    clip: Motion, a: int, b: int, config: InbetweenConfig, library: bool = True
+    clip: Motion, a: int, b: int, config: InbetweenConfig, asked: bool = False
 ) -> str:
+    """Why the Kalman transition cannot fill gap a:b, and what can (``asked``: it was asked
+    for, method 'kalman'; else nothing in the library or the clip fits the gap)."""
     g, k = b - a, kalman_max_frames(clip, config)
     remedy = (
-        "a library with clips long enough" if library else "a library (no usable one was given)"
+        "a library or the clip's own frames beside it (method 'auto' or 'library')"
+        if asked
+        else "a library with clips long enough"
     )
     return (
         f"the Kalman transition fills gaps of up to {k} frames ({config.kalman_max_seconds:g} s "
