@@ -2526,8 +2526,9 @@ class Inbetween:
     """True when the library clip was played backwards (its frames ``source_frames`` fill the
     gap in reverse order)."""
     blended_from: tuple[dict[str, Any], ...] = ()
-    """Every library segment combined into the fill, best first: ``weight`` (its share,
-    :func:`fill_weights`: the shares sum to 1, some may be negative), ``source`` (file),
+    """The library segments combined into the fill, best first (the others where their share
+    is not 0 to 4 decimals): ``weight`` (its share, :func:`fill_weights`, to 4 decimals: the
+    shares sum to 1, some may be negative), ``source`` (file),
     ``source_frames`` (its frame numbers, ascending, stop excluded), ``backwards``, ``rate``
     (speed factor), ``score``. Empty when the Kalman transition filled the gap."""
     requested: str = "auto"
@@ -2890,7 +2891,10 @@ def inbetween(
             "rate": c.rate,
             "score": c.score,
         }
-        for c, wk in zip(cands, share, strict=True)
+        for i, (c, wk) in enumerate(zip(cands, share, strict=True))
+        # the best-scoring first, always; the others where they weigh anything at the report's
+        # precision (newcomer: "combines 12 segments", 7 of them at weight 0.0)
+        if i == 0 or round(float(wk), 4) != 0.0
     )
     best = blended[0] if blended else {"source": None, "source_frames": None, "backwards": False}
     return Inbetween(
