@@ -558,6 +558,22 @@ def test_with_nothing_to_search_auto_gives_a_short_gap_to_the_kalman_transition(
         inbetween(short, (12, 18), None, up="Y", method="library")
 
 
+def test_cli_says_the_heaviest_segment_was_played_backwards(humanoid, tmp_path):
+    """The line naming the segment weighing most says when it was played backwards, as the
+    best-scoring segment's line does (newcomer: "frames 14:38 (57%)", the direction dropped)."""
+    import re
+
+    _, lib = humanoid
+    write_motion(lib[1][::-1][40:120], tmp_path / "back.bvh")  # too short for its own frames
+    write_motion(lib[0], tmp_path / "fwd.bvh")  # another walk, forwards
+    code, so, se = run("inbetween", tmp_path / "back.bvh", "--gap", "30:50", "--library",
+                       tmp_path / "fwd.bvh", "--out", tmp_path / "o.bvh")  # fmt: skip
+    assert code == 0, se
+    assert "played backwards" in so.splitlines()[0]
+    most = re.search(r"weighing most, fwd\.bvh frames \d+:\d+ (played backwards )?\(", so)
+    assert most and most.group(1), so
+
+
 def test_backward_walk_from_forward_library(humanoid):
     """A walk played backwards is filled from the forward walks played backwards: the library
     copy that is the gap's own frames reversed is found, named by the file's frames (ascending)

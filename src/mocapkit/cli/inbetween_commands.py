@@ -266,7 +266,8 @@ def inbetween_cmd(
             f"{f', {negative} of them subtracted' if negative else ''}; each segment's frames, "
             "speed and weight: --json or the sidecar, whose filled frames name the segment "
             f"weighing most, {Path(main['source']).name} frames {main['source_frames'][0]}:"
-            f"{main['source_frames'][1]} ({whole_percent(main['weight'])}))"
+            f"{main['source_frames'][1]}{' played backwards' if main['backwards'] else ''} "
+            f"({whole_percent(main['weight'])}))"
         )
     fit_warning = None  # said on standard error, and in the JSON's warnings
     if res.warning and res.method == "library":  # (a Kalman fill is not the library's)
