@@ -1445,6 +1445,11 @@ def test_cli_fills_from_the_clips_own_frames_when_no_library_file_is_usable(file
                        "--out", tmp_path / "p.bvh")  # fmt: skip
     assert code == 2 and (tmp_path / "p.bvh").exists() and "(the clip's own frames)" in so
     assert sum(x.startswith("mocapkit: error: left out") for x in se.splitlines()) == 2
+    # and said last, plainly (newcomer: a mistyped --library, then "wrote p.bvh")
+    assert se.strip().splitlines()[-1] == (
+        "mocapkit: error: --library: all 2 items were left out; the gap is filled from the "
+        "clip's own frames alone"
+    )
     short = tmp_path / "short.bvh"
     write_motion(with_ground_root(datasets.procedural_motion("walk", 2.0, seed=3).motion), short)
     code, _, se = run("inbetween", short, "--gap", "20:35", "--library", lib,

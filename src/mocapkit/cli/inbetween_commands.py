@@ -236,8 +236,11 @@ def inbetween_cmd(
                 f"--library: no library motion with {clip}'s skeleton could be read "
                 f"({left_out[0].removeprefix('--library: ')}{more}), and {one_line(e)}"
             ) from None
-    if none_kept:
+    if none_kept:  # said last, where it is read: the fill owes nothing to the library asked for
         say_left_out(left_out)
+        n = len(left_out)
+        say_left_out([f"--library: {'its one item was' if n == 1 else f'all {n} items were'} "
+                      "left out; the gap is filled from the clip's own frames alone"])  # fmt: skip
     c = res.candidate
     if c is not None and res.source_frames is not None:
         s0, s1 = res.source_frames
