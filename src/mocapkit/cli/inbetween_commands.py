@@ -98,50 +98,58 @@ def inbetween_cmd(
     json_path: str | None,
     lenient: bool,
 ) -> None:
-    """Replace frames A:B of CLIP (B excluded) by motion found in the library.
+    """Replace frames A:B of CLIP (B excluded) by motion found in a library of clips, and in
+    CLIP itself beside the gap.
 
-    Every segment of every library clip (also played backwards), and of CLIP itself beside
-    the gap (each stretch of at least 1 s before and after it: the take's own steps are its
-    person's, style's and gait's), of the gap's length and of nearby lengths time-warped to
-    fit, is scored by how well its body-local poses match the last
-    two frames before the gap and the first frame after it, how the pelvis rises and falls with
-    the steps just before the gap (its vertical speed and acceleration, whatever the person's
-    height), and how the body travels over the ground across the gap. The best segments
-    (twelve) are each moved over the ground onto both ends, their remaining pose differences
-    blended away, and combined: the better-scored count more (a segment with score s weighs
-    exp(-(s - best) / (best + 1)), the score's unit being the pose and path tolerances: an
-    exact match still shares its weight with segments within about one unit of it), and the
-    weights are then corrected so that what the segments have in common in missing the clip
-    beside the gap (all a little ahead in their step, say) is not carried into the fill (a
-    regression of the fills on those misses, read at no miss; some weights are then
-    negative). Every segment meets the context poses, so the result does exactly; a gap over
-    1.5 s is filled by the best segment alone (combined segments drift out of step over a few
-    strides, and their feet slide). The legs are then
-    fitted by IK: planted feet held and raised onto the clip's floor (as far as the legs may
-    turn at 360 deg/s, so a fill from an unlike library can leave a foot a little low), swinging
-    feet passing over it no lower than the segments lifted them. The gap needs at least 3 frames
-    of the clip before it and 1 after it, or is at the clip's start (0:B, 3 frames after it) or
-    end (A:F, 3 frames before it): such a gap is filled from the one side, by the best segment
-    alone, continuing the clip's motion and free at the other end. With --method auto the Kalman
-    transition of stitching fills a gap of up to 0.3 s instead, and says so, when the library
-    fill's two-sided L-score (smoothness at both junctions, lower is better) is more than 4x the
-    Kalman transition's own. The frames replaced are scored too: a fill scoring about as they
-    did is as smooth at its junctions as the capture was. When the best segment's path over
-    the ground misses the clip's by more than 0.5 m (0.35 m per second of a gap over 1.4 s),
-    or its poses beside the gap by more than 12 cm RMS per joint, the library holds nothing
-    like the motion around the gap: a gap of up to 0.3 s is then given to the Kalman
-    transition (with auto), and a library fill kept is warned about. OUT gets a provenance sidecar
-    naming the library files and frames used
-    (``mocapkit view OUT`` marks them); when CLIP has a sidecar of its own (a take filled
-    before), the earlier fills are traced into it, and their frames are not searched as the
-    take's own, nor are its dropouts (a joint holding its value bit for bit for 1/3 s).
-    --json writes the same with the scores and the warnings of reading and writing the files
-    (``warnings``: a CMU take written as BVH, whose unit BVH cannot state, among them, and the
-    fit's warning when a library fill is kept; ``warning`` is the fit's assessment whichever
-    method filled the gap). A library file that cannot be read, or has another skeleton, gets
-    one error line and is left out; the gap is still filled from the others (the clip's own
-    frames, if none is left), and the exit status is then 2. CLIP and library files may be .bvh,
-    .npz or CMU .amc (with its subject's .asf beside it).
+    \b
+    What it needs:
+      - 3 frames of CLIP before the gap and 1 after it; or a gap at CLIP's start (:B, 3
+        frames after it) or end (A:, 3 before it), filled from its one side, free at the
+        other end.
+      - a library (--library), or at least 1 s of CLIP before or after the gap: CLIP's own
+        steps (its person's, style's and gait's) are searched with or without a library.
+      - the same skeleton in CLIP and every library file (.bvh, .npz, .glb, .gltf, or CMU
+        .amc with its subject's .asf beside it). One gap per run: run again on OUT for the
+        next one.
+
+    \b
+    What it does:
+      1. Search: every segment of every library clip (also played backwards) and of CLIP
+         beside the gap, of the gap's length and of nearby lengths time-warped to fit
+         (x0.8 to x1.25), is scored by how well its body-local poses match the two frames
+         before the gap and the first after it, how its pelvis rises and falls with the
+         steps just before the gap, and how it travels over the ground across the gap.
+      2. Fit: the twelve best are each moved over the ground onto both ends and their
+         pose differences blended away, so each meets the context exactly; they are
+         combined, the better-scored counting more (a segment scoring s weighs
+         exp(-(s - best) / (best + 1))), the weights corrected so that what the segments
+         share in missing the clip (all a little ahead in their step, say) is not carried
+         into the fill (some weights are then negative). A gap over 1.5 s gets the best
+         segment alone (combined segments drift out of step over a few strides).
+      3. Feet: the legs are fitted by IK, planted feet held and raised onto CLIP's floor
+         (as fast as the legs may turn, 360 deg/s: a fill from an unlike library can
+         leave a foot a little low), swinging feet no lower than the segments lifted them.
+      4. Fallback (--method auto): a gap of up to 0.3 s goes to stitching's Kalman
+         transition instead, and the command says so, when the library fill's two-sided
+         L-score (smoothness at both junctions, lower is better) is over 4x the Kalman
+         transition's, or when nothing in the library is like the motion around the gap.
+
+    \b
+    What it tells you:
+      - the best-scoring segment (file, frames, speed, how far its poses and path were off),
+        the takes the fill was combined from and their shares, and the L-scores of the
+        filled frames and of the frames they replaced (about equal: as smooth at the
+        junctions as the capture was).
+      - a warning when the library holds nothing like the motion around the gap: the best
+        segment's path over the ground off by more than 0.5 m (0.35 m per second of a gap
+        over 1.4 s), or its poses beside the gap by more than 12 cm RMS per joint.
+      - OUT's provenance sidecar names the files and frames used (mocapkit view OUT marks
+        them). A CLIP filled before keeps its earlier fills marked, and they are not
+        searched as its own, nor are its dropouts (a joint holding its value bit for bit
+        for 1/3 s). --json writes the same, with the scores and every warning.
+      - a library file that cannot be read, or has another skeleton, gets one error line
+        and is left out; the gap is filled from the others (from CLIP's own frames if none
+        is left), and the exit status is 2.
 
     \b
     Examples:
