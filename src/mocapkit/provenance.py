@@ -35,9 +35,9 @@ the matching ``transitions`` entry names), ``"generated"`` (frames made by mocap
 stitch's injected frames), ``"inbetween"`` (frames of ``source``, time-warped and moved onto
 the frames around a gap, their ends blended into them: ``mocapkit inbetween``; with
 ``"backwards": true`` when the source played in reverse; ``source`` is the best-scoring of the
-library segments the fill combines, and ``parameters["blended_from"]`` lists every one of them
-with its share, which may be small or negative). Readers ignore keys they do not know,
-so later tools may add some.
+library segments the fill combines, and ``parameters["blended_from"]`` lists it and every other
+one whose share is not 0 to 4 decimals, with its share, which may be small or negative).
+Readers ignore keys they do not know, so later tools may add some.
 
 A motion made from a motion mocapkit made (a take filled twice) traces its copied frames back
 through that input's sidecar (:meth:`Provenance.through`; ``mocapkit inbetween`` does): the

@@ -881,6 +881,39 @@ def test_a_segment_at_its_clips_ends_meets_the_contexts_velocity_too():
     assert v[-2] == pytest.approx(fall * keep)  # was 0: the segment's own standing still
 
 
+def test_a_segments_missing_neighbour_frame_is_its_step_carried_on():
+    """The step a segment lacks (no library frame before or after it) is its own first or
+    last step carried on: for a segment moving at a constant velocity (the root gliding, every
+    joint turning steadily) the fill is the one its clip would give with those frames there
+    (reviewer: a held pose could not tell a wrong extrapolation from a right one)."""
+    from mocapkit.core.motion import Motion
+    from mocapkit.stitch.inbetween import Candidate, library_fill
+
+    walk = datasets.procedural_motion("walk", 2.0, seed=1).motion
+    a, b = 20, 40
+    g = b - a
+    n = g + 4  # frames -1 .. g+2 around the segment's A-1 .. B
+    k = np.arange(n, dtype=float)[:, None]
+    steady = rot.rotvec_to_quat(np.array([0.02, -0.03, 0.05]) * k[..., None]
+                                * np.ones((1, walk.num_joints, 1)))  # fmt: skip
+    rots = rot.quat_normalize(rot.quat_mul(steady, walk.rotations[a - 1][None]))
+    tr = np.repeat(walk.local_translations()[a - 1][None], n, axis=0)
+    tr[:, 0] += np.array([0.03, 0.002, 0.01]) * k  # gliding, and rising
+    whole = Motion(walk.skeleton, rots, tr[:, 0], walk.frame_time, tr)
+    cut = whole[1 : n - 1]  # the same segment, its clip ending at both of its ends
+    cfg = InbetweenConfig(blend_seconds=0.25)
+    with_frames = library_fill(walk, a, b, whole, Candidate(0, 1.0, 1.0, 0, 0, 0, 0), up="Y",
+                               config=cfg)  # fmt: skip
+    carried = library_fill(walk, a, b, cut, Candidate(0, 0.0, 1.0, 0, 0, 0, 0), up="Y",
+                           config=cfg)  # fmt: skip
+    # alike to what the ground warp's turn of the extra frames adds (0.7 mm, 0.07 deg here); a
+    # step not carried on is off by about a step (3 cm a frame, 4 deg with the turns held)
+    np.testing.assert_allclose(carried.local_translations(), with_frames.local_translations(),
+                               atol=2e-3)  # fmt: skip
+    d = rot.quat_mul(carried.rotations, rot.quat_inv(with_frames.rotations))
+    assert np.degrees(2 * np.arccos(np.clip(np.abs(d[..., 0]), 0, 1))).max() < 0.5
+
+
 def _held_pose_on_path(pose: Motion, path: np.ndarray, headings: np.ndarray) -> Motion:
     """``pose`` (one frame) held, its root carried along ``path`` (n, 3) and turned about up
     to ``headings`` (n,) radians: a body gliding along a path, facing where the path says."""
@@ -1622,6 +1655,11 @@ def test_a_poor_fit_from_the_clips_own_frames_names_them():
     res = inbetween(clip, (n + 20, n + 40), None, up="Y")
     assert res.warning.startswith("the clip's own frames hold nothing like the motion around")
     assert "library" not in res.warning
+    # at the clip's start too, filled as the reversed clip's end, which is handed the clip's
+    # own frames as its library (reviewer: "the library holds..." there)
+    walked = concatenate([idle, datasets.procedural_motion("walk", 2.0, seed=11).motion[:30]])
+    start = inbetween(walked[::-1], (0, 20), None, up="Y")
+    assert start.warning.startswith("the clip's own frames hold nothing like"), start.warning
 
 
 def test_poses_far_off_the_context_warn_too():
@@ -2363,10 +2401,11 @@ def test_a_foot_planted_through_the_gap_is_raised_only_as_the_fill_departs():
     np.testing.assert_allclose(t0[gap, :, 1] - pos[gap, :, 1], 0.01)
 
 
-def test_a_standing_take_keeps_its_knees_at_the_gaps_start():
+def test_a_standing_take_keeps_its_knees_at_the_gaps_ends():
     """End to end: a standing take filled from itself 1.5 cm lower (the fill's feet sink below
-    the floor as it leaves the context): the foot lock moves the knees in the first filled
-    frames little more than the fill did without it (1.4x; it was 2.1x: the rise at once)."""
+    the floor as it leaves the context): the foot lock moves the knees in the first and the
+    last filled frames little more than the fill did without it (1.4x; it was 2.1x: the rise
+    at once)."""
     from dataclasses import replace
 
     from mocapkit.features import pelvis_index
@@ -2382,9 +2421,11 @@ def test_a_standing_take_keeps_its_knees_at_the_gaps_start():
     for lock in (False, True):
         config = replace(DEFAULT_CONFIG, neighbours=1, own_frames=False, foot_lock=lock)
         res = inbetween(idle, (a, b), [low], up="Y", method="library", config=config)
-        p = forward_kinematics(res.motion)[0][a - 1 : a + 4, knees]
-        step[lock] = np.linalg.norm(np.diff(p, axis=0), axis=-1).max()
-    assert step[True] < 1.6 * step[False], step
+        p = forward_kinematics(res.motion)[0][:, knees]
+        for end, span in (("A", slice(a - 1, a + 4)), ("B", slice(b - 4, b + 1))):
+            step[lock, end] = np.linalg.norm(np.diff(p[span], axis=0), axis=-1).max()
+    assert step[True, "A"] < 1.6 * step[False, "A"], step
+    assert step[True, "B"] < 1.6 * step[False, "B"], step
 
 
 def test_free_feet_pass_over_the_floor_as_high_as_their_segments_did():

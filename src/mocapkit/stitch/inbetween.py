@@ -1755,7 +1755,8 @@ def _lock_feet(
         ground_frame(up)[1], "offset", np.repeat(context[:, None], len(effs), 1), drift,
     )  # fmt: skip
     # a foot planted through the gap is raised as the end offsets fade (_onto_floor's stand)
-    blend = max(motion.seconds_to_frames(config.blend_seconds), 1)
+    # (whole by the middle of a short gap: reviewer, a short fill's sunk foot stayed low)
+    blend = max(min(motion.seconds_to_frames(config.blend_seconds), (b - a + 1) // 2), 1)
     to_end = b - i if b < motion.num_frames else np.inf
     e = np.clip(np.minimum(i - (a - 1), to_end) / blend, 0.0, 1.0)
     targets, weights = _onto_floor(ex, pos[:, list(effs)], flags, ~context, targets, weights, up,
@@ -1877,8 +1878,9 @@ def _onto_floor(
     more and was left out: it would change captured swings.
 
     ``stand`` ((F,), optional): the share of its rise a foot joint planted on every filled
-    frame gets on each frame (:func:`_lock_feet`: none beside the gap, all once the end
-    offsets have faded). Relies on: a foot that stays planted through the gap stands where the
+    frame and on the context frames beside them gets on each frame (:func:`_lock_feet`: none
+    beside the gap, all once the end offsets have faded, or by the middle of a shorter gap).
+    Relies on: a foot that stays planted through the gap stands where the
     context has it at both ends, at the context's own height; the fill sinks it below the floor
     only as it departs from the context (a library person standing with bent knees, the pelvis
     held at the clip's level), and raised whole from the first filled frame, a straight
@@ -1908,7 +1910,11 @@ def _onto_floor(
     r = np.ones(len(h)) if stand is None else np.asarray(stand, dtype=np.float64)
     for k in lift:  # the lock's target as far as its weight pulled, then raised, held fully
         w = weights[gap, k, None]
-        raised = rise[k] * (r[gap, None] if flags[gap, k].all() else 1.0) * u
+        # planted through the gap and on the context frames beside it: standing
+        beside = np.flatnonzero(gap)[[0, -1]] + [-1, 1]
+        beside = beside[(beside >= 0) & (beside < len(h))]
+        stands = flags[gap, k].all() and flags[beside, k].all()
+        raised = rise[k] * (r[gap, None] if stands else 1.0) * u
         targets[gap, k] = pos[gap, k] + w * (targets[gap, k] - pos[gap, k]) + raised
         weights[gap, k] = 1.0
     return targets, weights
@@ -2528,7 +2534,8 @@ class Inbetween:
     blended_from: tuple[dict[str, Any], ...] = ()
     """The library segments combined into the fill, best first (the others where their share
     is not 0 to 4 decimals): ``weight`` (its share, :func:`fill_weights`, to 4 decimals: the
-    shares sum to 1, some may be negative), ``source`` (file),
+    shares sum to 1 within the rounding and the unlisted, some may be negative), ``source``
+    (file),
     ``source_frames`` (its frame numbers, ascending, stop excluded), ``backwards``, ``rate``
     (speed factor), ``score``. Empty when the Kalman transition filled the gap."""
     requested: str = "auto"
@@ -2737,8 +2744,8 @@ def inbetween(
     Kalman transition's own or the best candidate is unlike the context (the poor-fit warning),
     ``config.fallback`` is on and the gap is within
     ``config.kalman_max_seconds``), "library" (never fall back) or "kalman" (the Kalman
-    transition, ValueError past ``config.kalman_max_seconds`` or at the clip's start or end; the
-    search still runs, for the report). A gap at the clip's start (``0:B``) or end (``A:F``) is
+    transition, ValueError past ``config.kalman_max_seconds`` or at the clip's start or end;
+    nothing is searched). A gap at the clip's start (``0:B``) or end (``A:F``) is
     filled from its one side (module docstring). The clip's own frames beside the gap are
     searched too, as a library clip named ``clip_name`` (:attr:`InbetweenConfig.own_frames`),
     but for the frame ranges ``not_captured`` (``(start, stop)``: frames an earlier fill made,
@@ -2760,7 +2767,8 @@ def inbetween(
     if one_sided and method == "kalman":
         raise ValueError(
             f"{clip_name}: gap {a}:{b} is at the clip's {'start' if a == 0 else 'end'}: the "
-            "Kalman transition needs context on both sides of the gap; fill it from a library"
+            "Kalman transition needs context on both sides of the gap; fill it from a library "
+            "or the clip's own frames beside it (method 'auto' or 'library')"
         )
     # the Kalman transition asked for: nothing is searched (neither the library nor the clip)
     asked_kalman = method == "kalman"
@@ -2860,7 +2868,10 @@ def inbetween(
     replaced = sum(
         x for x in _two_sided(onpath, onpath[a:b], a, b, ctx, w, up, model) if not math.isnan(x)
     )
-    searched = "the clip's own frames" if no_library else "the library"
+    # the clip's own frames alone (also in the reversed clip of a gap at its start, which is
+    # handed them as its library: reviewer), or a library
+    own_only = lib is None or all(n == str(clip_name) for n in lib.names)
+    searched = "the clip's own frames" if own_only else "the library"
     pose_rms, path_miss, warning = _fit_of(
         cand, config, (b - a) * clip.frame_time, one_sided, searched
     )
