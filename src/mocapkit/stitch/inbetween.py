@@ -1767,6 +1767,9 @@ def _lock_feet(
     above = clearance / np.where(known > 0, known, 1.0)
     targets, weights = _swing_clearance(ex, pos[:, list(effs)], flags, targets, weights, up,
                                         floor + above, known > 0)  # fmt: skip
+    legs_effs = [[effs.index(e) for e in c.effectors] for c in chains]
+    targets, weights = _above_floor(ex, pos[:, list(effs)], ~context, targets, weights, up, floor,
+                                    legs_effs)  # fmt: skip
     ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
     to_end = b - i if b < motion.num_frames else np.inf  # no context after a gap that ends it
     x = np.clip(np.minimum(i - (a - 1), to_end) / (ramp + 1), 0.0, 1.0)
@@ -1833,7 +1836,10 @@ def _planted_heights(
     frames ``skip`` (a foot rolls up from the floor, not into it); NaN for the other joints and
     for a foot planted nowhere. Over the whole clip: a few steps beside a gap may all sit a
     centimetre high (a walk's start filled from the take itself was raised 1 cm with the half
-    second after the gap alone)."""
+    second after the gap alone). A foot joint planted nowhere there takes its other foot's
+    (both feet stand on one floor: a short run whose left foot lands only in the gap had no
+    floor for it, and the fill sank it 8.7 cm)."""
+    from mocapkit.body import body_of
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.features import foot_contacts, ground_frame
 
@@ -1849,6 +1855,13 @@ def _planted_heights(
     for k, j in enumerate(contacts.joints):
         if planted[:, k].any():
             out[j] = np.percentile(h[planted[:, k], j], 10)
+    body = body_of(motion)
+    for part in ("ankle", "toe"):
+        pair = body.pair(part)
+        if pair is not None:
+            left, right = pair
+            out[left] = out[right] if np.isnan(out[left]) else out[left]
+            out[right] = out[left] if np.isnan(out[right]) else out[right]
     return out
 
 
@@ -1973,6 +1986,107 @@ def _swing_clearance(ex: Motion, pos, planted, targets, weights, up: str, cleara
     targets[low] = aim[low] + rise[low][:, None] * u  # raised from there, held fully
     weights[low] = 1.0
     return targets, weights
+
+
+FLOOR_DIP_M = 0.005
+"""How far below the height at which the clip plants it (:func:`_planted_heights`) a foot
+joint may go in the filled frames (:func:`_above_floor`): a captured foot does not go lower
+than where it stands by more than its markers' jitter (bandai2's tuning tenth, 75 takes: at
+most 0.44 cm, the median take 0.02 cm)."""
+
+
+def _above_floor(ex: Motion, pos, gap, targets, weights, up: str, floor, feet):
+    """``targets`` and ``weights`` of :func:`_lock_feet` with every filled frame (``gap``)
+    where the lock aims a foot joint (its target as far as its weight pulls: the floor and
+    swing rules of :func:`_onto_floor` and :func:`_swing_clearance` included) more than
+    :data:`FLOOR_DIP_M` below ``floor`` (its planted height in the clip, (n,)) aimed higher,
+    fully, whether the foot is planted, swinging or neither: each foot (``feet``: the columns
+    of one leg's joints, ankle and toe) is raised whole by its lowest joint's depth, so that
+    lifting the heel does not tip the toe down. A foot is never lowered.
+
+    Relies on: a foot does not go through the floor (a captured foot joint stays within
+    :data:`FLOOR_DIP_M` of where it stands). The floor and swing rules each cover feet the
+    contact detector calls planted or fast; a foot between (sliding at a walking pace, as a
+    segment of another gait fitted to the context drags it) was left where the fill put it
+    (newcomer report: a Bandai-1 run filled from walks only, a toe 4 cm into the floor over
+    five frames, unwarned; run_angry_001 at 20:50, the left ankle 8.7 cm)."""
+    from mocapkit.features import ground_frame, metres_per_unit
+
+    _, u, _ = ground_frame(up)
+    aim = pos + weights[..., None] * (targets - pos)
+    depth = np.nan_to_num(floor[None] - aim @ u, nan=-np.inf)  # (F, n): below the floor by
+    tol = FLOOR_DIP_M / metres_per_unit(ex, None)
+    targets, weights = targets.copy(), weights.copy()
+    for cols in feet:
+        d = depth[:, cols].max(axis=1)
+        low = gap & (d > tol)
+        if low.any():  # the whole foot onto the floor, held fully
+            targets[np.ix_(low, cols)] = aim[np.ix_(low, cols)] + d[low, None, None] * u
+            weights[np.ix_(low, cols)] = 1.0
+    return targets, weights
+
+
+SKATE_HEIGHT_M = 0.05
+"""H of the foot-skate measure (:func:`feet_measures`): a foot joint at its planted height
+counts whole, at H above it not at all (Zhang et al. 2018's weighting, as the benchmark's)."""
+
+
+def feet_measures(
+    before: Motion, after: Motion, a: int, b: int, up: str
+) -> dict[str, Any]:
+    """What the filled frames ``a..b-1`` of ``after`` do with the feet, against ``before``
+    (the clip as given; only its frames outside the gap are read):
+
+    - ``floor_depth_m``: how far the lowest foot joint goes below the height at which the clip
+      plants it (:func:`_planted_heights`; 0 when none does), with ``floor_depth_joint`` and
+      ``floor_depth_frame`` where;
+    - ``foot_skate_m_s``: the feet's horizontal speed over the filled frames (the steps
+      A-1 -> A .. B-1 -> B), each foot joint weighted by how near its planted height it is
+      (whole there, none :data:`SKATE_HEIGHT_M` above: Zhang et al. 2018, the benchmark's
+      measure), and ``clip_foot_skate_m_s`` the same over the clip's own frames outside the
+      gap: a captured foot rolls and settles, so the clip's own is not zero.
+
+    None for each where the rig has no feet, or the clip no planted foot or frame outside
+    the gap to measure."""
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.features import find_feet, ground_frame, metres_per_unit
+
+    out: dict[str, Any] = dict.fromkeys(
+        ("floor_depth_m", "floor_depth_joint", "floor_depth_frame", "foot_skate_m_s",
+         "clip_foot_skate_m_s")
+    )  # fmt: skip
+    try:
+        feet = sorted({j for _, j in find_feet(before.skeleton, before, up)})
+    except ValueError:
+        return out
+    floor = _planted_heights(before, up, feet, skip=(a, b))[feet]
+    if not feet or not np.isfinite(floor).any():
+        return out
+    mpu = metres_per_unit(before, None)
+    _, u, _ = ground_frame(up)
+    ground = np.eye(3) - np.outer(u, u)
+
+    def skate(pos: np.ndarray) -> np.ndarray:  # (T, n, 3) -> (T-1,) m/s, mean over the feet
+        v = np.linalg.norm(np.diff(pos, axis=0) @ ground, axis=-1) * before.fps * mpu
+        h = (pos[1:] @ u - floor[None]) * mpu
+        w = np.nan_to_num(np.clip(2.0 - np.power(2.0, h / SKATE_HEIGHT_M), 0.0, 1.0))
+        return (v * w).mean(axis=1)
+
+    lo, hi = max(a - 1, 0), min(b + 1, after.num_frames)
+    filled = forward_kinematics(after[lo:hi])[0][:, feet]
+    depth = np.nan_to_num(floor[None] - filled[a - lo : a - lo + b - a] @ u, nan=-np.inf)
+    f, k = np.unravel_index(int(np.argmax(depth)), depth.shape)
+    out["floor_depth_m"] = max(float(depth[f, k]) * mpu, 0.0)
+    out["floor_depth_joint"] = before.skeleton.names[feet[k]]
+    out["floor_depth_frame"] = int(a + f)
+    out["foot_skate_m_s"] = float(skate(filled).mean())
+    own = forward_kinematics(before)[0][:, feet]
+    steps = skate(own)
+    keep = np.ones(len(steps), bool)
+    keep[max(a - 1, 0) : b] = False  # the steps into, within and out of the gap
+    if keep.any():
+        out["clip_foot_skate_m_s"] = float(steps[keep].mean())
+    return out
 
 
 SOURCE_MARGIN = 6
@@ -2568,6 +2682,9 @@ class Inbetween:
     unlike: bool = False
     """True when "auto" gave the gap to the Kalman transition because the library holds nothing
     like the motion around it (:attr:`warning`; :attr:`InbetweenConfig.fallback`)."""
+    feet: dict[str, Any] = field(default_factory=dict)
+    """What the written fill does with the feet (:func:`feet_measures`): how far a foot goes
+    below the clip's floor, and how fast the feet slide on it against the clip's own."""
 
     @property
     def largest(self) -> dict[str, Any] | None:
@@ -2674,6 +2791,8 @@ class Inbetween:
             "note": self.note or None,
             "kalman_lscore": _finite_or_none(self.kalman_lscore),
             "replaced_lscore": _finite_or_none(self.replaced_lscore),
+            **{k: _finite_or_none(v) if isinstance(v, float) else v
+               for k, v in self.feet.items()},
             "candidates": self.candidates,
             "search_seconds": round(self.search_seconds, 4),
             "output": self.output,
@@ -2962,6 +3081,9 @@ def _reversed(res: Inbetween, lib: InbetweenLibrary) -> Inbetween:
         backwards=not res.backwards if res.source is not None else False,
         blended_from=tuple({**x, "backwards": not x["backwards"]} for x in res.blended_from),
         library_lscore_ends=res.library_lscore_ends[::-1],
+        feet={**res.feet, "floor_depth_frame": F - 1 - res.feet["floor_depth_frame"]}
+        if res.feet.get("floor_depth_frame") is not None
+        else res.feet,
     )
 
 
