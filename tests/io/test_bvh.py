@@ -253,6 +253,24 @@ def test_lenient_repairs_and_says_so() -> None:
         parse_bvh("\n".join(rows) + "\n", lenient=True)
 
 
+def test_the_frames_filled_and_the_strict_error_are_told_apart() -> None:
+    """A caller about to replace the frames holding NaN (inbetween's gap) needs to know which
+    they are, and that NaN, not another defect, is what a strict reading refused."""
+    from mocapkit.io import FilledFramesWarning, NonFiniteError
+
+    head = SMALL.split("MOTION")[0]
+    rows = [f"0 90 0 {z} 0 0 0 0 0 0 0 0" for z in (0, "nan", "nan", 30, "inf", 10, 20, "nan")]
+    text = head + "MOTION\nFrames: 8\nFrame Time: 0.1\n" + "\n".join(rows) + "\n"
+    with pytest.raises(NonFiniteError):
+        parse_bvh(text)
+    with pytest.warns(FilledFramesWarning) as seen:
+        parse_bvh(text, lenient=True)
+    assert [w.message.frames for w in seen] == [[(1, 3), (4, 5), (7, 8)]]
+    with pytest.raises(BVHError) as other:  # not a number: another defect
+        parse_bvh(text.replace("nan", "n4n", 1))
+    assert not isinstance(other.value, NonFiniteError)
+
+
 def test_fill_from_neighbours_interpolates_between_valid_frames() -> None:
     head = SMALL.split("MOTION")[0]
     rows = [f"0 90 0 {z} 0 0 0 0 0 0 0 0" for z in (0, "nan", "nan", 30)]

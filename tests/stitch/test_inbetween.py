@@ -1384,6 +1384,41 @@ def test_weighing_takes_counts_the_takes_at_zero_apart():
     assert [n for n, _ in weighing] == ["walk.bvh", "run.bvh", "side.bvh"] and nothing == 3
 
 
+def test_cli_fills_a_dropout_of_nan_frames_named_as_the_gap(files, tmp_path):
+    """A solver's dropout written as NaN rows is what a user names as the gap: filled without
+    --lenient (said on standard error); a gap that leaves some of them outside is refused,
+    naming them, and nothing is written; --lenient fills those from their neighbours, and
+    they are not searched as the clip's own frames (not captured)."""
+    text = (files / "walk.bvh").read_text().split("\n")
+    first = text.index("MOTION") + 3  # after "Frames:" and "Frame Time:"
+    for f in range(100, 106):
+        text[first + f] = " ".join(["nan"] * len(text[first + f].split()))
+    holed = tmp_path / "holed.bvh"
+    holed.write_text("\n".join(text))
+    lib = files / "lib"
+    code, _, se = run("inbetween", holed, "--gap", "95:110", "--library", lib, "--out",
+                      tmp_path / "o.bvh")  # fmt: skip
+    assert code == 0, se
+    assert "frames 100:106 hold NaN or infinite values; the gap 95:110 replaces them" in se
+    assert np.isfinite(read_motion(tmp_path / "o.bvh").rotations).all()
+    code, so, se = run("inbetween", holed, "--gap", "95:103", "--library", lib, "--out",
+                       tmp_path / "p.bvh", "--json", "-")  # fmt: skip
+    assert code == 2 and "Traceback" not in se
+    err = json.loads(so)["error"]
+    assert "NaN or infinite" in err and "(100:106) are not all in the gap 95:103" in err
+    assert not (tmp_path / "p.bvh").exists()
+    code, so, se = run("inbetween", holed, "--gap", "95:103", "--library", lib, "--out",
+                       tmp_path / "q.bvh", "--lenient")  # fmt: skip
+    assert code == 0 and "repaired" in se
+    # the frames the lenient reading filled are what the search is told are not captured
+    from mocapkit.cli.inbetween_commands import _load_clip
+    from mocapkit.io import FilledFramesWarning
+
+    with pytest.warns(FilledFramesWarning):  # reported, as every lenient reading's repairs
+        _, filled, strict = _load_clip(str(holed), True)
+    assert filled == [(100, 106)] and strict is None
+
+
 def test_cli_writes_motion_and_sidecar(files):
     out = files / "filled.bvh"
     code, so, se = run(
@@ -2371,6 +2406,174 @@ def test_feet_the_segments_plant_below_the_clips_floor_are_raised_to_it(humanoid
     # the context frames are the clip's own either way
     np.testing.assert_array_equal(out[True][:a], T[:a])
     np.testing.assert_array_equal(out[True][b:], T[b:])
+
+
+def test_a_foot_planted_nowhere_outside_the_gap_stands_on_its_other_foots_floor(
+    humanoid, monkeypatch
+):
+    """A short run whose left foot lands only inside the gap: the clip plants it nowhere
+    else, and it had no floor (the fill sank it 8.7 cm unchecked). Both feet stand on one
+    floor: it takes the other foot's."""
+    from mocapkit import features
+    from mocapkit.body import body_of
+    from mocapkit.stitch.inbetween import _planted_heights
+
+    walk, _ = humanoid
+    body = body_of(walk)
+    ankles, toes = body.pair("ankle"), body.pair("toe")
+    both = _planted_heights(walk, "Y")
+    real = features.foot_contacts
+
+    def left_never_planted(motion, *args, **kwargs):
+        c = real(motion, *args, **kwargs)
+        left = [k for k, j in enumerate(c.joints) if j in (ankles[0], toes[0])]
+        c.contacts[:, left] = False
+        return c
+
+    monkeypatch.setattr(features, "foot_contacts", left_never_planted)
+    one = _planted_heights(walk, "Y")
+    for left, right in (ankles, toes):
+        assert one[left] == one[right] == both[right]
+    assert one[ankles[0]] != both[ankles[0]]  # the left foot's own floor differs a little
+
+
+def test_above_floor_raises_a_sunk_foot_whole_and_nothing_else():
+    """_above_floor: a foot the lock aims below the clip's floor (by more than a capture's
+    own dip), planted, swinging or neither, is raised by its lowest joint's depth, ankle and toe
+    alike (lifting the heel alone tips the toe down); within the dip, above the floor, without
+    a floor, or outside the gap, nothing moves."""
+    from mocapkit.stitch.inbetween import FLOOR_DIP_M, _above_floor
+
+    ex = datasets.procedural_motion("walk", 1.0, seed=5).motion  # metres
+    F = 6
+    floor = np.array([0.10, 0.04, 0.10, 0.04])  # ankle, toe; ankle, toe
+    pos = np.zeros((F, 4, 3))
+    pos[..., 1] = floor + 0.03  # every foot 3 cm up
+    pos[2, 0, 1], pos[2, 1, 1] = 0.07, 0.03  # left: the ankle 3 cm down, the toe 1 cm
+    pos[3, 2, 1] = 0.10 - 0.5 * FLOOR_DIP_M  # right ankle within the dip
+    pos[4, :2, 1] = floor[:2] - 0.05  # left foot 5 cm down, outside the gap
+    targets, weights = pos.copy(), np.zeros((F, 4))
+    pos[1, 1, 1] = 0.05  # the toe 1 cm up, and the lock aims it half way to 3 cm down
+    targets[1, 1, 1], weights[1, 1] = 0.01, 0.5
+    gap = np.array([True, True, True, True, False, True])
+    t, w = _above_floor(ex, pos, gap, targets, weights, "Y", floor, [[0, 1], [2, 3]])
+    aim = pos + w[..., None] * (t - pos)
+    np.testing.assert_allclose(aim[2, :2, 1], [0.10, 0.06])  # both joints up 3 cm
+    np.testing.assert_allclose(aim[1, :2, 1], [0.13 + 0.01, 0.04])  # the toe's 1 cm
+    np.testing.assert_array_equal(w[[1, 2], :2], 1.0)
+    np.testing.assert_allclose(aim[[0, 3, 5]], pos[[0, 3, 5]])  # above, or within the dip
+    np.testing.assert_array_equal(t[4], targets[4])  # outside the gap
+    t2, w2 = _above_floor(ex, pos, gap, targets, weights, "Y", np.full(4, np.nan),
+                          [[0, 1], [2, 3]])  # fmt: skip
+    np.testing.assert_array_equal(t2, targets)
+    np.testing.assert_array_equal(w2, weights)
+
+
+@pytest.mark.parametrize("start", [False, True])
+def test_a_fill_that_sinks_the_feet_is_measured_and_warned(humanoid, start):
+    """feet_measures reads the written fill: a library person 6 cm lower, filled without the
+    foot lock, puts the feet about 6 cm below the clip's floor, said with the joint and the
+    clip's frame (a gap at the clip's start is filled reversed: its frame is the clip's); the
+    foot lock keeps them on it, and the warning goes. The clip itself measures nothing."""
+    from dataclasses import replace
+
+    from mocapkit.features import pelvis_index
+    from mocapkit.stitch.inbetween import FEET_WARN_DEPTH_M, feet_measures
+
+    walk, _ = humanoid
+    low = walk.copy()
+    tr = low.local_translations()
+    tr[:, pelvis_index(walk.skeleton), 1] -= 0.06  # metres
+    low.translations = tr
+    a, b = (0, 40) if start else (40, 80)
+    config = replace(DEFAULT_CONFIG, neighbours=1, level_seconds=0.0)
+    out = {}
+    for lock in (False, True):
+        out[lock] = inbetween(walk, (a, b), [low], up="Y", method="library",
+                              config=replace(config, foot_lock=lock))  # fmt: skip
+    sunk = out[False].feet
+    assert 0.05 < sunk["floor_depth_m"] < 0.07, sunk
+    assert a <= sunk["floor_depth_frame"] < b
+    assert sunk["floor_depth_joint"] in walk.skeleton.names
+    f = sunk["floor_depth_frame"]
+    j = walk.skeleton.names.index(sunk["floor_depth_joint"])
+    h = forward_kinematics(out[False].motion)[0][f, j, 1]
+    assert h < forward_kinematics(walk)[0][:, j, 1].min() - 0.04  # that frame, that joint
+    assert f"{sunk['floor_depth_joint']} " in out[False].feet_warning
+    assert "below the floor the clip stands on" in out[False].feet_warning
+    held = out[True].feet
+    assert held["floor_depth_m"] < FEET_WARN_DEPTH_M, held
+    assert "below the floor" not in out[True].feet_warning
+    own = feet_measures(walk, walk, a, b, "Y")
+    assert own["floor_depth_m"] < 1e-6
+    assert own["foot_skate_m_s"] < 2 * own["clip_foot_skate_m_s"]
+    json.dumps(out[False].to_json(), allow_nan=False)
+
+
+def test_a_fill_whose_feet_slide_is_warned():
+    """The warning's second measure: the feet's speed near the floor over the filled frames
+    against the most the clip's own stretches of that length reach (a captured foot rolls and
+    settles, and over a few frames its toe-off reads as a slide too)."""
+    from mocapkit.stitch.inbetween import FEET_WARN_SKATE, _feet_warning
+
+    feet = {"floor_depth_m": 0.0, "floor_depth_joint": "Toes_L", "floor_depth_frame": 3,
+            "foot_skate_m_s": 0.9, "clip_foot_skate_m_s": 0.2,
+            "clip_foot_skate_max_m_s": 0.3}  # fmt: skip
+    said = _feet_warning(feet)
+    assert said.startswith("the fill puts the feet sliding 0.90 m/s near the floor")
+    assert "stretches of its length reach 0.30 m/s at most" in said
+    assert _feet_warning({**feet, "foot_skate_m_s": 0.99 * FEET_WARN_SKATE * 0.3}) == ""
+    # a standing take's feet barely move: a few cm/s over its own is not a slide
+    assert _feet_warning({**feet, "foot_skate_m_s": 0.05, "clip_foot_skate_max_m_s": 0.01}) == ""
+    assert _feet_warning({**feet, "clip_foot_skate_max_m_s": None}) == ""
+    both = _feet_warning({**feet, "floor_depth_m": 0.03})
+    assert both.startswith("the fill puts Toes_L 3.0 cm below the floor the clip stands on at "
+                           "frame 3 and the feet sliding")  # fmt: skip
+
+
+def test_motion_kept_is_what_the_average_of_strokes_out_of_step_loses():
+    """motion_kept: a joint waving in the same phase in every fill keeps all of it; in
+    opposite phases the average stands still (a wave combined from performances out of step)."""
+    from mocapkit.stitch.inbetween import _average_fills, motion_kept
+
+    walk = datasets.procedural_motion("walk", 1.0, seed=5).motion
+    t = np.arange(walk.num_frames) * walk.frame_time
+
+    def waving(phase: float) -> Motion:
+        m = walk.copy()
+        angle = 0.6 * np.sin(2 * np.pi * 2.0 * t + phase)  # rad, 2 strokes a second
+        m.rotations[:] = rot.quat_identity()
+        m.rotations[:, 8] = rot.rotvec_to_quat(angle[:, None] * np.array([0.0, 0.0, 1.0]))
+        return m
+
+    same = [waving(0.0), waving(0.0)]
+    assert motion_kept(_average_fills(same), same) == pytest.approx(1.0)
+    apart = [waving(0.0), waving(np.pi)]
+    assert motion_kept(_average_fills(apart), apart) < 0.05
+    still = [walk.copy(), walk.copy()]
+    for m in still:
+        m.rotations[:] = rot.quat_identity()
+    assert motion_kept(_average_fills(still), still) == 1.0
+
+
+def test_segments_whose_average_loses_their_motion_give_way_to_the_best_alone(humanoid):
+    """Below InbetweenConfig.average_min_motion the best-scoring segment fills the gap alone:
+    the same frames as a search for one segment, reported as one, with the share kept."""
+    from dataclasses import replace
+
+    walk, lib = humanoid
+    gap = (60, 90)
+    combined = inbetween(walk, gap, lib, up="Y", method="library")
+    assert len(combined.blended_from) > 1 and 0.7 < combined.motion_kept <= 1.0
+    alone = inbetween(walk, gap, lib, up="Y", method="library",
+                      config=replace(DEFAULT_CONFIG, average_min_motion=1.01))  # fmt: skip
+    one = inbetween(walk, gap, lib, up="Y", method="library",
+                    config=replace(DEFAULT_CONFIG, neighbours=1))  # fmt: skip
+    assert [x["weight"] for x in alone.blended_from] == [1.0]
+    assert alone.motion_kept == combined.motion_kept
+    np.testing.assert_allclose(alone.motion.rotations, one.motion.rotations, atol=1e-12)
+    assert alone.to_json()["motion_kept"] == pytest.approx(combined.motion_kept)
+    assert one.to_json()["motion_kept"] is None  # one segment searched for: nothing combined
 
 
 def test_a_foot_planted_through_the_gap_is_raised_only_as_the_fill_departs():

@@ -193,7 +193,7 @@ def inbetween_cmd(
         [(out_path, WRITABLE), sidecar_path(out_path), data_output(json_path, "result", ".json")],
         [clip, *lib_paths],
     )
-    q = load(clip, lenient)
+    q, nan_frames, strict = _load_clip(clip, lenient)
     warn_if_up_disagrees(q, up, clip)
     with naming(clip):
         try:  # the take's bound is the gap's own rule (check_gap), said in full
@@ -201,6 +201,15 @@ def inbetween_cmd(
             check_gap(gap, q.num_frames, clip, q.fps)
         except RangeError as e:
             raise CLIError(f"{clip}: {e}") from None
+    if nan_frames and strict is not None:
+        spans = ", ".join(f"{x}:{y}" for x, y in nan_frames)
+        if any(x < a or y > b for x, y in nan_frames):
+            raise CLIError(
+                f"{one_line(strict)}; the frames holding such values ({spans}) are not all in "
+                f"the gap {a}:{b}, which would replace them"
+            )
+        click.echo(f"mocapkit: note: {clip}: frames {spans} hold NaN or infinite values; "
+                   f"the gap {a}:{b} replaces them", err=True)  # fmt: skip
     if method == "kalman" and (lib_paths or left_out):  # nothing is searched: not read either
         click.echo("mocapkit: note: --method kalman: the library is not searched", err=True)
         lib_paths, left_out, unnamed = [], [], []
@@ -233,7 +242,8 @@ def inbetween_cmd(
             res = inbetween(
                 q, (a, b), lib, library_names=[str(p) for p in lib_paths], method=method, up=up,
                 clip_name=clip, output=out_path,
-                not_captured=earlier.made_frames() if earlier else (),
+                # nor are frames a lenient reading filled (NaN in the file)
+                not_captured=[*(earlier.made_frames() if earlier else ()), *nan_frames],
             )  # fmt: skip
         except ValueError as e:
             if not none_kept:
@@ -290,6 +300,10 @@ def inbetween_cmd(
         )
         fit_warning = f"warning: {clip}: {res.warning}{hint}"
         click.echo(f"mocapkit: {fit_warning}", err=True)
+    feet_warning = None  # measured on the frames written, whatever filled them
+    if res.feet_warning:
+        feet_warning = f"warning: {clip}: {res.feet_warning}"
+        click.echo(f"mocapkit: {feet_warning}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
     # the frames replaced, scored alike: the scale an L-score reads on (lower is smoother)
     was = f", the frames replaced {res.replaced_lscore:.6g}"
@@ -337,7 +351,7 @@ def inbetween_cmd(
         side = side.write(out_path)
         wrote.append(f"wrote {out_path} ({res.motion.num_frames} frames) and {side}")
         # what standard error will say too (the writer's: a unit BVH cannot state)
-        said = [fit_warning] if fit_warning else []
+        said = [w for w in (fit_warning, feet_warning) if w]
         result = {**res.to_json(), "skipped": [*unnamed, *skipped],
                   "warnings": [*said, *warnings_so_far()]}  # fmt: skip
         if json_path and json_path != "-":
@@ -350,6 +364,35 @@ def inbetween_cmd(
         say(line)
     if skipped or unnamed:  # the gap is filled from the others; the status says not all were
         raise click.exceptions.Exit(2)
+
+
+def _load_clip(clip: str, lenient: bool):
+    """``(motion, nan_frames, strict)``: the clip, read as ``lenient`` says or, where reading it
+    strictly fails only on NaN or infinite values (a solver's dropout), with those frames
+    filled from their neighbours; then ``nan_frames`` are their ``(start, stop)`` spans and
+    ``strict`` the error a strict reading gave: the frames are fine only if the gap replaces
+    them (a user fills a dropout by naming it as the gap; newcomer: that needed --lenient)."""
+    import warnings
+
+    from mocapkit.io import FilledFramesWarning, NonFiniteError, RepairWarning
+
+    strict = None
+    if not lenient:
+        try:
+            return load(clip, False), [], None
+        except NonFiniteError as e:
+            strict = e
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        q = load(clip, True)
+    repairs = [w.message for w in seen if issubclass(w.category, RepairWarning)]
+    if strict is not None and not all(isinstance(r, FilledFramesWarning) for r in repairs):
+        raise strict  # it needs other repairs too: lenient reading, asked for
+    if lenient:  # reported as every lenient reading's repairs are
+        for w in seen:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    filled = [span for r in repairs if isinstance(r, FilledFramesWarning) for span in r.frames]
+    return q, filled, strict
 
 
 def _earlier(clip: str, frames: int) -> Provenance | None:

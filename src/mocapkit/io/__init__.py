@@ -9,14 +9,24 @@ from pathlib import Path
 
 from mocapkit.core.motion import Motion
 from mocapkit.io.bvh import read_bvh, write_bvh
-from mocapkit.io.errors import ASFAMCError, BVHError, DecodingWarning, MocapFileError, RepairWarning
+from mocapkit.io.errors import (
+    ASFAMCError,
+    BVHError,
+    DecodingWarning,
+    FilledFramesWarning,
+    MocapFileError,
+    NonFiniteError,
+    RepairWarning,
+)
 from mocapkit.io.npz import read_npz, write_npz
 
 __all__ = [
     "ASFAMCError",
     "BVHError",
     "DecodingWarning",
+    "FilledFramesWarning",
     "MocapFileError",
+    "NonFiniteError",
     "RepairWarning",
     "files_under",
     "find_asf",

@@ -31,7 +31,14 @@ from mocapkit.core.motion import Motion, fill_missing
 from mocapkit.core.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, VALID_CHANNELS, Skeleton
 from mocapkit.io import _numparse
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.errors import BVHError, RepairWarning, decode_text, quote
+from mocapkit.io.errors import (
+    BVHError,
+    FilledFramesWarning,
+    NonFiniteError,
+    RepairWarning,
+    decode_text,
+    quote,
+)
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
 _FRAMES = re.compile(r"frames\s*:\s*(\S*)\s*(.*)", re.IGNORECASE)
@@ -565,7 +572,7 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
                 f"value {res.err_col + 1} is beyond the range of a double (about 1.8e308)",
             )
         elif res.status == _numparse.NON_FINITE:
-            raise BVHError(
+            raise NonFiniteError(
                 source,
                 line,
                 f"value {res.err_col + 1} is NaN or infinite (lenient reading, --lenient, "
@@ -607,11 +614,15 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         motion, joints = fill_missing(motion)
         line = first_data_line + _row_line(data, min(lx.pos, len(data)), int(bad_rows[0]))
         n_bad = int(np.sum(~np.isfinite(values)))
+        cut = np.flatnonzero(np.diff(bad_rows) > 1) + 1  # the runs of consecutive bad rows
+        spans = [(int(r[0]), int(r[-1]) + 1) for r in np.split(bad_rows, cut)]
         warnings.warn(
-            f"{source}:{line}: {n_bad} NaN/inf value{'s' * (n_bad != 1)} in {len(bad_rows)} "
-            f"row{'s' * (len(bad_rows) != 1)} from here (joints {', '.join(joints)}) filled from "
-            "neighbouring frames",
-            RepairWarning,
+            FilledFramesWarning(
+                f"{source}:{line}: {n_bad} NaN/inf value{'s' * (n_bad != 1)} in {len(bad_rows)} "
+                f"row{'s' * (len(bad_rows) != 1)} from here (joints {', '.join(joints)}) filled "
+                "from neighbouring frames",
+                spans,
+            ),
             stacklevel=2,
         )
     return motion

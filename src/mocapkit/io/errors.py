@@ -64,12 +64,26 @@ class BVHError(MocapFileError):
     """Malformed BVH input."""
 
 
+class NonFiniteError(BVHError):
+    """A BVH value is NaN or infinite (a solver's dropout): lenient reading fills such frames
+    (:class:`FilledFramesWarning`); a caller about to replace those frames may read it so."""
+
+
 class ASFAMCError(MocapFileError):
     """Malformed ASF or AMC input."""
 
 
 class RepairWarning(UserWarning):
     """A lenient reader repaired something in the input; the message says what."""
+
+
+class FilledFramesWarning(RepairWarning):
+    """A lenient reader filled frames holding NaN or infinite values from their neighbours:
+    ``frames``, the ``(start, stop)`` spans (0-based, stop excluded) of the frames filled."""
+
+    def __init__(self, message: str, frames: list[tuple[int, int]]) -> None:
+        super().__init__(message)
+        self.frames = frames
 
 
 NUMPY_NOISE = ("overflow encountered", "invalid value encountered", "divide by zero")

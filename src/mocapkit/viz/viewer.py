@@ -352,6 +352,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "takesAtZero": weighing[1],
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
+        "feetWarning": plan.parameters.get("feet_warning"),  # measured on the frames written
         # the warning gave the gap to the Kalman transition (it is the reason, not a warning)
         "unlike": bool(plan.parameters.get("unlike")),
         "note": plan.parameters.get("note"),

@@ -691,6 +691,7 @@
       }).join('; '));
     }
     if (stitch.warning && stitch.data) info('warning: ' + stitch.warning).style.color = '#ffb74d';  // a library fill's
+    if (stitch.feetWarning) info('warning: ' + stitch.feetWarning).style.color = '#ffb74d';  // whatever filled it
   } else if (stitch) {
     // a cut (k = 0) has no injected frame: its yellow frames are the landing eased in; a
     // cross-fade's are the blend
