@@ -273,9 +273,9 @@ def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     weighing, nothing = weighing_takes(res.blended_from)
     name, share = weighing[0]
     text = b.eval("document.body.innerText")
-    assert f"of {len(weighing)} take(s), by take: {name} " in text
+    assert f"of {len(weighing) + nothing} take(s), by take: {name} " in text
     assert f"{name} {round(100 * share)}%" in text
-    assert (f"; {nothing} more take(s) at 0%" in text) == (nothing > 0)
+    assert (f", {nothing} more take(s) at 0%" in text) == (nothing > 0)
     # the walk repeats one cycle and the library holds no walk: its own frames beside the gap
     # weigh most, and the page says they are the take's own
     main = max(res.blended_from, key=lambda x: x["weight"])

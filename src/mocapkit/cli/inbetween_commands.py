@@ -125,10 +125,14 @@ def inbetween_cmd(
          exp(-(s - best) / (best + 1))), the weights corrected so that what the segments
          share in missing the clip (all a little ahead in their step, say) is not carried
          into the fill (some weights are then negative). A gap over 1.5 s gets the best
-         segment alone (combined segments drift out of step over a few strides).
+         segment alone (combined segments drift out of step over a few strides), and so
+         does one whose combination keeps under 70% of the segments' own motion (a
+         gesture's strokes out of step cancel: a wave would stand still).
       3. Feet: the legs are fitted by IK, planted feet held and raised onto CLIP's floor
-         (as fast as the legs may turn, 360 deg/s: a fill from an unlike library can
-         leave a foot a little low), swinging feet no lower than the segments lifted them.
+         (the height at which CLIP's own frames plant them), swinging feet no lower than
+         the segments lifted them, and no foot through the floor (as fast as the legs may
+         turn, 360 deg/s: near the gap's ends a fill from an unlike library can leave a
+         foot low).
       4. Fallback (--method auto): a gap of up to 0.3 s goes to stitching's Kalman
          transition instead, and the command says so, when the library fill's two-sided
          L-score (smoothness at both junctions, lower is better) is over 4x the Kalman
@@ -143,10 +147,17 @@ def inbetween_cmd(
       - a warning when the library holds nothing like the motion around the gap: the best
         segment's path over the ground off by more than 0.5 m (0.35 m per second of a gap
         over 1.4 s), or its poses beside the gap by more than 12 cm RMS per joint.
-      - OUT's provenance sidecar names the files and frames used (mocapkit view OUT marks
-        them). A CLIP filled before keeps its earlier fills marked, and they are not
-        searched as its own, nor are its dropouts (a joint holding its value bit for bit
-        for 1/3 s). --json writes the same, with the scores and every warning.
+      - a warning, measured on the frames written, when a foot goes over 2 cm below CLIP's
+        floor, or the feet slide near the floor over 1.5x as fast as in any stretch of
+        CLIP's own frames of the gap's length.
+      - OUT's provenance sidecar names the files searched, and the segments used: file,
+        frames, speed, weight (mocapkit view OUT marks them). A CLIP filled before keeps
+        its earlier fills marked, and they are not searched as its own, nor are its
+        dropouts (a joint holding its value bit for bit for 1/3 s). --json writes the
+        same, with the scores and every warning.
+      - frames of CLIP holding NaN (a solver's dropout) are read when the gap covers them
+        (said on standard error); elsewhere they need --lenient, which fills them from
+        their neighbours and does not search them.
       - a library file that cannot be read, or has another skeleton, gets one error line
         and is left out; the gap is filled from the others (from CLIP's own frames if none
         is left), and the exit status is 2.
@@ -454,13 +465,14 @@ DEMO_STEPS.append(
 
 
 def _takes_shown(blended, most: int | None = None) -> tuple[int, str]:
-    """How many takes the segments ``blended`` (an in-betweening's ``blended_from``) weigh in
-    with, and those takes with their shares, largest first (the first ``most``, the rest
-    summed), then "N more take(s) at 0%" (:func:`mocapkit.provenance.weighing_takes`)."""
+    """How many takes the segments ``blended`` (an in-betweening's ``blended_from``) come from
+    (those at 0% too: newcomer, "12 segments of 2 take(s)" then listed 5), and those takes with
+    their shares, largest first (the first ``most``, the rest summed), then "N more take(s) at
+    0%" (:func:`mocapkit.provenance.weighing_takes`)."""
     weighing, nothing = weighing_takes(blended)
     cut = len(weighing) if most is None else most
     shown = ", ".join(f"{name} {whole_percent(share)}" for name, share in weighing[:cut])
     if len(weighing) > cut:
         rest = sum(share for _, share in weighing[cut:])
         shown += f", {len(weighing) - cut} more take(s) {whole_percent(rest)}"
-    return len(weighing), shown + (f"; {nothing} more take(s) at 0%" if nothing else "")
+    return len(weighing) + nothing, shown + (f", {nothing} more take(s) at 0%" if nothing else "")

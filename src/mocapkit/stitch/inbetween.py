@@ -672,6 +672,7 @@ def check_gap(
     is needed to lead into); or a gap at the clip's start, 0:B with B <= num_frames - 3, or at
     its end, A:num_frames with A >= 3, filled from the one side that has context
     (:func:`inbetween`)."""
+    mixed = ""
     if isinstance(gap, str):
         from mocapkit.core.ranges import RangeSpec
 
@@ -680,6 +681,13 @@ def check_gap(
             raise ValueError(f"gap {gap!r} is in seconds: the clip's frame rate is needed")
         # an open end is the clip's (":30" its first 30 frames, "165:" from frame 165 on)
         a, b = spec.frames(1.0 if fps is None else fps, num_frames if spec.stop is None else None)
+        if spec.start is not None and spec.stop is not None and (
+            spec.start.seconds != spec.stop.seconds
+        ):  # said where the gap is refused (newcomer: 80:90s "runs past the clip's end")
+            mixed = (
+                f"; {spec.start} and {spec.stop} are in different units: {spec.stop} is "
+                f"{'a time' if spec.stop.seconds else 'a frame number'}"
+            )
     else:
         try:
             a, b = (whole_number(x, "a gap end") for x in gap)
@@ -696,7 +704,7 @@ def check_gap(
     if not (3 <= a < b < F or at_start or at_end):
         # a gap given with a time says which frames that was (60:90s is frames 60:2700)
         given = (
-            f"gap {gap} (frames {a}:{b})"
+            f"gap {gap} (frames {a}:{b}{mixed})"
             if isinstance(gap, str) and "s" in gap
             else (f"gap {a}:{b}")
         )

@@ -675,9 +675,9 @@
         stitch.note ? 'by the Kalman transition (' + stitch.note + ')' :
         stitch.unlike ? 'by the Kalman transition (' + stitch.warning.replace(/^(.*) (holds?) nothing like the motion around the gap \((.*)\); the Kalman transition filled the gap$/, '$1 $2 nothing like the motion around the gap: $3') + ')' :
         'by the Kalman transition (the library fill was far less smooth at the junctions)') :
-      blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + takes.length + ' take(s), by take: ' +
+      blended.length > 1 ? 'by combining ' + blended.length + ' segments of ' + (takes.length + (stitch.takesAtZero || 0)) + ' take(s), by take: ' +
         takes.map(function (t) { return t.name + ' ' + pct(t.share); }).join(', ') +
-        (stitch.takesAtZero ? '; ' + stitch.takesAtZero + ' more take(s) at 0%' : '') +
+        (stitch.takesAtZero ? ', ' + stitch.takesAtZero + ' more take(s) at 0%' : '') +
         ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); largest share: ' +
         segText(blended.reduce(function (m, x) { return x.weight > m.weight ? x : m; })) + '; every segment in the sidecar' :
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
