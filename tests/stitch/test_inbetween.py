@@ -2560,23 +2560,32 @@ def test_motion_kept_is_what_the_average_of_strokes_out_of_step_loses():
 
 
 def test_segments_whose_average_loses_their_motion_give_way_to_the_best_alone(humanoid):
-    """Below InbetweenConfig.average_min_motion the best-scoring segment fills the gap alone:
-    the same frames as a search for one segment, reported as one, with the share kept."""
+    """Below InbetweenConfig.average_min_motion the best-scoring segment fills a standing
+    clip's gap alone: the same frames as a search for one segment, reported as one, with the
+    share kept. A travelling clip's segments, kept in step by the search, stay combined."""
     from dataclasses import replace
 
-    walk, lib = humanoid
+    idle = with_ground_root(datasets.procedural_motion("idle", 5.0, seed=3).motion)
+    lib = [with_ground_root(datasets.procedural_motion("idle", 6.0, seed=s).motion)
+           for s in (4, 5, 6)]  # fmt: skip
     gap = (60, 90)
-    combined = inbetween(walk, gap, lib, up="Y", method="library")
-    assert len(combined.blended_from) > 1 and 0.7 < combined.motion_kept <= 1.0
-    alone = inbetween(walk, gap, lib, up="Y", method="library",
-                      config=replace(DEFAULT_CONFIG, average_min_motion=1.01))  # fmt: skip
-    one = inbetween(walk, gap, lib, up="Y", method="library",
+    never = replace(DEFAULT_CONFIG, average_min_motion=0.0)
+    combined = inbetween(idle, gap, lib, up="Y", method="library", config=never)
+    assert len(combined.blended_from) > 1 and 0.0 < combined.motion_kept <= 1.0
+    # by default too: the idle's sways, out of step, keep half their motion combined
+    assert len(inbetween(idle, gap, lib, up="Y", method="library").blended_from) == 1
+    always = replace(DEFAULT_CONFIG, average_min_motion=1.01)
+    alone = inbetween(idle, gap, lib, up="Y", method="library", config=always)
+    one = inbetween(idle, gap, lib, up="Y", method="library",
                     config=replace(DEFAULT_CONFIG, neighbours=1))  # fmt: skip
     assert [x["weight"] for x in alone.blended_from] == [1.0]
     assert alone.motion_kept == combined.motion_kept
     np.testing.assert_allclose(alone.motion.rotations, one.motion.rotations, atol=1e-12)
     assert alone.to_json()["motion_kept"] == pytest.approx(combined.motion_kept)
     assert one.to_json()["motion_kept"] is None  # one segment searched for: nothing combined
+    walk, walks = humanoid
+    walking = inbetween(walk, gap, walks, up="Y", method="library", config=always)
+    assert len(walking.blended_from) > 1 and walking.to_json()["motion_kept"] is None
 
 
 def test_a_foot_planted_through_the_gap_is_raised_only_as_the_fill_departs():
