@@ -1385,7 +1385,7 @@ def test_weighing_takes_counts_the_takes_at_zero_apart():
     assert [n for n, _ in weighing] == ["walk.bvh", "run.bvh", "side.bvh"] and nothing == 3
 
 
-def test_cli_fills_a_dropout_of_nan_frames_named_as_the_gap(files, tmp_path):
+def test_cli_fills_a_dropout_of_nan_frames_named_as_the_gap(files, tmp_path, monkeypatch):
     """A solver's dropout written as NaN rows is what a user names as the gap: filled without
     --lenient (said on standard error); a gap that leaves some of them outside is refused,
     naming them, and nothing is written; --lenient fills those from their neighbours, and
@@ -1412,12 +1412,24 @@ def test_cli_fills_a_dropout_of_nan_frames_named_as_the_gap(files, tmp_path):
                        tmp_path / "q.bvh", "--lenient")  # fmt: skip
     assert code == 0 and "repaired" in se
     # the frames the lenient reading filled are what the search is told are not captured
-    from mocapkit.cli.inbetween_commands import _load_clip
-    from mocapkit.io import FilledFramesWarning
+    seen = {}
+    real = inbetween_module.inbetween
 
-    with pytest.warns(FilledFramesWarning):  # reported, as every lenient reading's repairs
-        _, filled, strict = _load_clip(str(holed), True)
-    assert filled == [(100, 106)] and strict is None
+    def spy(*args, **kwargs):
+        seen.update(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(inbetween_module, "inbetween", spy)  # the command imports it when run
+    code, _, se = run("inbetween", holed, "--gap", "95:103", "--library", lib, "--out",
+                      tmp_path / "r.bvh", "--lenient")  # fmt: skip
+    assert code == 0 and list(seen["not_captured"]) == [(100, 106)], se
+    # NaN rows the gap covers, but a truncated last row too: the refusal names both
+    cut = tmp_path / "cut.bvh"
+    cut.write_text(holed.read_text().rstrip("\n").rsplit(" ", 5)[0] + "\n")
+    code, _, se = run("inbetween", cut, "--gap", "95:110", "--library", lib, "--out",
+                      tmp_path / "s.bvh")  # fmt: skip
+    assert code == 2 and "NaN or infinite" in se and "needs another repair" in se, se
+    assert "incomplete last row" in se and not (tmp_path / "s.bvh").exists()
 
 
 def test_cli_writes_motion_and_sidecar(files):
@@ -2440,6 +2452,30 @@ def test_a_foot_planted_nowhere_outside_the_gap_stands_on_its_other_foots_floor(
     assert one[ankles[0]] != both[ankles[0]]  # the left foot's own floor differs a little
 
 
+def test_the_floor_bound_is_the_lowest_the_clip_itself_puts_a_foot():
+    """_floor_bound: where the clip plants a foot, or lower where its own frames outside the
+    gap put it lower (a take standing mostly on a raised heel plants its ankle high: reviewer,
+    its own flat stance read as 3.4 cm through the floor); the gap's frames do not count."""
+    from mocapkit.body import body_of
+    from mocapkit.stitch.inbetween import _floor_bound, _planted_heights
+
+    walk = datasets.procedural_motion("walk", 3.0, seed=2).motion
+    feet = sorted({k for _, k in body_of(walk).feet})
+    h = forward_kinematics(walk)[0][:, feet, 1]
+    planted = _planted_heights(walk, "Y", feet, (30, 60))[feet]
+    bound = _floor_bound(walk, "Y", feet, (30, 60), planted)
+    outside = np.r_[h[:30], h[60:]].min(axis=0)
+    np.testing.assert_allclose(bound, np.minimum(planted, outside))
+    high = _floor_bound(walk, "Y", feet, (30, 60), planted + 0.05)
+    np.testing.assert_allclose(high, np.minimum(planted + 0.05, outside))
+    assert (high < planted + 0.05).all()  # the clip's own lowest, below a raised planted height
+    sunk = walk.copy()
+    sunk.root_positions[30:60, 1] -= 0.3  # the gap's own frames far lower: not the floor
+    np.testing.assert_allclose(_floor_bound(sunk, "Y", feet, (30, 60), planted), bound)
+    # a foot planted nowhere has no floor: its lowest outside the gap may be mid-swing
+    assert np.isnan(_floor_bound(walk, "Y", feet, (30, 60), np.full(len(feet), np.nan))).all()
+
+
 def test_above_floor_raises_a_sunk_foot_whole_and_nothing_else():
     """_above_floor: a foot the lock aims below the clip's floor (by more than a capture's
     own dip), planted, swinging or neither, is raised by its lowest joint's depth, ankle and toe
@@ -2480,13 +2516,20 @@ def test_a_fill_that_sinks_the_feet_is_measured_and_warned(humanoid, start):
     foot lock keeps them on it, and the warning goes. The clip itself measures nothing."""
     from dataclasses import replace
 
+    from mocapkit.body import body_of
     from mocapkit.features import pelvis_index
-    from mocapkit.stitch.inbetween import FEET_WARN_DEPTH_M, feet_measures
+    from mocapkit.stitch.inbetween import (
+        FEET_WARN_DEPTH_M,
+        _floor_bound,
+        _planted_heights,
+        feet_measures,
+    )
 
     walk, _ = humanoid
     low = walk.copy()
     tr = low.local_translations()
-    tr[:, pelvis_index(walk.skeleton), 1] -= 0.06  # metres
+    # metres: 6 cm, and a little more or less frame by frame (the deepest frame is one)
+    tr[:, pelvis_index(walk.skeleton), 1] -= 0.06 + 0.005 * np.sin(np.arange(walk.num_frames))
     low.translations = tr
     a, b = (0, 40) if start else (40, 80)
     config = replace(DEFAULT_CONFIG, neighbours=1, level_seconds=0.0)
@@ -2495,13 +2538,18 @@ def test_a_fill_that_sinks_the_feet_is_measured_and_warned(humanoid, start):
         out[lock] = inbetween(walk, (a, b), [low], up="Y", method="library",
                               config=replace(config, foot_lock=lock))  # fmt: skip
     sunk = out[False].feet
-    assert 0.05 < sunk["floor_depth_m"] < 0.07, sunk
+    assert 0.05 < sunk["floor_depth_m"] < 0.075, sunk
     assert a <= sunk["floor_depth_frame"] < b
     assert sunk["floor_depth_joint"] in walk.skeleton.names
     f = sunk["floor_depth_frame"]
     j = walk.skeleton.names.index(sunk["floor_depth_joint"])
-    h = forward_kinematics(out[False].motion)[0][f, j, 1]
-    assert h < forward_kinematics(walk)[0][:, j, 1].min() - 0.04  # that frame, that joint
+    h = forward_kinematics(out[False].motion)[0][:, j, 1]
+    # that frame, that joint: its depth under the clip's floor for it is the one reported
+    # (a frame off, reversed or not, reads another depth: the feet move through the gap)
+    feet = sorted({k for _, k in body_of(walk).feet})
+    bound = _floor_bound(walk, "Y", feet, (a, b), _planted_heights(walk, "Y", feet, (a, b))[feet])
+    assert bound[feet.index(j)] - h[f] == pytest.approx(sunk["floor_depth_m"], abs=1e-9)
+    assert min(abs(h[f + 1] - h[f]), abs(h[f - 1] - h[f])) > 1e-4
     assert f"{sunk['floor_depth_joint']} " in out[False].feet_warning
     assert "below the floor the clip stands on" in out[False].feet_warning
     held = out[True].feet

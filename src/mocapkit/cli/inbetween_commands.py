@@ -126,8 +126,9 @@ def inbetween_cmd(
          share in missing the clip (all a little ahead in their step, say) is not carried
          into the fill (some weights are then negative). A gap over 1.5 s gets the best
          segment alone (combined segments drift out of step over a few strides), and so
-         does one whose combination keeps under 70% of the segments' own motion (a
-         gesture's strokes out of step cancel: a wave would stand still).
+         does a standing CLIP's gap (pelvis under 0.25 m/s) whose combination keeps under
+         70% of the segments' own motion (a gesture's strokes out of step cancel: a wave
+         would stand still).
       3. Feet: the legs are fitted by IK, planted feet held and raised onto CLIP's floor
          (the height at which CLIP's own frames plant them), swinging feet no lower than
          the segments lifted them, and no foot through the floor (as fast as the legs may
@@ -155,8 +156,8 @@ def inbetween_cmd(
         its earlier fills marked, and they are not searched as its own, nor are its
         dropouts (a joint holding its value bit for bit for 1/3 s). --json writes the
         same, with the scores and every warning.
-      - frames of CLIP holding NaN (a solver's dropout) are read when the gap covers them
-        (said on standard error); elsewhere they need --lenient, which fills them from
+      - rows of a BVH CLIP holding NaN (a solver's dropout) are read when the gap covers
+        them (said on standard error); elsewhere they need --lenient, which fills them from
         their neighbours and does not search them.
       - a library file that cannot be read, or has another skeleton, gets one error line
         and is left out; the gap is filled from the others (from CLIP's own frames if none
@@ -385,7 +386,7 @@ def _load_clip(clip: str, lenient: bool):
     them (a user fills a dropout by naming it as the gap; newcomer: that needed --lenient)."""
     import warnings
 
-    from mocapkit.io import FilledFramesWarning, NonFiniteError, RepairWarning
+    from mocapkit.io import FilledFramesWarning, MocapFileError, NonFiniteError, RepairWarning
 
     strict = None
     if not lenient:
@@ -395,10 +396,19 @@ def _load_clip(clip: str, lenient: bool):
             strict = e
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
-        q = load(clip, True)
+        try:
+            q = load(clip, True)
+        except MocapFileError:
+            if strict is None:
+                raise
+            raise strict from None  # more than NaN is wrong: the first defect, as read
     repairs = [w.message for w in seen if issubclass(w.category, RepairWarning)]
-    if strict is not None and not all(isinstance(r, FilledFramesWarning) for r in repairs):
-        raise strict  # it needs other repairs too: lenient reading, asked for
+    others = [r for r in repairs if not isinstance(r, FilledFramesWarning)]
+    if strict is not None and others:  # the gap may replace the NaN rows, not the rest
+        raise CLIError(
+            f"{one_line(strict)}; besides such rows it needs another repair, which --lenient "
+            f"makes: {one_line(others[0])}"
+        )
     if lenient:  # reported as every lenient reading's repairs are
         for w in seen:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

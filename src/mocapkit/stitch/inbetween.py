@@ -642,6 +642,8 @@ class InbetweenConfig:
             raise ValueError(f"average_max_seconds must be >= 0, got {self.average_max_seconds}")
         if not (math.isfinite(self.kalman_max_seconds) and self.kalman_max_seconds >= 0):
             raise ValueError(f"kalman_max_seconds must be >= 0, got {self.kalman_max_seconds}")
+        if not (math.isfinite(self.average_min_motion) and self.average_min_motion >= 0):
+            raise ValueError(f"average_min_motion must be >= 0, got {self.average_min_motion}")
         if not self.fallback_margin > 0:
             raise ValueError(f"fallback_margin must be > 0, got {self.fallback_margin}")
         if not self.neighbours >= 1:
@@ -1792,7 +1794,8 @@ def _lock_feet(
     targets, weights = _swing_clearance(ex, pos[:, list(effs)], flags, targets, weights, up,
                                         floor + above, known > 0)  # fmt: skip
     legs_effs = [[effs.index(e) for e in c.effectors] for c in chains]
-    targets, weights = _above_floor(ex, pos[:, list(effs)], ~context, targets, weights, up, floor,
+    bound = _floor_bound(motion, up, list(effs), (a, b), floor)
+    targets, weights = _above_floor(ex, pos[:, list(effs)], ~context, targets, weights, up, bound,
                                     legs_effs)  # fmt: skip
     ramp = max(motion.seconds_to_frames(config.lock_ramp_seconds), 1)
     to_end = b - i if b < motion.num_frames else np.inf  # no context after a gap that ends it
@@ -1901,6 +1904,28 @@ def _planted_heights(
             out[left] = out[right] if np.isnan(out[left]) else out[left]
             out[right] = out[left] if np.isnan(out[right]) else out[right]
     return out
+
+
+def _floor_bound(
+    motion: Motion, up: str, feet: Sequence[int], skip: tuple[int, int], planted: np.ndarray
+) -> np.ndarray:
+    """(len(feet),) the lowest each foot joint may go in the frames ``skip``: where ``motion``
+    plants it (``planted``, :func:`_planted_heights`, for its joints ``feet``), or the lowest
+    its frames outside ``skip`` put it, whichever is lower. Relies on: the clip's own frames
+    show where its floor is; the planted height is a percentile of the planted frames, and a
+    take that stands mostly on a raised heel plants its ankle higher than its flat stance
+    (reviewer: Bandai-1 bow_musical_001's own left ankle 2.9 cm below its planted height)."""
+    from mocapkit.core.kinematics import forward_kinematics
+    from mocapkit.features import ground_frame
+
+    _, u, _ = ground_frame(up)
+    keep = np.ones(motion.num_frames, bool)
+    keep[skip[0] : skip[1]] = False
+    if not keep.any():
+        return planted
+    h = forward_kinematics(motion[np.flatnonzero(keep)])[0][:, list(feet)] @ u
+    # NaN stays NaN: a foot the clip plants nowhere has no floor (its lowest may be mid-swing)
+    return np.minimum(planted, h.min(axis=0))
 
 
 def _onto_floor(
@@ -2040,14 +2065,19 @@ def _above_floor(ex: Motion, pos, gap, targets, weights, up: str, floor, feet):
     :data:`FLOOR_DIP_M` below ``floor`` (its planted height in the clip, (n,)) aimed higher,
     fully, whether the foot is planted, swinging or neither: each foot (``feet``: the columns
     of one leg's joints, ankle and toe) is raised whole by its lowest joint's depth, so that
-    lifting the heel does not tip the toe down. A foot is never lowered.
+    lifting the heel does not tip the toe down. A foot is never lowered. ``floor``: the
+    clip's own floor (:func:`_floor_bound`).
 
     Relies on: a foot does not go through the floor (a captured foot joint stays within
     :data:`FLOOR_DIP_M` of where it stands). The floor and swing rules each cover feet the
     contact detector calls planted or fast; a foot between (sliding at a walking pace, as a
     segment of another gait fitted to the context drags it) was left where the fill put it
     (newcomer report: a Bandai-1 run filled from walks only, a toe 4 cm into the floor over
-    five frames, unwarned; run_angry_001 at 20:50, the left ankle 8.7 cm). With the other
+    five frames, unwarned). Not everywhere: where the lock's holds put an ankle further from
+    the hip than the leg reaches, the IK leaves the frame as it was, and near the gap's end
+    the correction's speed limit cannot lift it in time (run_angry_001 at 20:50 from walks:
+    the left ankle 7.6 cm below the floor 4 frames before the end, in the middle of the gap
+    on it; :attr:`Inbetween.feet_warning` says so). With the other
     foot's floor for a foot planted nowhere (:func:`_planted_heights`), on the benchmark's
     tuning windows (``--tune``, the take's gait and person / its person left out of the
     library), foot skate at 5 / 15 / 30 / 45 frames 24.8 / 32.1 / 34.2 / 33.7 -> 24.4 / 31.9 /
@@ -2057,17 +2087,20 @@ def _above_floor(ex: Motion, pos, gap, targets, weights, up: str, floor, feet):
 
     _, u, _ = ground_frame(up)
     aim = pos + weights[..., None] * (targets - pos)
-    depth = np.nan_to_num(floor[None] - aim @ u, nan=-np.inf)  # (F, n): below the floor by
     tol = FLOOR_DIP_M / metres_per_unit(ex, None)
     targets, weights = targets.copy(), weights.copy()
     for cols in feet:
-        d = depth[:, cols].max(axis=1)
-        low = gap & (d > tol)
+        depth = np.nan_to_num(floor[None, cols] - aim[:, cols] @ u, nan=-np.inf).max(axis=1)
+        low = gap & (depth > tol)
         if low.any():  # the whole foot onto the floor, held fully
-            targets[np.ix_(low, cols)] = aim[np.ix_(low, cols)] + d[low, None, None] * u
+            targets[np.ix_(low, cols)] = aim[np.ix_(low, cols)] + depth[low, None, None] * u
             weights[np.ix_(low, cols)] = 1.0
     return targets, weights
 
+
+FEET_KEYS = ("floor_depth_m", "floor_depth_joint", "floor_depth_frame", "foot_skate_m_s",
+             "clip_foot_skate_m_s", "clip_foot_skate_max_m_s")  # fmt: skip
+"""What :func:`feet_measures` gives (and :meth:`Inbetween.to_json` reports)."""
 
 SKATE_HEIGHT_M = 0.05
 """H of the foot-skate measure (:func:`feet_measures`): a foot joint at its planted height
@@ -2080,9 +2113,10 @@ def feet_measures(
     """What the filled frames ``a..b-1`` of ``after`` do with the feet, against ``before``
     (the clip as given; only its frames outside the gap are read):
 
-    - ``floor_depth_m``: how far the lowest foot joint goes below the height at which the clip
-      plants it (:func:`_planted_heights`; 0 when none does), with ``floor_depth_joint`` and
-      ``floor_depth_frame`` where;
+    - ``floor_depth_m``: how far the lowest foot joint goes below the clip's floor for it
+      (:func:`_floor_bound`: where the clip plants it, or the lowest its own frames outside
+      the gap put it; 0 when none does), with ``floor_depth_joint`` and ``floor_depth_frame``
+      where (None at 0);
     - ``foot_skate_m_s``: the feet's horizontal speed over the filled frames (the steps
       A-1 -> A .. B-1 -> B), each foot joint weighted by how near its planted height it is
       (whole there, none :data:`SKATE_HEIGHT_M` above: Zhang et al. 2018, the benchmark's
@@ -2093,22 +2127,20 @@ def feet_measures(
       has less): over a few frames a captured foot's toe-off reads as a slide too, so a
       short fill is judged against the clip's short stretches.
 
-    None for each where the rig has no feet, or the clip no planted foot or frame outside
-    the gap to measure."""
+    None for each where the rig has no legs (:meth:`mocapkit.body.Body.feet`), or the clip no
+    planted foot or frame outside the gap to measure."""
+    from mocapkit.body import body_of
     from mocapkit.core.kinematics import forward_kinematics
-    from mocapkit.features import find_feet, ground_frame, metres_per_unit
+    from mocapkit.features import ground_frame, metres_per_unit
 
-    out: dict[str, Any] = dict.fromkeys(
-        ("floor_depth_m", "floor_depth_joint", "floor_depth_frame", "foot_skate_m_s",
-         "clip_foot_skate_m_s", "clip_foot_skate_max_m_s")
-    )  # fmt: skip
-    try:
-        feet = sorted({j for _, j in find_feet(before.skeleton, before, up)})
-    except ValueError:
+    out: dict[str, Any] = dict.fromkeys(FEET_KEYS)
+    feet = sorted({j for _, j in body_of(before).feet})  # a rig without legs has none
+    if not feet:
         return out
     floor = _planted_heights(before, up, feet, skip=(a, b))[feet]
-    if not feet or not np.isfinite(floor).any():
+    if not np.isfinite(floor).any():
         return out
+    floor = _floor_bound(before, up, feet, (a, b), floor)
     mpu = metres_per_unit(before, None)
     _, u, _ = ground_frame(up)
     ground = np.eye(3) - np.outer(u, u)
@@ -2124,8 +2156,9 @@ def feet_measures(
     depth = np.nan_to_num(floor[None] - filled[a - lo : a - lo + b - a] @ u, nan=-np.inf)
     f, k = np.unravel_index(int(np.argmax(depth)), depth.shape)
     out["floor_depth_m"] = max(float(depth[f, k]) * mpu, 0.0)
-    out["floor_depth_joint"] = before.skeleton.names[feet[k]]
-    out["floor_depth_frame"] = int(a + f)
+    if out["floor_depth_m"] > 0:  # where, only where a foot is below it
+        out["floor_depth_joint"] = before.skeleton.names[feet[k]]
+        out["floor_depth_frame"] = int(a + f)
     out["foot_skate_m_s"] = float(skate(filled).mean())
     own = forward_kinematics(before)[0][:, feet]
     steps = skate(own)
@@ -2812,7 +2845,8 @@ class Inbetween:
     motion_kept: float = math.nan
     """The share of the combined segments' own motion their combination kept
     (:func:`motion_kept`); under :attr:`InbetweenConfig.average_min_motion` the best segment
-    filled the gap alone. NaN where one segment was searched for (or none)."""
+    filled the gap alone. Judged where the clip stands only (:data:`STANDING_SPEED_M_S`): NaN
+    for a travelling clip, and where one segment was searched for (or none)."""
 
     @property
     def feet_warning(self) -> str:
@@ -2931,7 +2965,7 @@ class Inbetween:
             "kalman_lscore": _finite_or_none(self.kalman_lscore),
             "replaced_lscore": _finite_or_none(self.replaced_lscore),
             **{k: _finite_or_none(v) if isinstance(v, float) else v
-               for k, v in self.feet.items()},
+               for k, v in {**dict.fromkeys(FEET_KEYS), **self.feet}.items()},
             "candidates": self.candidates,
             "search_seconds": round(self.search_seconds, 4),
             "output": self.output,
@@ -3121,9 +3155,13 @@ def inbetween(
             if kept < config.average_min_motion:  # out of step: their average stands still
                 share = np.eye(len(cands))[0]
                 lfill = fills[0]
+        # a segment that does not weigh (the best alone) gives no level either (reviewer: the
+        # best alone was levelled by the others' where its own was unknown)
         levels = [
             _level_offset(onpath, a, lib.motions[c.clip], c, up, config.level_seconds)
-            for c in cands
+            if wk != 0
+            else None
+            for c, wk in zip(cands, share, strict=True)
         ]
         # the fill's own weights where every segment has a level; else the score weights of
         # those that have one (signed weights over a part of the segments need not sum to 1)
