@@ -119,9 +119,10 @@ def inbetween_cmd(
          (x0.8 to x1.25), is scored by how well its body-local poses match the two frames
          before the gap and the first after it, how its pelvis rises and falls with the
          steps just before the gap, and how it travels over the ground across the gap.
-      2. Fit: the twelve best are each moved over the ground onto both ends and their
-         pose differences blended away, so each meets the context exactly; they are
-         combined, the better-scored counting more (a segment scoring s weighs
+      2. Fit: the twelve best (fewer where the library holds fewer that do not overlap)
+         are each moved over the ground onto both ends and their pose differences blended
+         away, so each meets the context exactly; they are combined, the better-scored
+         counting more (a segment scoring s weighs
          exp(-(s - best) / (best + 1))), the weights corrected so that what the segments
          share in missing the clip (all a little ahead in their step, say) is not carried
          into the fill (some weights are then negative). A gap over 1.5 s gets the best
