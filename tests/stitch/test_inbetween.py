@@ -2607,7 +2607,7 @@ def test_motion_kept_is_what_the_average_of_strokes_out_of_step_loses():
     assert motion_kept(_average_fills(still), still) == 1.0
 
 
-def test_segments_whose_average_loses_their_motion_give_way_to_the_best_alone(humanoid):
+def test_segments_whose_average_loses_their_motion_give_way_to_the_best_alone(humanoid, tmp_path):
     """Below InbetweenConfig.average_min_motion the best-scoring segment fills a standing
     clip's gap alone: the same frames as a search for one segment, reported as one, with the
     share kept. A travelling clip's segments, kept in step by the search, stay combined."""
@@ -2634,6 +2634,16 @@ def test_segments_whose_average_loses_their_motion_give_way_to_the_best_alone(hu
     walk, walks = humanoid
     walking = inbetween(walk, gap, walks, up="Y", method="library", config=always)
     assert len(walking.blended_from) > 1 and walking.to_json()["motion_kept"] is None
+    # the command says why one segment filled it
+    write_motion(idle, tmp_path / "idle.bvh")
+    (tmp_path / "lib").mkdir()
+    for i, m in enumerate(lib):
+        write_motion(m, tmp_path / "lib" / f"l{i}.bvh")
+    code, so, se = run("inbetween", tmp_path / "idle.bvh", "--gap", "60:90", "--library",
+                       tmp_path / "lib", "--method", "library", "--out", tmp_path / "o.bvh")  # fmt: skip
+    assert code == 0, se
+    assert re.search(r"fills the gap alone: combined, the best segments would keep \d+% of their "
+                     r"own motion, under 70%", so), so  # fmt: skip
 
 
 def test_a_foot_planted_through_the_gap_is_raised_only_as_the_fill_departs():

@@ -289,6 +289,13 @@ def inbetween_cmd(
             f"{res.path_miss_m:.2f} m off; score {c.score:.4g}"
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
+    kept = res.motion_kept
+    if len(res.blended_from) == 1 and kept == kept and kept < DEFAULT_CONFIG.average_min_motion:
+        say(  # why one segment (newcomer: a wave combined out of step kept half its motion)
+            f"the best-scoring segment fills the gap alone: combined, the best segments would "
+            f"keep {kept:.0%} of their own motion, under {DEFAULT_CONFIG.average_min_motion:.0%} "
+            "(a standing take's strokes out of step cancel)"
+        )
     weighing, shown = _takes_shown(res.blended_from, 4)
     if len(res.blended_from) > 1:
         negative = sum(x["weight"] < -0.0005 for x in res.blended_from)
