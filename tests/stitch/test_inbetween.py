@@ -2640,7 +2640,8 @@ def test_segments_whose_average_loses_their_motion_give_way_to_the_best_alone(hu
     for i, m in enumerate(lib):
         write_motion(m, tmp_path / "lib" / f"l{i}.bvh")
     code, so, se = run("inbetween", tmp_path / "idle.bvh", "--gap", "60:90", "--library",
-                       tmp_path / "lib", "--method", "library", "--out", tmp_path / "o.bvh")  # fmt: skip
+                       tmp_path / "lib", "--method", "library", "--out",
+                       tmp_path / "o.bvh")  # fmt: skip
     assert code == 0, se
     assert re.search(r"fills the gap alone: combined, the best segments would keep \d+% of their "
                      r"own motion, under 70%", so), so  # fmt: skip
