@@ -297,6 +297,26 @@ def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     _assert_no_errors(b)
 
 
+def test_a_standing_takes_gap_filled_by_one_segment_says_why(browser, tmp_path):
+    """An idle take's sways combined out of step would keep half their motion: one segment
+    fills it, and the page says why, with the share the command gives."""
+    from mocapkit.stitch.inbetween import inbetween
+
+    idle = datasets.procedural_motion("idle", 5.0, seed=3).motion
+    lib = [datasets.procedural_motion("idle", 6.0, seed=s).motion for s in (4, 5, 6)]
+    out = tmp_path / "idle.bvh"
+    res = inbetween(idle, (60, 90), lib, up="Y", output=str(out), clip_name="idle.bvh",
+                    method="library")  # fmt: skip
+    assert len(res.blended_from) == 1 and res.motion_kept < 0.7
+    write_motion(res.motion, out)
+    shown = ViewMotion(res.motion, str(out), provenance=res.provenance(out))
+    b = browser
+    _open(b, write_page(tmp_path / "idle.html", [shown]))
+    text = b.eval("document.body.innerText")
+    assert f"alone (combined, the best segments would keep {res.motion_kept:.0%}" in text
+    _assert_no_errors(b)
+
+
 def test_a_gap_given_to_the_kalman_transition_for_an_unlike_library_says_why(browser, tmp_path):
     """A short gap whose library holds nothing like the motion around it (a standing take for
     a walk) is filled by the Kalman transition: the page gives the fit's misses as the reason,

@@ -2923,6 +2923,8 @@ class Inbetween:
             params["unlike"] = True
         if self.note:  # why no library segment filled the gap
             params["note"] = self.note
+        if self.method == "library" and len(self.blended_from) == 1 and self.motion_kept < 1:
+            params["motion_kept"] = self.motion_kept  # why the best alone (a standing take)
         if self.method == "library":
             params["source_backwards"] = backwards  # the segment named, as segments names it
             params["blended_from"] = [dict(x) for x in self.blended_from]

@@ -353,6 +353,7 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "method": plan.parameters.get("method"),
         "warning": plan.parameters.get("warning"),
         "feetWarning": plan.parameters.get("feet_warning"),  # measured on the frames written
+        "motionKept": plan.parameters.get("motion_kept"),  # why one segment filled it alone
         # the warning gave the gap to the Kalman transition (it is the reason, not a warning)
         "unlike": bool(plan.parameters.get("unlike")),
         "note": plan.parameters.get("note"),

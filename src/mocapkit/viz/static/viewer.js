@@ -680,7 +680,9 @@
         (stitch.takesAtZero ? ', ' + stitch.takesAtZero + ' more take(s) at 0%' : '') +
         ' (weighted by how well each matches, corrected for what they share in missing the clip; some may count negatively); largest share: ' +
         segText(blended.reduce(function (m, x) { return x.weight > m.weight ? x : m; })) + '; every segment in the sidecar' :
-      'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards});
+      'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards}) +
+        (stitch.motionKept != null ? ' alone (combined, the best segments would keep ' + pct(stitch.motionKept) +
+          ' of their own motion: a standing take\'s strokes out of step cancel)' : '');
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' (--gap ' + stitch.generated[0] + ':' + stitch.generated[1] + ') filled (drawn yellow) ' + from +
       (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
         '; L-score of its one junction with the clip (a gap at the clip\'s ' + (stitch.takeoff == null ? 'start' : 'end') + ') ' + Number(stitch.lscore).toPrecision(4) :
