@@ -1224,6 +1224,16 @@ def test_a_gap_over_average_max_seconds_is_filled_by_the_best_segment_alone(huma
     assert len(inbetween(walk, (40, 86), lib[:3], up="Y", config=more).blended_from) > 1
 
 
+def test_cli_says_why_a_long_gap_is_filled_by_one_segment(files):
+    """Newcomer: a gap over average_max_seconds was filled by one segment, nothing said why."""
+    why = "the best-scoring segment fills the gap alone: a gap over 1.5 s"
+    for gap, alone in (("40:86", True), ("40:85", False)):
+        code, so, se = run("inbetween", files / "walk.bvh", "--gap", gap, "--library",
+                           files / "lib", "--method", "library", "--out",
+                           files / "long.bvh")  # fmt: skip
+        assert code == 0 and (why in so) == alone, (gap, so, se)
+
+
 def test_a_gap_in_seconds_is_read_at_the_clips_frame_rate():
     assert check_gap("2.0s:3.0s", 150, fps=30.0) == (60, 90)
     assert check_gap("60:3.0s", 150, fps=30.0) == (60, 90)
@@ -1402,6 +1412,11 @@ def test_cli_fills_a_dropout_of_nan_frames_named_as_the_gap(files, tmp_path, mon
     assert code == 0, se
     assert "frames 100:106 hold NaN or infinite values; the gap 95:110 replaces them" in se
     assert np.isfinite(read_motion(tmp_path / "o.bvh").rotations).all()
+    # the frames replaced held NaN: no score of theirs (newcomer: their filling was scored)
+    code, so, se = run("inbetween", holed, "--gap", "95:110", "--library", lib, "--out",
+                       tmp_path / "o2.bvh", "--json", "-")  # fmt: skip
+    assert code == 0 and json.loads(so)["replaced_lscore"] is None
+    assert "the frames replaced held NaN: no score" in se
     code, so, se = run("inbetween", holed, "--gap", "95:103", "--library", lib, "--out",
                        tmp_path / "p.bvh", "--json", "-")  # fmt: skip
     assert code == 2 and "Traceback" not in se
@@ -1423,6 +1438,7 @@ def test_cli_fills_a_dropout_of_nan_frames_named_as_the_gap(files, tmp_path, mon
     code, _, se = run("inbetween", holed, "--gap", "95:103", "--library", lib, "--out",
                       tmp_path / "r.bvh", "--lenient")  # fmt: skip
     assert code == 0 and list(seen["not_captured"]) == [(100, 106)], se
+    assert "(frames 100:106; joints" in se  # the repair names the frames, as the note does
     # NaN rows the gap covers, but a truncated last row too: the refusal names both
     cut = tmp_path / "cut.bvh"
     cut.write_text(holed.read_text().rstrip("\n").rsplit(" ", 5)[0] + "\n")

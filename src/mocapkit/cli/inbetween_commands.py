@@ -290,6 +290,15 @@ def inbetween_cmd(
             f"{weight}; {res.candidates} candidates in {res.search_seconds:.2f} s"
         )
     kept = res.motion_kept
+    long_gap = (b - a) * res.motion.frame_time > DEFAULT_CONFIG.average_max_seconds
+    if res.method == "library" and len(res.blended_from) == 1 and long_gap and 0 < a < b < (
+        res.motion.num_frames
+    ):  # why one segment (newcomer: said for a standing take, not for a long gap)
+        say(
+            f"the best-scoring segment fills the gap alone: a gap over "
+            f"{DEFAULT_CONFIG.average_max_seconds:g} s (combined segments drift out of step "
+            "over a few strides)"
+        )
     if len(res.blended_from) == 1 and kept == kept and kept < DEFAULT_CONFIG.average_min_motion:
         say(  # why one segment (newcomer: a wave combined out of step kept half its motion)
             f"the best-scoring segment fills the gap alone: combined, the best segments would "
@@ -325,8 +334,14 @@ def inbetween_cmd(
         feet_warning = f"warning: {clip}: {res.feet_warning}"
         click.echo(f"mocapkit: {feet_warning}", err=True)
     margin = DEFAULT_CONFIG.fallback_margin
-    # the frames replaced, scored alike: the scale an L-score reads on (lower is smoother)
-    was = f", the frames replaced {res.replaced_lscore:.6g}"
+    # the frames replaced, scored alike: the scale an L-score reads on (lower is smoother);
+    # frames that held NaN have no score of their own (newcomer: their filling was scored)
+    held_nan = any(x < b and y > a for x, y in nan_frames)
+    was = (
+        ", the frames replaced held NaN: no score"
+        if held_nan
+        else f", the frames replaced {res.replaced_lscore:.6g}"
+    )
     scores = (
         f"two-sided L-score of the filled frames {res.library_lscore:.6g} from the library, "
         f"{res.kalman_lscore:.6g} from the Kalman transition{was}"
@@ -374,6 +389,8 @@ def inbetween_cmd(
         said = [w for w in (fit_warning, feet_warning) if w]
         result = {**res.to_json(), "skipped": [*unnamed, *skipped],
                   "warnings": [*said, *warnings_so_far()]}  # fmt: skip
+        if held_nan:  # a score of the frames a reading filled is not the capture's
+            result["replaced_lscore"] = None
         if json_path and json_path != "-":
             write_json(json_path, result)
             wrote.append(f"wrote {json_path}")

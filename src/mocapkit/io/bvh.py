@@ -619,7 +619,8 @@ def parse_bvh(data: bytes | str, source: str = "<string>", lenient: bool = False
         warnings.warn(
             FilledFramesWarning(
                 f"{source}:{line}: {n_bad} NaN/inf value{'s' * (n_bad != 1)} in {len(bad_rows)} "
-                f"row{'s' * (len(bad_rows) != 1)} from here (joints {', '.join(joints)}) filled "
+                f"row{'s' * (len(bad_rows) != 1)} from here (frames "
+                f"{', '.join(f'{x}:{y}' for x, y in spans)}; joints {', '.join(joints)}) filled "
                 "from neighbouring frames",
                 spans,
             ),
