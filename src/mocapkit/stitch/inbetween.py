@@ -2073,11 +2073,11 @@ def _above_floor(ex: Motion, pos, gap, targets, weights, up: str, floor, feet):
     contact detector calls planted or fast; a foot between (sliding at a walking pace, as a
     segment of another gait fitted to the context drags it) was left where the fill put it
     (newcomer report: a Bandai-1 run filled from walks only, a toe 4 cm into the floor over
-    five frames, unwarned). Not everywhere: where the lock's holds put an ankle further from
-    the hip than the leg reaches, the IK leaves the frame as it was, and near the gap's end
-    the correction's speed limit cannot lift it in time (run_angry_001 at 20:50 from walks:
-    the left ankle 7.6 cm below the floor 4 frames before the end, in the middle of the gap
-    on it; :attr:`Inbetween.feet_warning` says so). With the other
+    five frames, unwarned). Not everywhere: on some frames the IK returns the leg as it was
+    (run_angry_001 at 20:50 from walks, frames 44-45; why its solve fails there was not found),
+    and near the gap's end the correction's speed limit cannot lift the foot in time (there
+    the left ankle 7.6 cm below the floor 4 frames before the end, the middle of the gap on
+    it; :attr:`Inbetween.feet_warning` says so). With the other
     foot's floor for a foot planted nowhere (:func:`_planted_heights`), on the benchmark's
     tuning windows (``--tune``, the take's gait and person / its person left out of the
     library), foot skate at 5 / 15 / 30 / 45 frames 24.8 / 32.1 / 34.2 / 33.7 -> 24.4 / 31.9 /
