@@ -2577,6 +2577,59 @@ def test_a_fill_that_sinks_the_feet_is_measured_and_warned(humanoid, start):
     json.dumps(out[False].to_json(), allow_nan=False)
 
 
+def test_foot_skate_is_the_worse_foots_against_either_foots_stretches(humanoid):
+    """feet_measures' skate, against a loop over the feet: the filled frames' worse foot
+    (one foot skimming the floor while the other swings was averaged away over both:
+    newcomer), the clip's own mean, and its largest stretch of the fill's steps outside the
+    gap, either foot."""
+    from mocapkit.body import body_of
+    from mocapkit.stitch.inbetween import (
+        SKATE_HEIGHT_M,
+        _floor_bound,
+        _planted_heights,
+        feet_measures,
+    )
+
+    walk, lib = humanoid
+    a, b = 60, 75
+    res = inbetween(walk, (a, b), lib[2:3], up="Y", method="library")  # a walk from a run
+    got = feet_measures(walk, res.motion, a, b, "Y")
+    sided = body_of(walk).feet
+    joints = sorted({j for _, j in sided})
+    planted = _planted_heights(walk, "Y", joints, (a, b))[joints]
+    floor = _floor_bound(walk, "Y", joints, (a, b), planted)
+    fps = walk.fps
+
+    def foot_steps(motion, side):  # per step, this foot's mean weighted speed (m/s)
+        P = forward_kinematics(motion)[0]
+        out = []
+        for t in range(1, motion.num_frames):
+            vals = []
+            for s_, j in sided:
+                if s_ != side:
+                    continue
+                k = joints.index(j)
+                v = np.hypot(*(P[t, j, [0, 2]] - P[t - 1, j, [0, 2]])) * fps
+                h = P[t, j, 1] - floor[k]
+                vals.append(v * min(max(2.0 - 2.0 ** (h / SKATE_HEIGHT_M), 0.0), 1.0))
+            out.append(np.mean(vals))
+        return np.array(out)
+
+    sides = list(dict(sided))
+    fill = [foot_steps(res.motion[a - 1 : b + 1], s).mean() for s in sides]
+    assert got["foot_skate_m_s"] == pytest.approx(max(fill))
+    assert max(fill) > np.mean(fill)  # the feet differ: the worse one is not their mean
+    own = [foot_steps(walk, s) for s in sides]
+    keep = np.ones(walk.num_frames - 1, bool)
+    keep[a - 1 : b] = False
+    assert got["clip_foot_skate_m_s"] == pytest.approx(max(o[keep].mean() for o in own))
+    n = b - a + 1
+    most = max(
+        o[i : i + n].mean() for o in own for i in range(len(o) - n + 1) if keep[i : i + n].all()
+    )
+    assert got["clip_foot_skate_max_m_s"] == pytest.approx(most)
+
+
 def test_a_fill_whose_feet_slide_is_warned():
     """The warning's second measure: the feet's speed near the floor over the filled frames
     against the most the clip's own stretches of that length reach (a captured foot rolls and
@@ -2587,15 +2640,15 @@ def test_a_fill_whose_feet_slide_is_warned():
             "foot_skate_m_s": 0.9, "clip_foot_skate_m_s": 0.2,
             "clip_foot_skate_max_m_s": 0.3}  # fmt: skip
     said = _feet_warning(feet)
-    assert said.startswith("the fill puts the feet sliding 0.90 m/s near the floor")
-    assert "stretches of its length reach 0.30 m/s at most" in said
+    assert said.startswith("the fill puts a foot sliding 0.90 m/s near the floor")
+    assert "the clip's own feet reach 0.30 m/s at most in its stretches of that length" in said
     assert _feet_warning({**feet, "foot_skate_m_s": 0.99 * FEET_WARN_SKATE * 0.3}) == ""
     # a standing take's feet barely move: a few cm/s over its own is not a slide
     assert _feet_warning({**feet, "foot_skate_m_s": 0.05, "clip_foot_skate_max_m_s": 0.01}) == ""
     assert _feet_warning({**feet, "clip_foot_skate_max_m_s": None}) == ""
     both = _feet_warning({**feet, "floor_depth_m": 0.03})
     assert both.startswith("the fill puts Toes_L 3.0 cm below the floor the clip stands on at "
-                           "frame 3 and the feet sliding")  # fmt: skip
+                           "frame 3 and a foot sliding")  # fmt: skip
 
 
 def test_motion_kept_is_what_the_average_of_strokes_out_of_step_loses():

@@ -150,7 +150,7 @@ def inbetween_cmd(
         segment's path over the ground off by more than 0.5 m (0.35 m per second of a gap
         over 1.4 s), or its poses beside the gap by more than 12 cm RMS per joint.
       - a warning, measured on the frames written, when a foot goes over 2 cm below CLIP's
-        floor, or the feet slide near the floor over 1.5x as fast as in any stretch of
+        floor, or a foot slides near the floor over 2x as fast as either does in any stretch of
         CLIP's own frames of the gap's length.
       - OUT's provenance sidecar names the files searched, and the segments used: file,
         frames, speed, weight (mocapkit view OUT marks them). A CLIP filled before keeps
