@@ -253,6 +253,12 @@ def _hinge_flex(gpos, grot, parents, j, ax_local, child):
     return np.arctan2(np.einsum("fi,fi->f", np.cross(u, v), a), np.einsum("fi,fi->f", u, v)), a
 
 
+_STRAIGHT = math.radians(1.0)
+"""A hinge flexed less than this is straight (:func:`_solve_frames`)."""
+_UNSTICK = math.radians(5.0)
+"""How far :func:`_solve_frames` bends a straight hinge whose chain must shorten."""
+
+
 def _solve_frames(
     parents: np.ndarray,
     lrot: np.ndarray,
@@ -276,17 +282,28 @@ def _solve_frames(
     it = 0
     active = np.ones(Fa, dtype=bool)
     res = np.zeros((Fa, E))
-    # the best pose met so far per frame: near a straight leg pulled at an unreachable target
-    # the steps can wander off (a leg kicked out on one frame); a frame keeps its best pose
+    # the best pose met so far per frame and chain: near a straight leg pulled at an
+    # unreachable target the steps can wander off (a leg kicked out on one frame); each chain
+    # keeps its best pose. (Judged per frame over every chain, one leg's unreachable target
+    # kept the other leg at its start pose too: a fill's foot left 6 cm under the floor.)
     best_rot = lrot.copy()
     best_res = np.full((Fa, E), np.inf)
+    spans = [(list(p["chain"].joints), slice(p["rows"], p["rows"] + len(p["chain"].effectors)))
+             for p in plan]  # fmt: skip
+
+    def keep_best(lrot: np.ndarray, res: np.ndarray) -> None:
+        for joints, cols in spans:
+            better = res[:, cols].max(axis=1) < best_res[:, cols].max(axis=1)
+            rows = np.flatnonzero(better)
+            best_rot[np.ix_(rows, joints)] = lrot[np.ix_(rows, joints)]
+            best_res[rows, cols] = res[rows, cols]
+
     for it in range(1, iterations + 1):  # noqa: B007 - `it` is reported
         gpos, grot = fk_arrays(parents, lrot, ltrans)
         eff = np.concatenate([gpos[:, list(p["chain"].effectors)] for p in plan], axis=1)
         err = targets - eff
         res = np.linalg.norm(err, axis=-1)
-        better = res.max(axis=1) < best_res.max(axis=1)
-        best_rot[better], best_res[better] = lrot[better], res[better]
+        keep_best(lrot, res)
         active = res.max(axis=1) > tol
         if not active.any():
             break
@@ -327,6 +344,16 @@ def _solve_frames(
                     step = d[:, c0 : c0 + 3]
                 else:
                     ang = d[:, c0]
+                    # a straight hinge is a singular pose: bending it moves the effector across
+                    # the limb, not along it, at first order, so the step never bends it (a
+                    # straight knee under a foot aimed higher stayed straight: the foot left
+                    # 6 cm under the floor). Where the chain must shorten to reach its aim, it
+                    # is bent a little, and the steps go on from there.
+                    root = gpos[:, c.joints[0]]
+                    reach = np.linalg.norm(gpos[:, c.effectors[0]] - root, axis=-1)
+                    aim = np.linalg.norm(targets[:, p["rows"]] - root, axis=-1)
+                    stuck = (hinge_flex[j] < _STRAIGHT) & (aim < reach - tol)
+                    ang = np.where(stuck, np.maximum(ang, _UNSTICK - hinge_flex[j]), ang)
                     lo = min_flex[h_i] - hinge_flex[j]
                     ang = np.maximum(ang, lo)  # no flexing past the allowed extension
                     ang = np.where(active, ang, 0.0)
@@ -350,9 +377,8 @@ def _solve_frames(
         gpos, _ = fk_arrays(parents, lrot, ltrans)
         eff = np.concatenate([gpos[:, list(p["chain"].effectors)] for p in plan], axis=1)
         res = np.linalg.norm(targets - eff, axis=-1)
-    worse = res.max(axis=1) > best_res.max(axis=1)
-    lrot[worse], res[worse] = best_rot[worse], best_res[worse]
-    return lrot, res, it
+    keep_best(lrot, res)
+    return best_rot, best_res, it
 
 
 def _rigid_pairs_apart(tgt: np.ndarray, cur: np.ndarray, chains: Sequence[Chain], sk) -> None:

@@ -37,12 +37,21 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
     hinge in chain order, the lowest flexion allowed (radians)."""
     lrot = lrot.copy()
     effs = [e for c in chains for e in c[1]]
-    best, best_err = lrot.copy(), np.inf  # the pose closest to the targets met so far
+    # each chain's pose closest to its targets met so far
+    starts = np.cumsum([0] + [len(c[1]) for c in chains])
+    best = [lrot[list(c[0])].copy() for c in chains]
+    best_err = [np.inf] * len(chains)
+
+    def keep_best(err):
+        for ci, (joints, _, _) in enumerate(chains):
+            e = np.linalg.norm(err[starts[ci] : starts[ci + 1]], axis=-1).max()
+            if e < best_err[ci]:
+                best[ci], best_err[ci] = lrot[list(joints)].copy(), e
+
     for _ in range(iters):
         gpos, grot = fk_frame(parents, lrot, ltrans)
         err = targets - gpos[effs]
-        if np.linalg.norm(err, axis=-1).max() < best_err:
-            best, best_err = lrot.copy(), np.linalg.norm(err, axis=-1).max()
+        keep_best(err)
         if np.linalg.norm(err, axis=-1).max() <= tol:
             break
         # Jacobian, one column per degree of freedom
@@ -76,12 +85,18 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
         step = J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(rows), err.reshape(-1))
         c = 0
         h = 0
-        for joints, _ceffs, hinges in chains:
+        for ci, (joints, ceffs, hinges) in enumerate(chains):
             delta = np.array([1.0, 0, 0, 0])
             g_prev_new = None
             for i, j in enumerate(joints):
                 if j in hinges:
-                    ang = max(step[c], min_flex[h] - flexes[j])
+                    ang = step[c]
+                    # a straight hinge whose chain must shorten to reach its aim: bent 5 deg
+                    reach = np.linalg.norm(gpos[ceffs[0]] - gpos[joints[0]])
+                    aim = np.linalg.norm(targets[starts[ci]] - gpos[joints[0]])
+                    if flexes[j] < math.radians(1.0) and aim < reach - tol:
+                        ang = max(ang, math.radians(5.0) - flexes[j])
+                    ang = max(ang, min_flex[h] - flexes[j])
                     h += 1
                     v = axes[j] * ang
                     c += 1
@@ -101,7 +116,8 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
                     lrot[j] = rot.quat_normalize(rot.quat_mul(rot.quat_inv(g_prev_new), g_new))
                 g_prev_new = g_new
     gpos, _ = fk_frame(parents, lrot, ltrans)
-    if np.linalg.norm(targets - gpos[effs], axis=-1).max() > best_err:
-        lrot = best
-        gpos, _ = fk_frame(parents, lrot, ltrans)
+    keep_best(targets - gpos[effs])
+    for ci, (joints, _, _) in enumerate(chains):
+        lrot[list(joints)] = best[ci]
+    gpos, _ = fk_frame(parents, lrot, ltrans)
     return lrot, np.linalg.norm(targets - gpos[effs], axis=-1)

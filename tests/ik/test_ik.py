@@ -16,6 +16,7 @@ from mocapkit.datasets import procedural_motion
 from mocapkit.ik import (
     FootLockConfig,
     IKConfig,
+    _hinge_flex,
     _prepare,
     _solve_frames,
     flexion_angles,
@@ -251,3 +252,29 @@ def test_lock_feet_holds_planted_feet(shared_path):
     # nothing changes outside contacts and their blend
     outside = (fl.weights == 0).all(axis=1)
     assert np.array_equal(fl.motion.rotations[outside], m.rotations[outside])
+
+
+def test_a_straight_knee_bends_to_raise_its_foot(walk):
+    """A straight knee is a singular pose: bending it moves the ankle across the leg, not along
+    it, at first order, so the steps alone never bend it (a fill's foot was left 6 cm under the
+    floor). An ankle aimed 5 cm nearer the hip is reached, and so is the other leg's target on
+    the same frames when one leg's aim is out of reach (each leg keeps its own best pose)."""
+    m = walk[:6].copy()
+    chains = leg_chains(m)
+    for c in chains:
+        m.rotations[:, c.hinges[0]] = [1.0, 0.0, 0.0, 0.0]  # the rest pose: a straight knee
+    pos, grot = forward_kinematics(m)
+    flex = [_hinge_flex(pos, grot, m.skeleton.parents, c.hinges[0], c.hinge_axes[0],
+                        c.joints[2])[0] for c in chains]  # fmt: skip
+    assert np.abs(flex).max() < 1e-9
+    effs = [e for c in chains for e in c.effectors]
+    targets = pos[:, effs].copy()
+    targets[:, :, 1] += 0.05  # both feet 5 cm up: the legs must shorten
+    r = solve(m, chains, targets)
+    assert r.residual.max() < 1e-3
+    far = targets.copy()
+    n_left = len(chains[0].effectors)
+    far[:, n_left:, 2] += 2.0  # the right foot aimed 2 m ahead: out of reach
+    r2 = solve(m, chains, far)
+    assert r2.residual[:, :n_left].max() < 1e-3  # the left leg is not held back by the right
+    assert r2.residual[:, n_left:].min() > 1.0

@@ -135,3 +135,44 @@ def local_linear_reference(Y, X, w, rank: int, ridge: float):
     pen = np.diag([0.0] + [ridge**2] * rank)
     beta = np.linalg.solve(D.T @ (w[:, None] * D) + pen, D.T @ (w[:, None] * Y))
     return beta[0]
+
+
+def gait_predicted_reference(past, mirrored, h: int, frames):
+    """mocapkit.stitch.gait.predicted one frame at a time: frame t (0 = the gap's first) takes
+    the past frame t - m h for the least m >= 1 that reaches the last h past frames, mirrored
+    where m is odd; a past frame the clip lacks (more than P back) is the normalised lerp
+    between the mirror of the last past frame (h + 1 back) and the first past frame (P back).
+    Returns (poses with the fields of past, have)."""
+    from mocapkit.stitch.gait import BodyLocal
+
+    P = past.heights.shape[0]
+
+    def pose(src, k):
+        return src.rotations[k], src.heights[k], src.translations[k]
+
+    def nlerp(x, y, f):
+        qy = np.where(np.sum(x[0] * y[0], -1, keepdims=True) < 0, -y[0], y[0])
+        q = (1 - f) * x[0] + f * qy
+        return q / np.linalg.norm(q, axis=-1, keepdims=True), (1 - f) * x[1] + f * y[1], (
+            (1 - f) * x[2] + f * y[2])
+
+    rots, hts, trs, have = [], [], [], []
+    for t in frames:
+        m = 1
+        while t - m * h > -1:
+            m += 1
+        u = t - m * h  # frames back from the gap: -h .. -1 (or -1-h for t = -1)
+        odd = m % 2 == 1
+        plain, mir = (mirrored, past) if odd else (past, mirrored)
+        k = u + P
+        if k >= 0:
+            r = pose(plain, k)
+            have.append(True)
+        else:
+            f = min(max((u + 1 + h) / max(h + 1 - P, 1), 0.0), 1.0)
+            r = nlerp(pose(mir, P - 1), pose(plain, 0), f)
+            have.append(False)
+        rots.append(r[0])
+        hts.append(r[1])
+        trs.append(r[2])
+    return BodyLocal(np.array(rots), np.array(hts), np.array(trs)), np.array(have)

@@ -2262,7 +2262,9 @@ def test_the_fill_keeps_the_clips_pelvis_level_and_its_feet_on_the_ground(humano
     a, b = 40, 70
     mid = slice(a + 12, b - 12)  # past the end offsets' blend (of the rotations too)
     # the segment's own leg poses in the middle (none of the ends' offsets held there)
-    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1, offset_keep=0.0)
+    # (the level alone: the clip's gait carried on would bring a share of its level too)
+    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1, offset_keep=0.0,
+                     gait_share=0.0)  # fmt: skip
     out = {}
     for level in (0.5, 0.0):
         res = inbetween(walk, (a, b), [low], up="Y", method="library",
@@ -2368,7 +2370,8 @@ def test_a_rise_the_legs_cannot_follow_is_capped_and_does_not_pop_the_legs(human
     effs = [e for c in chains for e in c.effectors]
     legs = sorted({j for c in chains for j in c.joints})
     a, b = 40, 70
-    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1)
+    # (the level alone: the clip's gait carried on would bring a share of its level too)
+    config = replace(DEFAULT_CONFIG, foot_lock=False, neighbours=1, gait_share=0.0)
     out = {
         level: inbetween(
             high,
@@ -2413,7 +2416,8 @@ def test_feet_the_segments_plant_below_the_clips_floor_are_raised_to_it(humanoid
     tr[:, pelvis_index(walk.skeleton), 1] += off
     moved.translations = tr
     a, b = 40, 80
-    config = replace(DEFAULT_CONFIG, neighbours=1)
+    # (the floor alone: the clip's gait carried on would bring a share of its level too)
+    config = replace(DEFAULT_CONFIG, neighbours=1, gait_share=0.0)
     con = foot_contacts(walk, up="Y")
     feet = list(con.joints)
     T = forward_kinematics(walk)[0][:, feet, 1]

@@ -319,6 +319,12 @@ def inbetween_cmd(
             f"{main['source_frames'][1]}{' played backwards' if main['backwards'] else ''} "
             f"({whole_percent(main['weight'])}))"
         )
+    if res.gait_share > 0:  # the part of the fill that is not the library's
+        say(
+            f"{res.gait_share:.0%} of the fill's pose carries on the clip's own gait: its frames "
+            f"before the gap, mirrored every half cycle ({res.gait_half_period_s:.2f} s, read "
+            f"from frame {b}); the library's segments give the rest and the ground path"
+        )
     fit_warning = None  # said on standard error, and in the JSON's warnings
     if res.warning and res.method == "library":  # (a Kalman fill is not the library's)
         a, b = res.gap

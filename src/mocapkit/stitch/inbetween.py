@@ -181,6 +181,7 @@ from mocapkit.core.checks import check_field_types, whole_number
 from mocapkit.core.motion import Motion
 from mocapkit.core.skeleton import Skeleton
 from mocapkit.provenance import Provenance, Segment, TransitionTaken
+from mocapkit.stitch.gait import gait_continued, stance_kept, with_gait
 from mocapkit.stitch.kalman import DEFAULT_MODEL, ConstantAccelerationModel, smoother_matrix
 from mocapkit.stitch.lscore import _search_kernel
 from mocapkit.stitch.search import conform, feature_joint_indices, motion_features
@@ -584,6 +585,20 @@ class InbetweenConfig:
     reversed segment is chosen only when it scores best. On the tuning takes (all forward,
     their style left out of the library) it changes L2P over interpolation by at most 0.01 at
     every length; what it is for, backward walks, the tuning split does not hold."""
+
+    gait_share: float = 0.3
+    """The share of the fill's body-local pose taken from the clip's own gait carried on
+    through the gap (:mod:`mocapkit.stitch.gait`: the past frames, alternately mirrored, half a
+    gait cycle apart), where the clip travels (:data:`STANDING_SPEED_M_S`) and has frames on
+    both sides of the gap; the ground path and heading stay the library's. 0: off. Relies on:
+    steady locomotion is periodic and left/right symmetric, so the context's own frames
+    predict the person's, style's and gait's steps that a library may not hold."""
+    gait_half_period_seconds: tuple[float, float] = (0.25, 0.8)
+    """The half gait cycles tried by :attr:`gait_share`'s prediction: a dash's step to a slow
+    walk's."""
+    gait_temperature: float = 0.5
+    """How sharply :attr:`gait_share`'s prediction prefers the half period that best predicts
+    the first future frame (:func:`mocapkit.stitch.gait.gait_continued`)."""
 
     own_frames: bool = True
     """Search the clip's own frames beside the gap too (each stretch of at least
@@ -2671,6 +2686,19 @@ def _ground_speed(ctx: GapContext, g: int, mpu: float) -> float:
     return float(np.linalg.norm(ctx.travel)) * mpu / ((g + 1) * ctx.frame_time)
 
 
+def _gait_share(best: Candidate, gait_miss_m2: float, config: InbetweenConfig, mpu: float) -> float:
+    """:attr:`InbetweenConfig.gait_share`, less where the library's best segment arrives at the
+    first future frame closer than the clip's gait carried on does (``gait_miss_m2``, m²
+    summed over the joints): times the ratio of the two misses, where under 1. Each source is
+    trusted as far as it predicts the one frame after the gap both must reach: the clip's own
+    take in the library, which meets it exactly, fills the gap alone."""
+    share = config.gait_share
+    if best.mismatch is None or best.mismatch.size % 3 or gait_miss_m2 <= 0:
+        return share
+    at_b = best.mismatch.reshape(3, -1)[2] * mpu  # (3m,): frames s-1, s and s+g+1 less the clip's
+    return share * min(1.0, float(np.sum(at_b**2)) / gait_miss_m2)
+
+
 def motion_kept(
     combined: Motion, fills: Sequence[Motion], weights: Sequence[float] | None = None
 ) -> float:
@@ -2874,6 +2902,15 @@ class Inbetween:
     filled the gap alone. Judged where the clip stands only (:data:`STANDING_SPEED_M_S`): NaN
     for a travelling clip, and where one segment was searched for (or none)."""
 
+    gait_share: float = 0.0
+    """The share of the fill's body-local pose that carries on the clip's own gait
+    (:attr:`InbetweenConfig.gait_share`, :mod:`mocapkit.stitch.gait`); 0 where none was
+    (a standing clip, a gap shorter than half a gait cycle or at the clip's start or end, the
+    Kalman transition)."""
+    gait_half_period_s: float = math.nan
+    """The half gait cycle that prediction read from the first future frame (seconds; NaN
+    where :attr:`gait_share` is 0)."""
+
     @property
     def feet_warning(self) -> str:
         """Set when the written fill puts a foot well below the clip's floor or slides the feet
@@ -2951,6 +2988,9 @@ class Inbetween:
             params["note"] = self.note
         if self.method == "library" and len(self.blended_from) == 1 and self.motion_kept < 1:
             params["motion_kept"] = self.motion_kept  # why the best alone (a standing take)
+        if self.gait_share > 0:  # how much of the fill is the clip's own gait carried on
+            params["gait_share"] = self.gait_share
+            params["gait_half_period_s"] = self.gait_half_period_s
         if self.method == "library":
             params["source_backwards"] = backwards  # the segment named, as segments names it
             params["blended_from"] = [dict(x) for x in self.blended_from]
@@ -2989,6 +3029,8 @@ class Inbetween:
             "warning": self.warning or None,
             "feet_warning": self.feet_warning or None,
             "motion_kept": _finite_or_none(self.motion_kept),
+            "gait_share": self.gait_share,
+            "gait_half_period_s": _finite_or_none(self.gait_half_period_s),
             "note": self.note or None,
             "kalman_lscore": _finite_or_none(self.kalman_lscore),
             "replaced_lscore": _finite_or_none(self.replaced_lscore),
@@ -3171,6 +3213,8 @@ def inbetween(
     lib_ends, lfill = (math.nan, math.nan), None
     share = fill_weights(cands, config, mpu) if cands else np.zeros(0)
     kept = math.nan
+    gait_period = math.nan
+    gait_share = 0.0  # the share of the fill's pose the clip's own gait carried on gave
     if cands:
         fills = [
             library_fill(onpath, a, b, lib.motions[c.clip], c, up=up, config=config,
@@ -3198,6 +3242,21 @@ def inbetween(
         if known:
             shift = sum(d * wk for d, wk in known) / sum(wk for _, wk in known)
             lfill = _to_level(onpath, a, b, lfill, shift, up, config)
+        if (
+            config.gait_share > 0
+            and (b - a) * clip.frame_time >= config.gait_half_period_seconds[0]
+            and _ground_speed(ctx, b - a, mpu) >= STANDING_SPEED_M_S
+        ):
+            cont = gait_continued(onpath, a, b, up, config.gait_half_period_seconds,
+                                  config.gait_temperature)  # fmt: skip
+            g_share = 0.0 if cont is None else _gait_share(cands[0], cont.miss_m2, config, mpu)
+            if g_share > 0:
+                pad = max(onpath.seconds_to_frames(config.lock_context_seconds), 1)
+                pad = (pad, min(pad, len(ctx.future)))  # no frame past the future context
+                mixed = with_gait(lfill, cont.poses, g_share, up)
+                lfill = stance_kept(onpath, a, b, lfill, mixed, up, pad)
+                gait_period = cont.half_period_s
+                gait_share = g_share
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
     lib_score = sum(x for x in lib_ends if not (one_sided and math.isnan(x)))  # one junction
     replaced = sum(
@@ -3251,7 +3310,8 @@ def inbetween(
         {"window": w, "future_frames": int(ctx.future.shape[0]), "warps": list(config.warps)},
         lib_score, None if cand is None else tuple(best["source_frames"]), best["backwards"],
         () if use_kalman else blended, method, note, pose_rms, path_miss, warning, lib_ends,
-        replaced, unlike, feet, kept,
+        replaced, unlike, feet, kept, 0.0 if use_kalman else gait_share,
+        math.nan if use_kalman else gait_period,
     )  # fmt: skip
 
 

@@ -354,6 +354,9 @@ def inbetween_overlay(motions: Sequence[ViewMotion]) -> dict[str, Any] | None:
         "warning": plan.parameters.get("warning"),
         "feetWarning": plan.parameters.get("feet_warning"),  # measured on the frames written
         "motionKept": plan.parameters.get("motion_kept"),  # why one segment filled it alone
+        # the share of the fill's pose that carries on the clip's own gait, and its half cycle
+        "gaitShare": plan.parameters.get("gait_share"),
+        "gaitHalfPeriod": plan.parameters.get("gait_half_period_s"),
         # the warning gave the gap to the Kalman transition (it is the reason, not a warning)
         "unlike": bool(plan.parameters.get("unlike")),
         "note": plan.parameters.get("note"),

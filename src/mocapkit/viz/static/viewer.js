@@ -683,6 +683,10 @@
       'from ' + segText({data: stitch.data, frames: stitch.sourceFrames, backwards: stitch.backwards}) +
         (stitch.motionKept != null ? ' alone (combined, the best segments would keep ' + pct(stitch.motionKept) +
           ' of their own motion: a standing take\'s strokes out of step cancel)' : '');
+    if (stitch.data && stitch.gaitShare) {
+      from += '; ' + pct(stitch.gaitShare) + ' of its pose carries on the clip\'s own gait (the frames before the gap, mirrored every half cycle of ' +
+        Number(stitch.gaitHalfPeriod).toFixed(2) + ' s)';
+    }
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' (--gap ' + stitch.generated[0] + ':' + stitch.generated[1] + ') filled (drawn yellow) ' + from +
       (stitch.lscore == null ? '' : (stitch.takeoff == null || stitch.landing == null) ?
         '; L-score of its one junction with the clip (a gap at the clip\'s ' + (stitch.takeoff == null ? 'start' : 'end') + ') ' + Number(stitch.lscore).toPrecision(4) :
