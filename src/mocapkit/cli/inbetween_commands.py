@@ -130,6 +130,10 @@ def inbetween_cmd(
          does a standing CLIP's gap (pelvis under 0.25 m/s) whose combination keeps under
          70% of the segments' own motion (a gesture's strokes out of step cancel: a wave
          would stand still).
+         Where CLIP travels (pelvis 0.25 m/s or more) and the gap is 0.25 s or longer, 30%
+         of the fill's pose carries on CLIP's own gait: its frames before the gap, mirrored
+         every half gait cycle (read from the frame after the gap); less where the best
+         segment arrives at that frame closer. The segments keep the path and planted feet.
       3. Feet: the legs are fitted by IK, planted feet held and raised onto CLIP's floor
          (the height at which CLIP's own frames plant them), swinging feet no lower than
          the segments lifted them, and no foot through the floor (as fast as the legs may
@@ -143,7 +147,8 @@ def inbetween_cmd(
     \b
     What it tells you:
       - the best-scoring segment (file, frames, speed, how far its poses and path were off),
-        the takes the fill was combined from and their shares, and the L-scores of the
+        the takes the fill was combined from and their shares, the share of CLIP's own gait
+        carried on and its half cycle, and the L-scores of the
         filled frames and of the frames they replaced (about equal: as smooth at the
         junctions as the capture was).
       - a warning when the library holds nothing like the motion around the gap: the best

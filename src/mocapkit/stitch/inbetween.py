@@ -31,6 +31,14 @@ the takes' own but on left walks' library-alone fills (25.5 against 22.5 cm/s) a
 (23.2 against 27.6, now 27.2). The LaFAN1 benchmark's context (10 past frames, one future
 frame) is shorter than a stretch worth searching, so its figures are the library's alone.
 
+**The clip's own gait.** Where the clip travels, a share of the combined fill's body-local pose
+(:attr:`InbetweenConfig.gait_share`) carries on the clip's own gait through the gap
+(:mod:`mocapkit.stitch.gait`): steady locomotion is periodic and left/right symmetric, so the
+frames before the gap, mirrored every half gait cycle, predict the person's, style's and gait's
+steps, which the library may not hold; the half cycle is read from the first future frame.
+The segments keep the ground path, the heading and the feet they plant
+(:func:`mocapkit.stitch.gait.stance_kept`).
+
 **Score** (lower is better), in the body-local features of stitching
 (:func:`mocapkit.stitch.search.motion_features`: joint positions with the pelvis' ground
 position and heading removed):
