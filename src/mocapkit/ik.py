@@ -253,6 +253,41 @@ def _hinge_flex(gpos, grot, parents, j, ax_local, child):
     return np.arctan2(np.einsum("fi,fi->f", np.cross(u, v), a), np.einsum("fi,fi->f", u, v)), a
 
 
+def _independent_groups(parents: np.ndarray, plan: list[dict]) -> list[tuple[list[int], list[int]]]:
+    """The chains of ``plan`` in groups that move each other's effectors (a chain turning a
+    joint above another chain's effectors), each as (joints, effector columns): a group's pose
+    is judged and kept whole, so the residual returned is the pose's own (reviewer: chains kept
+    apart, an arm below a spine chain took another iteration's spine)."""
+
+    def above(j: int) -> set[int]:
+        out = set()
+        while j >= 0:
+            out.add(j)
+            j = int(parents[j])
+        return out
+
+    n = len(plan)
+    group = list(range(n))
+
+    def root(i: int) -> int:
+        while group[i] != i:
+            i = group[i]
+        return i
+
+    reach = [set().union(*(above(e) for e in p["chain"].effectors)) for p in plan]
+    for i in range(n):
+        for k in range(n):
+            if i != k and reach[i] & set(plan[k]["chain"].joints):
+                group[root(i)] = root(k)
+    out = []
+    for r in sorted({root(i) for i in range(n)}):
+        members = [plan[i] for i in range(n) if root(i) == r]
+        joints = sorted({j for p in members for j in p["chain"].joints})
+        cols = [p["rows"] + e for p in members for e in range(len(p["chain"].effectors))]
+        out.append((joints, cols))
+    return out
+
+
 _STRAIGHT = math.radians(1.0)
 """A hinge flexed less than this is straight (:func:`_solve_frames`)."""
 _UNSTICK = math.radians(5.0)
@@ -288,15 +323,14 @@ def _solve_frames(
     # kept the other leg at its start pose too: a fill's foot left 6 cm under the floor.)
     best_rot = lrot.copy()
     best_res = np.full((Fa, E), np.inf)
-    spans = [(list(p["chain"].joints), slice(p["rows"], p["rows"] + len(p["chain"].effectors)))
-             for p in plan]  # fmt: skip
+    spans = _independent_groups(parents, plan)
 
     def keep_best(lrot: np.ndarray, res: np.ndarray) -> None:
         for joints, cols in spans:
             better = res[:, cols].max(axis=1) < best_res[:, cols].max(axis=1)
             rows = np.flatnonzero(better)
             best_rot[np.ix_(rows, joints)] = lrot[np.ix_(rows, joints)]
-            best_res[rows, cols] = res[rows, cols]
+            best_res[np.ix_(rows, cols)] = res[np.ix_(rows, cols)]
 
     for it in range(1, iterations + 1):  # noqa: B007 - `it` is reported
         gpos, grot = fk_arrays(parents, lrot, ltrans)

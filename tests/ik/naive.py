@@ -37,16 +37,43 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
     hinge in chain order, the lowest flexion allowed (radians)."""
     lrot = lrot.copy()
     effs = [e for c in chains for e in c[1]]
-    # each chain's pose closest to its targets met so far
+    # the pose closest to its targets met so far, per group of chains that move each other's
+    # effectors (a chain with a joint above another's effector joins its group)
     starts = np.cumsum([0] + [len(c[1]) for c in chains])
-    best = [lrot[list(c[0])].copy() for c in chains]
-    best_err = [np.inf] * len(chains)
+
+    def ancestors(j):
+        out = []
+        while j >= 0:
+            out.append(j)
+            j = parents[j]
+        return out
+
+    n = len(chains)
+    label = list(range(n))
+    changed = True
+    while changed:
+        changed = False
+        for i in range(n):
+            for k in range(n):
+                moves = any(j in ancestors(e) for e in chains[i][1] for j in chains[k][0])
+                if i != k and moves and label[i] != label[k]:
+                    low = min(label[i], label[k])
+                    label = [low if x in (label[i], label[k]) else x for x in label]
+                    changed = True
+    groups = []
+    for g in sorted(set(label)):
+        members = [i for i in range(n) if label[i] == g]
+        joints = sorted({j for i in members for j in chains[i][0]})
+        cols = [c for i in members for c in range(starts[i], starts[i + 1])]
+        groups.append((joints, cols))
+    best = [lrot[joints].copy() for joints, _ in groups]
+    best_err = [np.inf] * len(groups)
 
     def keep_best(err):
-        for ci, (joints, _, _) in enumerate(chains):
-            e = np.linalg.norm(err[starts[ci] : starts[ci + 1]], axis=-1).max()
-            if e < best_err[ci]:
-                best[ci], best_err[ci] = lrot[list(joints)].copy(), e
+        for gi, (joints, cols) in enumerate(groups):
+            e = np.linalg.norm(err[cols], axis=-1).max()
+            if e < best_err[gi]:
+                best[gi], best_err[gi] = lrot[joints].copy(), e
 
     for _ in range(iters):
         gpos, grot = fk_frame(parents, lrot, ltrans)
@@ -117,7 +144,7 @@ def solve_frame(parents, lrot, ltrans, chains, targets, min_flex, damping, tol, 
                 g_prev_new = g_new
     gpos, _ = fk_frame(parents, lrot, ltrans)
     keep_best(targets - gpos[effs])
-    for ci, (joints, _, _) in enumerate(chains):
-        lrot[list(joints)] = best[ci]
+    for gi, (joints, _) in enumerate(groups):
+        lrot[joints] = best[gi]
     gpos, _ = fk_frame(parents, lrot, ltrans)
     return lrot, np.linalg.norm(targets - gpos[effs], axis=-1)

@@ -298,13 +298,22 @@ STANCE_FADE_SECONDS = 0.1
 
 
 def stance_kept(
-    clip: Motion, a: int, b: int, fill: Motion, mixed: Motion, up: str, pad: tuple[int, int]
+    clip: Motion,
+    a: int,
+    b: int,
+    fill: Motion,
+    mixed: Motion,
+    up: str,
+    pad: tuple[int, int],
+    ramp: int = 0,
 ) -> Motion:
     """``mixed`` (``fill`` with the gait's pose blended in) with each foot joint that ``fill``
     plants (:func:`mocapkit.features.foot_contacts`, ``pad`` context frames before and after
     the gap) put
     back where ``fill`` has it (the legs turned by IK, :mod:`mocapkit.ik`): a planted foot
-    blended with a swinging one slides; the pelvis' and the swinging legs' share stays."""
+    blended with a swinging one slides; the pelvis' and the swinging legs' share stays. The
+    hold fades in over ``ramp`` frames after the last past frame and out before the first
+    future frame (a knee bent in the last frame to lift a swinging foot jolts the junction)."""
     from mocapkit import features, ik
     from mocapkit.core.kinematics import forward_kinematics
     from mocapkit.features import foot_contacts
@@ -326,15 +335,17 @@ def stance_kept(
     now = forward_kinematics(mixed)[0][:, effs]
     # held where planted, faded in and out over ``fade`` frames: switched on and off, the foot
     # would jump by the blend's offset at a contact's ends
-    fade = max(1, mixed.seconds_to_frames(STANCE_FADE_SECONDS))
+    width = max(1, mixed.seconds_to_frames(STANCE_FADE_SECONDS))
     g = planted.shape[0]
     dist = np.abs(np.arange(g)[:, None] - np.arange(g)[None])  # (t, s)
-    ramp = np.clip(1.0 - dist / (fade + 1.0), 0.0, 1.0)
-    held = np.max(ramp[:, :, None] * planted[None], axis=1)  # (g, E)
+    tent = np.clip(1.0 - dist / (width + 1.0), 0.0, 1.0)
+    held = np.max(tent[:, :, None] * planted[None], axis=1)  # (g, E)
     lowered = np.maximum((own - now) @ u, 0.0)  # a swinging foot brought nearer the ground
     target = held[..., None] * own + (1 - held[..., None]) * (now + lowered[..., None] * u)
     if not (held.any() or lowered.any()):
         return mixed
     # every foot joint has a target (where the blend put it, if nothing else): one left free
     # would be moved by the solve for the other of its leg
-    return ik.solve(mixed, chains, target).motion
+    x = np.clip(np.minimum(np.arange(1, g + 1), np.arange(g, 0, -1)) / (ramp + 1.0), 0.0, 1.0)
+    weight = np.repeat((x * x * (3 - 2 * x))[:, None], len(effs), axis=1)
+    return ik.solve(mixed, chains, target, weight).motion
