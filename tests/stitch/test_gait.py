@@ -50,7 +50,9 @@ def _periodic_clip(h: int, halves: int) -> Motion:
                   np.concatenate([p.root_positions for p in parts]), walk.frame_time)  # fmt: skip
 
 
-@pytest.mark.parametrize("a", [20, 5])  # a past longer than the half cycle, and shorter
+# a past holding twice the longest half period tried (its own mirror pairs read the period
+# too), one longer than the half cycle, and one shorter
+@pytest.mark.parametrize("a", [40, 20, 5])
 def test_a_mirror_periodic_clip_is_carried_on_exactly(a):
     """Where the body-local pose half a cycle on is the mirror image of the pose now, the
     prediction finds the half period from the first future frame and gives the gap's poses
@@ -225,3 +227,30 @@ def test_a_rig_that_cannot_be_mirrored_carries_no_gait():
     assert gait_continued(walk, 60, 90, "Y", (0.25, 0.8), 0.5) is not None  # unarmed
     res = inbetween(armed, (60, 90), None, up="Y", method="library")  # from its own frames
     assert res.gait_share == 0.0 and np.isfinite(res.motion.rotations).all()
+
+
+def test_the_command_says_what_share_of_the_fill_is_the_clips_gait(library, tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from mocapkit.cli import main
+    from mocapkit.io import write_motion
+
+    walk = motions.with_ground_root(_walk(11, 5.0))
+    write_motion(walk, tmp_path / "walk.bvh")
+    for i, m in enumerate(library[:3]):
+        write_motion(m, tmp_path / f"l{i}.bvh")
+    args = ["inbetween", tmp_path / "walk.bvh", "--gap", "60:90", "--out", tmp_path / "o.bvh",
+            "--json", tmp_path / "o.json"]  # fmt: skip
+    args += [x for i in range(3) for x in ("--library", tmp_path / f"l{i}.bvh")]
+    res = CliRunner().invoke(main, [str(a) for a in args])
+    assert res.exit_code == 0, res.output
+    js = json.loads((tmp_path / "o.json").read_text())
+    assert js["gait_share"] > 0
+    line = next(x for x in res.stdout.splitlines() if "the clip's own gait" in x)
+    pct = round(100 * js["gait_share"])
+    assert (f"{pct}% of the fill's pose" in line) if pct else ("under 1%" in line)
+    assert f"fitted: {js['gait_half_period_s']:.2f} s" in line and "frame 90" in line
+    side = json.loads((tmp_path / "o.bvh.provenance.json").read_text())
+    assert side["parameters"]["gait_share"] == js["gait_share"]

@@ -324,11 +324,14 @@ def inbetween_cmd(
             f"{main['source_frames'][1]}{' played backwards' if main['backwards'] else ''} "
             f"({whole_percent(main['weight'])}))"
         )
-    if res.gait_share > 0:  # the part of the fill that is not the library's
+    if res.gait_share > 0:  # the part of the fill that is not the segments'
+        share = f"{res.gait_share:.0%}" if res.gait_share >= 0.005 else "under 1%"
+        them = "segment gives" if len(res.blended_from) == 1 else "segments give"
         say(
-            f"{res.gait_share:.0%} of the fill's pose carries on the clip's own gait: its frames "
-            f"before the gap, mirrored every half cycle ({res.gait_half_period_s:.2f} s, read "
-            f"from frame {b}); the library's segments give the rest and the ground path"
+            f"{share} of the fill's pose carries on the clip's own gait: its frames before the "
+            f"gap, mirrored every half cycle (fitted: {res.gait_half_period_s:.2f} s, the one "
+            f"that best carries them on to frame {b}); the {them} the rest, the ground path "
+            "and the planted feet"
         )
     fit_warning = None  # said on standard error, and in the JSON's warnings
     if res.warning and res.method == "library":  # (a Kalman fill is not the library's)

@@ -162,21 +162,28 @@ def gait_continued(
     up: str,
     seconds: tuple[float, float],
     temperature: float,
-    mirror_of=None,
 ) -> GaitContinued | None:
     """The clip's own gait carried through frames ``a..b-1`` (module docstring), or None where
     there is no frame before ``a`` or none at ``b``. ``seconds``: the range of half periods
     tried; each is weighted ``exp(-(c - c0) / (temperature c0))`` by the squared distance c (m²,
     summed over the joints) of its predicted frame ``b`` to the clip's, c0 the least. The
     predictions' own misses at frames ``a-1`` and ``b`` are spread linearly over the gap
-    (fading from the one end to the other), so they meet both exactly."""
+    (fading from the one end to the other), so they meet both exactly. Where the clip has
+    twice the longest half period before the gap, c also counts how far each past frame's
+    mirror image is from the past frame ``h`` later (m², summed over the joints, averaged over
+    the pairs): one future frame is met by several half periods (two half cycles, or three,
+    across the gap), a stretch of the gait's own past by its own. Tuning takes (bandai2's
+    tenth, walks, turning walks and runs, 35 gaps of 30 frames, 40 library takes, the clip's own
+    frames not searched): mean joint error 2.25 -> 2.02 cm with the pairs, lower in 30 gaps;
+    the half period read 0.44 s in the median (10th-90th percentile 0.40-0.60) -> 0.54 s
+    (0.43-0.57). The benchmark's 10 past frames hold no pairs."""
     from mocapkit import features
     from mocapkit.edit.mirror import mirror
 
     if a < 1 or b >= clip.num_frames:
         return None
     hs = half_periods(clip.frame_time, seconds)
-    P = int(min(a, hs[-1]))
+    P = int(min(a, 2 * hs[-1]))
     piece = clip[a - P : a]
     try:
         mirrored = body_local(mirror(piece, up).motion, up)
@@ -193,6 +200,9 @@ def gait_continued(
                        for f in ("rotations", "heights", "translations")))  # fmt: skip
     miss = _positions(clip, at_b, up) - _positions(clip, target, up)
     c = np.sum((miss * mpu) ** 2, axis=(-1, -2))
+    if 2 * hs[-1] <= P:
+        pp, pm = _positions(clip, past, up) * mpu, _positions(clip, mirrored, up) * mpu
+        c = c + np.array([np.sum((pm[: P - h] - pp[h:]) ** 2, axis=(-1, -2)).mean() for h in hs])
     c0 = float(c.min())
     w = np.exp(-(c - c0) / (temperature * c0 + 1e-12))
     w /= w.sum()
@@ -248,49 +258,6 @@ def with_gait(fill: Motion, gait: BodyLocal, share, up: str) -> Motion:
         tr = mixed.translations.copy()
         tr[:, 0] = root
     return Motion(fill.skeleton, rot.quat_normalize(q), root, fill.frame_time, tr)
-
-
-def agreeing_feet(
-    clip: Motion, a: int, b: int, fill: Motion, gait_fill: Motion, share: float, up: str,
-    pad: int,
-) -> np.ndarray:
-    """(g, J) the share of each joint's pose :func:`with_gait` takes from the gait: ``share``,
-    but for a leg (the hip and all below it) on the frames where the fill and the gait's pose
-    on the fill's path (``gait_fill``) do not agree on whether its foot is on the ground
-    (:func:`mocapkit.features.foot_contacts`, ``pad`` context frames each side), nor on the
-    frame either side of one: a planted foot blended with a swinging one slides."""
-    from mocapkit.body import body_of
-    from mocapkit.features import foot_contacts
-    from mocapkit.stitch.transition import _join
-
-    g = b - a
-    w = np.full((g, clip.skeleton.num_joints), float(share))
-    body = body_of(clip)
-    sk = clip.skeleton
-    legs = []
-    for side in ("left", "right"):
-        hip, ankle = body.joint(f"{side}_hip"), body.joint(f"{side}_ankle")
-        if hip is None or ankle is None:
-            continue
-        feet = [j for j in (ankle, body.joint(f"{side}_toe")) if j is not None]
-        below = [j for j in range(sk.num_joints) if j == hip or hip in sk.ancestors(j)]
-        legs.append((below, feet))
-    if not legs:
-        return w
-    lo, hi = max(0, a - pad), min(clip.num_frames, b + pad)
-    feet_all = sorted({j for _, f in legs for j in f})
-    flags = [
-        foot_contacts(_join(clip[lo:a], m, clip[b:hi]), feet=feet_all, up=up).contacts[
-            a - lo : b - lo
-        ]
-        for m in (fill, gait_fill)
-    ]
-    for below, feet in legs:
-        cols = [feet_all.index(j) for j in feet]
-        differ = np.any(flags[0][:, cols] != flags[1][:, cols], axis=1)
-        near = differ | np.r_[differ[1:], False] | np.r_[False, differ[:-1]]
-        w[near[:, None] & np.isin(np.arange(sk.num_joints), below)[None]] = 0.0
-    return w
 
 
 STANCE_FADE_SECONDS = 0.1

@@ -2714,9 +2714,10 @@ def _gait_share(best: Candidate, gait_miss_m2: float, config: InbetweenConfig, m
     trusted as far as it predicts the one frame after the gap both must reach: the clip's own
     take in the library, which meets it exactly, fills the gap alone."""
     share = config.gait_share
-    if best.mismatch is None or best.mismatch.size % 3 or gait_miss_m2 <= 0:
+    if best.mismatch is None or gait_miss_m2 <= 0:
         return share
-    at_b = best.mismatch.reshape(3, -1)[2] * mpu  # (3m,): frames s-1, s and s+g+1 less the clip's
+    # frames s-1, s and s+g+1 less the clip's (a gap with frames on both sides: three rows)
+    at_b = best.mismatch.reshape(3, -1)[2] * mpu
     return share * min(1.0, float(np.sum(at_b**2)) / gait_miss_m2)
 
 
