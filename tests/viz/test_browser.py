@@ -254,12 +254,15 @@ def test_bench_script_runs_small(browser, capsys):
 def test_an_inbetweened_take_opens_a_second_before_its_gap(browser, tmp_path):
     """Newcomer report: the page of a filled take opened at frame 0, not at the gap. It opens a
     second before the filled frames (frame 30 for a gap from 60 at 30 fps), the readout too."""
-    from mocapkit.stitch.inbetween import inbetween
+    from mocapkit.stitch.inbetween import DEFAULT_CONFIG, inbetween
 
     walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
     lib = [datasets.procedural_motion(k, 6.0, seed=s).motion for k, s in (("idle", 1), ("run", 2))]
     out = tmp_path / "filled.bvh"
-    res = inbetween(walk, (60, 90), lib, up="Y", output=str(out), clip_name="walk.bvh")
+    # (the library's alone: the walk's own gait carried on keeps its feet off the floor)
+    config = dataclasses.replace(DEFAULT_CONFIG, gait_share=0.0)
+    res = inbetween(walk, (60, 90), lib, up="Y", output=str(out), clip_name="walk.bvh",
+                    config=config)  # fmt: skip
     write_motion(res.motion, out)
     page = write_page(
         tmp_path / "filled.html", [ViewMotion(res.motion, str(out), provenance=res.provenance(out))]
@@ -314,6 +317,29 @@ def test_a_standing_takes_gap_filled_by_one_segment_says_why(browser, tmp_path):
     _open(b, write_page(tmp_path / "idle.html", [shown]))
     text = b.eval("document.body.innerText")
     assert f"alone (combined, the best segments would keep {res.motion_kept:.0%}" in text
+    _assert_no_errors(b)
+
+
+def test_a_walks_gap_says_what_share_its_own_gait_gave(browser, tmp_path):
+    """A walk filled from other walks: the page gives the share of the fill's pose that carries
+    on the walk's own gait, and the fitted half cycle, as the command does."""
+    from mocapkit.stitch.inbetween import inbetween
+
+    walk = datasets.procedural_motion("walk", 5.0, seed=11).motion
+    lib = [datasets.procedural_motion("walk", 6.0, seed=s).motion for s in (1, 2)]
+    out = tmp_path / "walk.bvh"
+    res = inbetween(walk, (60, 90), lib, up="Y", output=str(out), clip_name="walk.bvh",
+                    method="library")  # fmt: skip
+    assert res.gait_share > 0
+    write_motion(res.motion, out)
+    shown = ViewMotion(res.motion, str(out), provenance=res.provenance(out))
+    b = browser
+    _open(b, write_page(tmp_path / "walk.html", [shown]))
+    text = b.eval("document.body.innerText")
+    pct = round(100 * res.gait_share)
+    said = f"{pct}%" if res.gait_share >= 0.005 else "under 1%"
+    assert f"{said} of its pose carries on the clip's own gait" in text
+    assert f"fitted: {res.gait_half_period_s:.2f} s" in text
     _assert_no_errors(b)
 
 

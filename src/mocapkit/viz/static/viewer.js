@@ -684,7 +684,8 @@
         (stitch.motionKept != null ? ' alone (combined, the best segments would keep ' + pct(stitch.motionKept) +
           ' of their own motion: a standing take\'s strokes out of step cancel)' : '');
     if (stitch.data && stitch.gaitShare) {
-      from += '; ' + pct(stitch.gaitShare) + ' of its pose carries on the clip\'s own gait (the frames before the gap, mirrored every half cycle of ' +
+      from += '; ' + (stitch.gaitShare < 0.005 ? 'under 1%' : pct(stitch.gaitShare)) +
+        ' of its pose carries on the clip\'s own gait (the frames before the gap, mirrored every half cycle, fitted: ' +
         Number(stitch.gaitHalfPeriod).toFixed(2) + ' s)';
     }
     info('in-betweening: frames ' + stitch.generated[0] + '\u2013' + (stitch.generated[1] - 1) + ' (--gap ' + stitch.generated[0] + ':' + stitch.generated[1] + ') filled (drawn yellow) ' + from +
