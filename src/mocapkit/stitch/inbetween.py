@@ -3276,17 +3276,13 @@ def inbetween(
                 pad = max(onpath.seconds_to_frames(config.lock_context_seconds), 1)
                 pad = (pad, min(pad, len(ctx.future)))  # no frame past the future context
                 mixed = with_gait(lfill, cont.poses, g_share, up)
+                # the feet's correction fades in and out as a foot lock's (reviewer: a swinging
+                # foot lifted at B-1 bent a straight knee 30 deg in a frame, 84 m/s² against the
+                # capture's 30; faded 51, 43 without the gait). Also through the lock's speed
+                # limit and smoothing: 46, but the holds smeared, foot skate on the tuning
+                # windows +1.1 cm/s at 30 and 45 frames.
                 ramp = max(onpath.seconds_to_frames(config.lock_ramp_seconds), 1)
-                held = stance_kept(onpath, a, b, lfill, mixed, up, pad, ramp)
-                # the feet's correction goes through a foot lock's speed limit, none at the
-                # context frames (reviewer: a swinging foot lifted at B-1 bent a straight knee
-                # 30 deg in a frame, 84 m/s² against the capture's 30)
-                ends = mixed.rotations[[0]], mixed.rotations[[-1]]
-                lfill = held.copy()
-                lfill.rotations = _gentle_correction(
-                    np.concatenate([ends[0], mixed.rotations, ends[1]]),
-                    np.concatenate([ends[0], held.rotations, ends[1]]), onpath.fps, config,
-                )[1:-1]  # fmt: skip
+                lfill = stance_kept(onpath, a, b, lfill, mixed, up, pad, ramp)
                 gait_period = cont.half_period_s
                 gait_share = g_share
         lib_ends = _two_sided(onpath, lfill, a, b, ctx, w, up, model)
