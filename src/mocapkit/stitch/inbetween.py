@@ -607,10 +607,10 @@ class InbetweenConfig:
     person's, style's and gait's steps, which a library may not hold.
 
     Chosen on the tuning windows (benchmark ``--tune``), L2P at 15 / 30 / 45 frames, off ->
-    0.3: the take's gait and person left out of the library 2.225 / 2.766 / 3.471 -> 2.004 /
-    2.582 / 3.396, its person left out 1.858 / 2.298 / 2.828 -> 1.725 / 2.219 / 2.819; foot
-    skate 29.2 / 30.5 / 30.9 -> 27.7 / 30.1 / 31.1 and 26.7 / 27.6 / 26.7 -> 25.8 / 28.2 /
-    28.0 cm/s (5 frames unchanged). 0.4 (before the rule on the misses): 30 frames 2.577 and
+    0.3: the take's gait and person left out of the library 2.225 / 2.766 / 3.471 -> 2.005 /
+    2.580 / 3.393, its person left out 1.859 / 2.299 / 2.828 -> 1.722 / 2.217 / 2.818; foot
+    skate 29.2 / 30.5 / 30.9 -> 28.1 / 30.4 / 31.6 and 26.5 / 27.6 / 26.7 -> 26.1 / 28.4 /
+    28.6 cm/s (5 frames unchanged). 0.4 (before the rule on the misses): 30 frames 2.577 and
     2.261, 45 frames worse on both. Blended without keeping the planted feet, the skate at 30
     and 45 frames rose by 3-5 cm/s (a planted foot blended with a swinging one slides); held
     on and off without a fade, by 1.6-4.3 cm/s."""
