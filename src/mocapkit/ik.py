@@ -209,6 +209,16 @@ def leg_chains(
     return out
 
 
+def legs_and_feet(motion: Motion, body: Body | None = None) -> tuple[list[Chain], list[int]]:
+    """:func:`leg_chains` and their effectors in chain order: ``([], [])`` on a rig with no leg
+    the solver can turn (what every foot-holding caller checks first)."""
+    try:
+        chains = list(leg_chains(motion, body))
+    except ValueError:  # no legs to hold
+        return [], []
+    return chains, [e for c in chains for e in c.effectors]
+
+
 # =============================================================================================
 # the solver
 

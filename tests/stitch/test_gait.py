@@ -277,3 +277,16 @@ def test_the_miss_reported_is_the_predictions_at_b_alone():
     c = cb + pairs
     assert cont.miss_m2 == pytest.approx(cb[np.argmin(c)], rel=1e-9)  # at the best h
     assert cont.miss_m2 < c.min()  # not the pairs' cost
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.booleans(), min_size=1, max_size=30), st.integers(1, 6))
+def test_spread_is_the_largest_tent_about_the_set_frames(flags, width):
+    """The stance hold's fade (:func:`mocapkit.stitch.gait._spread`) against its definition."""
+    from mocapkit.stitch.gait import _spread
+
+    f = np.array(flags)[:, None]
+    g = len(flags)
+    tent = np.clip(1.0 - np.abs(np.arange(g)[:, None] - np.arange(g)[None]) / (width + 1.0), 0, 1)
+    want = np.max(tent * f[:, 0][None], axis=1, initial=0.0)[:, None]
+    np.testing.assert_allclose(_spread(f, width), want, atol=1e-12)

@@ -496,10 +496,12 @@ def inbetween_demo_step(out: Path) -> None:
     side = res.provenance(bvh).write(bvh)
     err = res.difference_to(walk)
     _, used = _takes_shown(res.blended_from)
+    gait = f", {res.gait_share:.0%} of its pose the walk's own gait carried on"
     click.echo(
         f"  gap {a}:{b} of the walk filled by {res.method}"
-        f"{f' from {len(res.blended_from)} segments of {used}' if res.blended_from else ''}; "
-        f"largest joint difference to the blanked frames {err * 100:.1f} cm"
+        f"{f' from {len(res.blended_from)} segments of {used}' if res.blended_from else ''}"
+        f"{gait if res.gait_share >= 0.005 else ''}"
+        f"; largest joint difference to the blanked frames {err * 100:.1f} cm"
     )
     click.echo(
         f"  wrote {bvh}, {side.name} and the clip and library it came from (mocapkit view "

@@ -10,9 +10,10 @@ library may hold none of (Bandai-2 holds no back or side walks). Where the past 
 ``h`` (the LaFAN1 benchmark's 10 frames), the missing stretch of the half cycle is bridged from
 the mirror of the last past frame to the first. The period is read from the first future frame:
 each ``h`` on a grid predicts it, and the predictions are weighted by how close they come
-(:func:`gait_continued`). Only the body-local pose is predicted (every joint's local rotation,
-the root's tilt and height, local translations); the ground path and heading stay the library
-fill's (:func:`with_gait`).
+(:func:`gait_continued`); where the clip has enough past, by how well each ``h`` pairs the past
+frames with their own mirror images too. Only the body-local pose is predicted (every joint's
+local rotation, the root's tilt and height, local translations); the ground path and heading
+stay the library fill's (:func:`with_gait`).
 
 Relies on: left/right symmetry and periodicity of the gait over the gap. A standing clip's
 gestures are neither (a wave with one hand mirrors into the other), so the in-betweener uses
@@ -233,26 +234,16 @@ def gait_continued(
     )
 
 
-def with_gait(fill: Motion, gait: BodyLocal, share, up: str) -> Motion:
-    """``fill`` with its body-local pose moved ``share`` (a number, or (F, J) per frame and
-    joint) of the way to ``gait``'s (same frames): its ground path and heading kept, every
-    joint's local rotation, the root's tilt and height (the root's share), and the local
-    translations blended."""
+def with_gait(fill: Motion, gait: BodyLocal, share: float, up: str) -> Motion:
+    """``fill`` with its body-local pose moved ``share`` of the way to ``gait``'s (same
+    frames): its ground path and heading kept, every joint's local rotation, the root's tilt
+    and height, and the local translations blended."""
     from mocapkit import features
 
     _, u, _ = features.ground_frame(up)
     heading = features.heading_angles(fill, up)
     own = body_local(fill, up)
-    J = fill.skeleton.num_joints
-    w = np.broadcast_to(np.asarray(share, dtype=np.float64), (fill.num_frames, J))
-    tq = w[..., None]
-    gq = np.where(np.sum(own.rotations * gait.rotations, -1, keepdims=True) < 0,
-                  -gait.rotations, gait.rotations)  # fmt: skip
-    mixed = BodyLocal(
-        rot.quat_normalize((1 - tq) * own.rotations + tq * gq),
-        (1 - w[:, 0]) * own.heights + w[:, 0] * gait.heights,
-        (1 - tq) * own.translations + tq * gait.translations,
-    )
+    mixed = _blend(own, gait, np.full(fill.num_frames, float(share)))
     q = mixed.rotations.copy()
     q[:, 0] = rot.quat_mul(features._up_quat(heading, up), q[:, 0])
     root = fill.root_positions + (mixed.heights - own.heights)[:, None] * u
@@ -267,6 +258,17 @@ STANCE_FADE_SECONDS = 0.1
 """How long :func:`stance_kept`'s hold of a planted foot fades in and out."""
 
 
+def _spread(flags: np.ndarray, width: int) -> np.ndarray:
+    """(g, E) 1 where ``flags`` (g, E) is set, falling off linearly to 0 over ``width`` frames
+    either side (the largest of the tents about the set frames)."""
+    out = flags.astype(np.float64)
+    for d in range(1, min(width, len(flags) - 1) + 1):
+        v = 1.0 - d / (width + 1.0)
+        out[d:] = np.maximum(out[d:], v * flags[:-d])
+        out[:-d] = np.maximum(out[:-d], v * flags[d:])
+    return out
+
+
 def stance_kept(
     clip: Motion,
     a: int,
@@ -279,9 +281,9 @@ def stance_kept(
 ) -> Motion:
     """``mixed`` (``fill`` with the gait's pose blended in) with each foot joint that ``fill``
     plants (:func:`mocapkit.features.foot_contacts`, ``pad`` context frames before and after
-    the gap) put
-    back where ``fill`` has it (the legs turned by IK, :mod:`mocapkit.ik`): a planted foot
-    blended with a swinging one slides; the pelvis' and the swinging legs' share stays. The
+    the gap) put back where ``fill`` has it (the legs turned by IK, :mod:`mocapkit.ik`): a
+    planted foot blended with a swinging one slides; the pelvis' and the swinging legs' share
+    stays. The
     hold fades in over ``ramp`` frames after the last past frame and out before the first
     future frame (a knee bent in the last frame to lift a swinging foot jolts the junction)."""
     from mocapkit import features, ik
@@ -289,11 +291,7 @@ def stance_kept(
     from mocapkit.features import foot_contacts
     from mocapkit.stitch.transition import _join
 
-    try:
-        chains = list(ik.leg_chains(mixed))
-    except ValueError:
-        return mixed
-    effs = [e for c in chains for e in c.effectors]
+    chains, effs = ik.legs_and_feet(mixed)
     if not effs:
         return mixed
     lo, hi = max(0, a - pad[0]), min(clip.num_frames, b + pad[1])
@@ -307,9 +305,7 @@ def stance_kept(
     # would jump by the blend's offset at a contact's ends
     width = max(1, mixed.seconds_to_frames(STANCE_FADE_SECONDS))
     g = planted.shape[0]
-    dist = np.abs(np.arange(g)[:, None] - np.arange(g)[None])  # (t, s)
-    tent = np.clip(1.0 - dist / (width + 1.0), 0.0, 1.0)
-    held = np.max(tent[:, :, None] * planted[None], axis=1)  # (g, E)
+    held = _spread(planted, width)  # (g, E)
     lowered = np.maximum((own - now) @ u, 0.0)  # a swinging foot brought nearer the ground
     target = held[..., None] * own + (1 - held[..., None]) * (now + lowered[..., None] * u)
     if not (held.any() or lowered.any()):

@@ -1779,12 +1779,8 @@ def _lock_feet(
     lo, hi = max(0, a - pad), min(motion.num_frames, b + pad)
     ex = motion[lo:hi]
     body = body_of(ex)
-    try:
-        chains = list(ik.leg_chains(ex, body))
-    except ValueError:  # no legs to hold
-        return motion
-    effs = tuple(e for c in chains for e in c.effectors)
-    if not effs:
+    chains, effs = ik.legs_and_feet(ex, body)
+    if not effs:  # no legs to hold
         return motion
     contacts = foot_contacts(ex, up=up)
     F = ex.num_frames
@@ -2640,11 +2636,7 @@ def _to_level(
         features.character_height(clip, up)
     ):
         return fill
-    try:
-        chains = list(ik.leg_chains(fill))
-    except ValueError:
-        return fill
-    effs = [e for c in chains for e in c.effectors]
+    chains, effs = ik.legs_and_feet(fill)
     if not effs:
         return fill
     g = fill.num_frames

@@ -433,11 +433,7 @@ def _planted_through(
     lo, hi = max(0, cut - 4 * blend), min(F, end + hold + release + blend + 2)
     ex = motion[lo:hi]
     body = body_of(ex)
-    try:
-        chains = list(ik.leg_chains(ex, body))
-    except ValueError:  # no legs to hold
-        return motion, cut
-    effs = tuple(e for c in chains for e in c.effectors)
+    chains, effs = ik.legs_and_feet(ex, body)
     if not effs or ex.num_frames < 3 or cut - lo < 1:
         return motion, cut
     flags = ik.effector_contacts(foot_contacts(ex, up=up), effs)
